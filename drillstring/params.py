@@ -1,0 +1,524 @@
+"""Model parameters: scaled set, physical set, the reference set, and parameter files.
+
+Two frozen dataclasses:
+
+* :class:`ScaledParams` holds the dimensionless parameters of the scaled model, eqs. (11)-(14) of
+  Besselink, van de Wouw and Nijmeijer (IEEE CCA 2011): ``n, psi, gamma, eta, lam, beta, rho, v0,
+  omega0`` (``lam`` is the paper's lambda). Derived quantities (nominal delay, depth of cut, torque,
+  and the fast-time quantities of Section III) are properties.
+* :class:`PhysicalParams` holds the dimensional parameters of eqs. (1)-(8) and maps them onto the
+  scaled set with eqs. (15)-(16), using t* = sqrt(I1/C) and L* = 2C/(eps*a^2).
+
+Validation happens on construction; any bad value raises :class:`ParameterError` (a ``ValueError``)
+whose message names the field and the value. Rules:
+
+* ``n`` (both classes) must be a positive integer. ``bool`` is rejected. A float is accepted only if
+  it is integral (``4.0`` is coerced to ``4``, as FMI hosts and JSON writers may deliver integers as
+  reals); ``4.5`` is rejected.
+* Every other field must be a finite real number (``bool`` and strings are rejected); it is
+  stored as ``float``.
+* Scaled: ``psi, eta, rho, v0, omega0 > 0``; ``gamma >= 0`` (undamped allowed); ``lam >= 0``
+  (``lam = 0`` is a perfectly sharp cutter); ``0 < beta <= 1``.
+* Physical: ``M, I1, I2, C, K, a, eps, zeta, mu, xi, V0, Omega0 > 0``; ``D, sigma_bar, l >= 0``
+  (no axial damping, no contact stress, a sharp cutter are all meaningful limits). ``mu, xi > 0``
+  because ``beta = zeta*mu*xi`` must be positive; ``beta <= 1`` is checked by :meth:`to_scaled`.
+
+Parameter files
+---------------
+TOML (``.toml``) or JSON (``.json``), chosen by suffix. One flat table: a ``kind`` key, either
+``"scaled"`` or ``"physical"``, then exactly the fields of that kind. Every field is required; any
+other key is an error naming the key. In files and dicts the scaled field ``lam`` is spelt
+``lambda`` (``lam`` is accepted on input too, but not both). Example (``data/reference.toml``)::
+
+    kind = "scaled"
+    n = 4
+    psi = 250.0
+    gamma = 6.324555320336759
+    eta = 10.0
+    lambda = 1.58
+    beta = 0.5
+    rho = 5.0
+    v0 = 1.0
+    omega0 = 5.0
+
+A physical file has ``kind = "physical"`` and the keys ``M, I1, I2, C, K, D, n, a, eps, zeta,
+sigma_bar, l, mu, xi, V0, Omega0`` (SI units). :func:`load_params` always returns a
+:class:`ScaledParams` (physical files are converted with :meth:`PhysicalParams.to_scaled`);
+:func:`read_params` returns whichever kind the file holds. :func:`save_params` writes either kind
+atomically (temporary file in the same folder, then ``os.replace``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import numbers
+import os
+import tempfile
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Self
+
+__all__ = [
+    "KNOWN_PARAMS",
+    "REFERENCE",
+    "ParameterError",
+    "PhysicalParams",
+    "ScaledParams",
+    "get_params",
+    "load_params",
+    "params_from_spec",
+    "read_params",
+    "save_params",
+]
+
+
+class ParameterError(ValueError):
+    """An invalid parameter value, an unknown or missing key, or an unreadable parameter file."""
+
+
+# --------------------------------------------------------------------------------------------
+# value checks
+# --------------------------------------------------------------------------------------------
+
+
+def _as_int(cls: str, name: str, value: Any) -> int:
+    """Return ``value`` as a positive int, or raise ParameterError naming ``cls.name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
+    if isinstance(value, numbers.Integral):
+        out = int(value)
+    else:
+        x = float(value)
+        if not math.isfinite(x) or x != math.floor(x):
+            raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
+        out = int(x)
+    if out < 1:
+        raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
+    return out
+
+
+def _as_real(cls: str, name: str, value: Any, *, lower: float, strict: bool) -> float:
+    """Return ``value`` as a finite float above ``lower`` (strictly if ``strict``)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParameterError(f"{cls}.{name} must be a real number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ParameterError(f"{cls}.{name} must be finite, got {value!r}")
+    if (strict and not x > lower) or (not strict and not x >= lower):
+        op = ">" if strict else ">="
+        raise ParameterError(f"{cls}.{name} must be {op} {lower:g}, got {value!r}")
+    return x
+
+
+def _check_fields(obj: Any, ints: tuple[str, ...], rules: Mapping[str, tuple[float, bool]]) -> None:
+    """Validate and coerce the fields of a frozen dataclass in place."""
+    cls = type(obj).__name__
+    for name in ints:
+        object.__setattr__(obj, name, _as_int(cls, name, getattr(obj, name)))
+    for name, (lower, strict) in rules.items():
+        value = _as_real(cls, name, getattr(obj, name), lower=lower, strict=strict)
+        object.__setattr__(obj, name, value)
+
+
+def _dict_to_fields(
+    cls: str, data: Mapping[str, Any], fields: tuple[str, ...], aliases: Mapping[str, str]
+) -> dict[str, Any]:
+    """Map file keys to field names; unknown, duplicate (via alias) or missing keys are errors."""
+    if not isinstance(data, Mapping):
+        raise ParameterError(f"{cls}: expected a mapping of parameters, got {type(data).__name__}")
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        name = aliases.get(key, key)
+        if name not in fields:
+            known = ", ".join(aliases.get(f, f) for f in fields)
+            raise ParameterError(f"{cls}: unknown key {key!r} (known keys: {known})")
+        if name in out:
+            raise ParameterError(f"{cls}: key {key!r} given twice (as {name!r} and an alias)")
+        out[name] = value
+    missing = [f for f in fields if f not in out]
+    if missing:
+        raise ParameterError(f"{cls}: missing key(s) {', '.join(missing)}")
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# scaled parameters
+# --------------------------------------------------------------------------------------------
+
+_SCALED_RULES: dict[str, tuple[float, bool]] = {
+    # name: (lower bound, strict)
+    "psi": (0.0, True),
+    "gamma": (0.0, False),
+    "eta": (0.0, True),
+    "lam": (0.0, False),
+    "beta": (0.0, True),
+    "rho": (0.0, True),
+    "v0": (0.0, True),
+    "omega0": (0.0, True),
+}
+# file/dict key -> field name; "lambda" is the paper's name and the key written to files
+_SCALED_IN_ALIASES = {"lambda": "lam"}
+_SCALED_OUT_KEYS = {"lam": "lambda"}
+
+
+@dataclass(frozen=True)
+class ScaledParams:
+    """Dimensionless parameters of the scaled model, eqs. (11)-(17).
+
+    Attributes: ``n`` blades; ``psi`` drill-string design (15); ``gamma``, ``eta`` axial damping
+    and stiffness (15); ``lam`` bluntness lambda (16); ``beta`` bit design (16); ``rho`` inertia
+    ratio I2/I1 (16); ``v0`` nominal axial velocity; ``omega0`` nominal angular velocity (14).
+    """
+
+    n: int
+    psi: float
+    gamma: float
+    eta: float
+    lam: float
+    beta: float
+    rho: float
+    v0: float
+    omega0: float
+
+    def __post_init__(self) -> None:
+        _check_fields(self, ("n",), _SCALED_RULES)
+        if self.beta > 1.0:
+            raise ParameterError(f"ScaledParams.beta must be in (0, 1], got {self.beta!r}")
+
+    # -- derived quantities -----------------------------------------------------------------
+    @property
+    def tau_n0(self) -> float:
+        """Nominal scaled delay tau_n0 = 2*pi/(n*omega0), eq. (14) with phi = 0."""
+        return 2.0 * math.pi / (self.n * self.omega0)
+
+    @property
+    def d0(self) -> float:
+        """Nominal scaled depth of cut d0 = v0*tau_n0, eq. (8) scaled by L*."""
+        return self.v0 * self.tau_n0
+
+    @property
+    def sqrt_npsi(self) -> float:
+        """sqrt(n*psi): the fast-time factor of Section III (taubar = tau*sqrt(n*psi))."""
+        return math.sqrt(self.n * self.psi)
+
+    @property
+    def gammabar(self) -> float:
+        """gammabar = gamma/sqrt(n*psi), eq. (18)."""
+        return self.gamma / self.sqrt_npsi
+
+    @property
+    def etabar(self) -> float:
+        """etabar = eta/sqrt(n*psi), eq. (18)."""
+        return self.eta / self.sqrt_npsi
+
+    @property
+    def etabar2(self) -> float:
+        """etabar^2 = eta^2/(n*psi), the vertical axis of Fig. 2."""
+        return self.eta**2 / (self.n * self.psi)
+
+    @property
+    def vbar0(self) -> float:
+        """vbar0 = v0/sqrt(n*psi), eq. (18)."""
+        return self.v0 / self.sqrt_npsi
+
+    @property
+    def taubar_n0(self) -> float:
+        """Nominal delay in fast time, taubar_n0 = tau_n0*sqrt(n*psi) (Section III, Fig. 2)."""
+        return self.tau_n0 * self.sqrt_npsi
+
+    @property
+    def R0(self) -> float:
+        """Nominal scaled rotary-table torque R0/C = n*d0 + n*beta*lambda, eq. (8) with (16)."""
+        return self.n * self.d0 + self.n * self.beta * self.lam
+
+    # -- copies and dicts ---------------------------------------------------------------------
+    def replace(self, **changes: Any) -> ScaledParams:
+        """Validated copy with ``changes`` applied (key ``"lambda"`` is accepted for ``lam``)."""
+        mapped: dict[str, Any] = {}
+        names = {f.name for f in dataclasses.fields(self)}
+        for key, value in changes.items():
+            name = _SCALED_IN_ALIASES.get(key, key)
+            if name not in names:
+                raise ParameterError(f"ScaledParams: unknown parameter {key!r}")
+            if name in mapped:
+                raise ParameterError(f"ScaledParams: parameter {name!r} given twice")
+            mapped[name] = value
+        return dataclasses.replace(self, **mapped)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Fields as a dict in declaration order, with the file key ``"lambda"`` for ``lam``."""
+        return {_SCALED_OUT_KEYS.get(k, k): v for k, v in dataclasses.asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Self:
+        """Build from a dict of all nine fields (``"lambda"`` or ``"lam"``); no extra keys."""
+        names = tuple(f.name for f in dataclasses.fields(cls))
+        return cls(**_dict_to_fields(cls.__name__, data, names, _SCALED_IN_ALIASES))
+
+
+# --------------------------------------------------------------------------------------------
+# physical parameters
+# --------------------------------------------------------------------------------------------
+
+_PHYSICAL_RULES: dict[str, tuple[float, bool]] = {
+    "M": (0.0, True),  # BHA mass [kg]
+    "I1": (0.0, True),  # BHA inertia [kg m^2]
+    "I2": (0.0, True),  # rotary-table inertia [kg m^2]
+    "C": (0.0, True),  # torsional stiffness [N m/rad]
+    "K": (0.0, True),  # axial stiffness [N/m]
+    "D": (0.0, False),  # axial damping [N s/m]
+    "a": (0.0, True),  # bit radius [m]
+    "eps": (0.0, True),  # intrinsic specific energy [Pa]
+    "zeta": (0.0, True),  # cutting-face orientation [-]
+    "sigma_bar": (0.0, False),  # contact stress [Pa]
+    "l": (0.0, False),  # wearflat length [m]
+    "mu": (0.0, True),  # friction coefficient [-]
+    "xi": (0.0, True),  # wearflat distribution [-]
+    "V0": (0.0, True),  # nominal axial (hook) velocity [m/s]
+    "Omega0": (0.0, True),  # nominal angular velocity [rad/s]
+}
+
+
+@dataclass(frozen=True)
+class PhysicalParams:
+    """Dimensional parameters of eqs. (1)-(8) (SI units), mapped to the scaled set by (15)-(16)."""
+
+    M: float
+    I1: float
+    I2: float
+    C: float
+    K: float
+    D: float
+    n: int
+    a: float
+    eps: float
+    zeta: float
+    sigma_bar: float
+    l: float  # noqa: E741 -- the paper's wearflat length
+    mu: float
+    xi: float
+    V0: float
+    Omega0: float
+
+    def __post_init__(self) -> None:
+        _check_fields(self, ("n",), _PHYSICAL_RULES)
+
+    @property
+    def t_star(self) -> float:
+        """Characteristic time t* = sqrt(I1/C) [s] (Section II)."""
+        return math.sqrt(self.I1 / self.C)
+
+    @property
+    def L_star(self) -> float:
+        """Characteristic length L* = 2C/(eps*a^2) [m] (Section II)."""
+        return 2.0 * self.C / (self.eps * self.a**2)
+
+    @property
+    def d0(self) -> float:
+        """Nominal depth of cut d0 = (2*pi/n)*V0/Omega0 [m], eq. (8)."""
+        return 2.0 * math.pi / self.n * self.V0 / self.Omega0
+
+    @property
+    def R0(self) -> float:
+        """Nominal rotary-table torque [N m] solving eq. (8) for R0."""
+        cutting = 0.5 * self.n * self.a**2 * self.eps * self.d0
+        contact = 0.5 * self.n * self.a**2 * self.xi * self.mu * self.l * self.sigma_bar
+        return cutting + contact
+
+    def scaled_torque(self, R: float) -> float:
+        """Scaled torque script-R = R/C, eq. (16)."""
+        return R / self.C
+
+    def physical_torque(self, r: float) -> float:
+        """Inverse of :meth:`scaled_torque`: R = C*r [N m]."""
+        return r * self.C
+
+    def to_scaled(self) -> ScaledParams:
+        """Scaled parameters by eqs. (15)-(16), v0 = V0*t*/L*, omega0 = Omega0*t* (Section II)."""
+        t_star, L_star = self.t_star, self.L_star
+        values = {
+            "n": self.n,
+            "psi": self.zeta * self.eps * self.a * self.I1 / (self.M * self.C),
+            "gamma": self.D / self.M * t_star,
+            "eta": math.sqrt(self.K * self.I1 / (self.M * self.C)),
+            "lam": self.a**2 * self.l * self.sigma_bar / (2.0 * self.zeta * self.C),
+            "beta": self.zeta * self.mu * self.xi,
+            "rho": self.I2 / self.I1,
+            "v0": self.V0 * t_star / L_star,
+            "omega0": self.Omega0 * t_star,
+        }
+        try:
+            return ScaledParams(**values)
+        except ParameterError as exc:
+            raise ParameterError(f"{exc} (computed from PhysicalParams by eqs. (15)-(16))") from exc
+
+    def replace(self, **changes: Any) -> PhysicalParams:
+        """Return a validated copy with ``changes`` applied."""
+        names = {f.name for f in dataclasses.fields(self)}
+        for key in changes:
+            if key not in names:
+                raise ParameterError(f"PhysicalParams: unknown parameter {key!r}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Fields as a dict in declaration order."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Self:
+        """Build from a dict of all sixteen fields; no extra keys."""
+        names = tuple(f.name for f in dataclasses.fields(cls))
+        return cls(**_dict_to_fields(cls.__name__, data, names, {}))
+
+
+# --------------------------------------------------------------------------------------------
+# named sets
+# --------------------------------------------------------------------------------------------
+
+#: NOTES.md section 5, our reconstruction of Table I: gammabar = 0.2, etabar^2 = 0.1,
+#: tau_n0 = pi/10, taubar_n0 = 9.93. Also stored in ``drillstring/data/reference.toml``.
+REFERENCE = ScaledParams(
+    n=4,
+    psi=250.0,
+    gamma=2.0 * math.sqrt(10.0),
+    eta=10.0,
+    lam=1.58,
+    beta=0.5,
+    rho=5.0,
+    v0=1.0,
+    omega0=5.0,
+)
+
+KNOWN_PARAMS: dict[str, ScaledParams] = {"reference": REFERENCE}
+
+
+def get_params(name: str) -> ScaledParams:
+    """Return a named parameter set (currently only ``"reference"``, NOTES.md section 5)."""
+    try:
+        return KNOWN_PARAMS[name]
+    except (KeyError, TypeError):
+        known = ", ".join(sorted(KNOWN_PARAMS))
+        raise ParameterError(
+            f"unknown parameter set {name!r} (known: {known}; use load_params(path) for a file)"
+        ) from None
+
+
+def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:
+    """A known set name (see :func:`get_params`) or else the path of a parameter file."""
+    if isinstance(spec, str) and spec in KNOWN_PARAMS:
+        return KNOWN_PARAMS[spec]
+    path = Path(spec)
+    if path.suffix.lower() in _SUFFIXES or path.exists():
+        return load_params(path)
+    return get_params(str(spec))
+
+
+# --------------------------------------------------------------------------------------------
+# files
+# --------------------------------------------------------------------------------------------
+
+_KINDS: dict[str, type[ScaledParams] | type[PhysicalParams]] = {
+    "scaled": ScaledParams,
+    "physical": PhysicalParams,
+}
+_SUFFIXES = (".toml", ".json")
+
+
+def _suffix(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise ParameterError(
+            f"parameter file {str(path)!r}: suffix must be .toml or .json, got {suffix!r}"
+        )
+    return suffix
+
+
+def read_params(path: str | os.PathLike[str]) -> ScaledParams | PhysicalParams:
+    """Read a parameter file (format in the module docstring) and return the kind it holds."""
+    path = Path(path)
+    suffix = _suffix(path)
+    try:
+        if suffix == ".toml":
+            with path.open("rb") as fh:
+                data = tomllib.load(fh)
+        else:
+            with path.open(encoding="utf-8") as fh:
+                data = json.load(fh)
+    except OSError as exc:
+        raise ParameterError(f"cannot read parameter file {str(path)!r}: {exc}") from exc
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+        msg = f"parameter file {str(path)!r} is not valid {suffix[1:]}: {exc}"
+        raise ParameterError(msg) from exc
+    if not isinstance(data, dict):
+        raise ParameterError(f"parameter file {str(path)!r}: top level must be a table/object")
+    data = dict(data)
+    kind = data.pop("kind", None)
+    if kind is None:
+        raise ParameterError(
+            f"parameter file {str(path)!r}: missing key 'kind' (one of {', '.join(_KINDS)})"
+        )
+    if kind not in _KINDS:
+        raise ParameterError(
+            f"parameter file {str(path)!r}: kind must be one of {', '.join(_KINDS)}, got {kind!r}"
+        )
+    try:
+        return _KINDS[kind].from_dict(data)
+    except ParameterError as exc:
+        raise ParameterError(f"parameter file {str(path)!r}: {exc}") from exc
+
+
+def load_params(path: str | os.PathLike[str]) -> ScaledParams:
+    """Load a parameter file as :class:`ScaledParams` (physical files converted by (15)-(16))."""
+    p = read_params(path)
+    return p.to_scaled() if isinstance(p, PhysicalParams) else p
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):  # never produced by validated params; guard the int branch
+        raise TypeError(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest round-trip repr; always has '.' or 'e'; finite by validation
+    if isinstance(value, str):
+        return json.dumps(value)  # a JSON string literal is a valid TOML basic string
+    raise TypeError(f"cannot write {value!r} to TOML")
+
+
+def save_params(p: ScaledParams | PhysicalParams, path: str | os.PathLike[str]) -> Path:
+    """Write ``p`` to ``path`` (.toml or .json by suffix) atomically; return the path."""
+    path = Path(path)
+    suffix = _suffix(path)
+    if isinstance(p, ScaledParams):
+        kind = "scaled"
+    elif isinstance(p, PhysicalParams):
+        kind = "physical"
+    else:
+        raise ParameterError(f"save_params: expected ScaledParams or PhysicalParams, got {p!r}")
+    data = {"kind": kind, **p.to_dict()}
+    if suffix == ".toml":
+        lines = [f"# drillstring parameter file ({kind})"]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in data.items()]
+        text = "\n".join(lines) + "\n"
+    else:
+        text = json.dumps(data, indent=2) + "\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; a parameter file is an ordinary file
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path

@@ -1,0 +1,412 @@
+"""Tests for drillstring.params: derived quantities, eqs. (15)-(16), files and validation.
+
+Expected values are computed by hand from NOTES.md section 5 and the paper's formulas, never taken
+from the code under test.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drillstring.params import (
+    REFERENCE,
+    ParameterError,
+    PhysicalParams,
+    ScaledParams,
+    get_params,
+    load_params,
+    params_from_spec,
+    read_params,
+    save_params,
+)
+
+DATA = Path(__file__).resolve().parents[1] / "drillstring" / "data"
+
+SCALED_OK = dict(
+    n=4, psi=250.0, gamma=0.0, eta=10.0, lam=0.0, beta=1.0, rho=5.0, v0=1.0, omega0=5.0
+)
+
+# A made-up physical set chosen so that every scaled value is a round number by hand:
+# t* = sqrt(4/1) = 2, L* = 2*1/(2*1^2) = 1, gamma = 2/8*2 = 0.5, eta = sqrt(50*4/(8*1)) = 5,
+# psi = 0.5*2*1*4/(8*1) = 0.5, lambda = 1*0.3*10/(2*0.5*1) = 3, beta = 0.5*0.8*0.5 = 0.2,
+# rho = 12/4 = 3, v0 = 0.25*2/1 = 0.5, omega0 = 1.5*2 = 3.
+PHYS_ROUND = dict(
+    M=8.0,
+    I1=4.0,
+    I2=12.0,
+    C=1.0,
+    K=50.0,
+    D=2.0,
+    n=3,
+    a=1.0,
+    eps=2.0,
+    zeta=0.5,
+    sigma_bar=10.0,
+    l=0.3,
+    mu=0.8,
+    xi=0.5,
+    V0=0.25,
+    Omega0=1.5,
+)
+SCALED_ROUND = dict(
+    n=3, psi=0.5, gamma=0.5, eta=5.0, lam=3.0, beta=0.2, rho=3.0, v0=0.5, omega0=3.0
+)
+
+# A field-scale made-up set (SI units) for a second, formula-based check.
+PHYS_FIELD = dict(
+    M=3.5e4,
+    I1=120.0,
+    I2=500.0,
+    C=470.0,
+    K=7.0e5,
+    D=1.2e4,
+    n=4,
+    a=0.108,
+    eps=60e6,
+    zeta=0.6,
+    sigma_bar=60e6,
+    l=1.2e-3,
+    mu=0.6,
+    xi=1.2,
+    V0=0.01,
+    Omega0=10.0,
+)
+
+
+# ---------------------------------------------------------------------------------------------
+# derived quantities
+# ---------------------------------------------------------------------------------------------
+
+
+def test_reference_values_from_notes() -> None:
+    r = REFERENCE
+    assert (r.n, r.psi, r.eta, r.lam, r.beta, r.rho, r.v0, r.omega0) == (
+        4,
+        250.0,
+        10.0,
+        1.58,
+        0.5,
+        5.0,
+        1.0,
+        5.0,
+    )
+    assert r.gamma == pytest.approx(6.32456, abs=5e-6)
+
+
+def test_reference_derived_quantities() -> None:
+    r = REFERENCE
+    assert r.tau_n0 == pytest.approx(math.pi / 10, rel=1e-15)
+    assert r.d0 == pytest.approx(math.pi / 10, rel=1e-15)  # v0 = 1
+    assert r.sqrt_npsi == pytest.approx(math.sqrt(1000.0), rel=1e-15)
+    assert r.gammabar == pytest.approx(0.2, rel=1e-14)
+    assert r.etabar == pytest.approx(1.0 / math.sqrt(10.0), rel=1e-14)
+    assert r.etabar2 == pytest.approx(0.1, rel=1e-14)
+    assert r.vbar0 == pytest.approx(1.0 / math.sqrt(1000.0), rel=1e-14)
+    # tau_n0 * sqrt(n psi) = (pi/10) * sqrt(1000) = pi * sqrt(10); NOTES.md rounds it to 9.93
+    assert r.taubar_n0 == pytest.approx(math.pi * math.sqrt(10.0), rel=1e-14)
+    assert abs(r.taubar_n0 - 9.93) < 5e-3
+    # R0 = n d0 + n beta lambda = 4 pi/10 + 4 * 0.5 * 1.58
+    assert r.R0 == pytest.approx(0.4 * math.pi + 3.16, rel=1e-14)
+
+
+def test_derived_quantities_other_set() -> None:
+    p = ScaledParams(**SCALED_ROUND)  # n = 3, psi = 0.5 -> sqrt(n psi) = sqrt(1.5)
+    assert p.tau_n0 == pytest.approx(2 * math.pi / 9, rel=1e-15)
+    assert p.d0 == pytest.approx(math.pi / 9, rel=1e-15)
+    assert p.gammabar == pytest.approx(0.5 / math.sqrt(1.5), rel=1e-14)
+    assert p.etabar2 == pytest.approx(25.0 / 1.5, rel=1e-14)
+    assert p.etabar**2 == pytest.approx(p.etabar2, rel=1e-14)
+    assert p.R0 == pytest.approx(3 * math.pi / 9 + 3 * 0.2 * 3.0, rel=1e-14)
+
+
+# ---------------------------------------------------------------------------------------------
+# physical -> scaled, eqs. (15)-(16)
+# ---------------------------------------------------------------------------------------------
+
+
+def test_physical_to_scaled_round_numbers() -> None:
+    phys = PhysicalParams(**PHYS_ROUND)
+    assert phys.t_star == pytest.approx(2.0, rel=1e-15)
+    assert phys.L_star == pytest.approx(1.0, rel=1e-15)
+    s = phys.to_scaled()
+    for name, expected in SCALED_ROUND.items():
+        assert getattr(s, name) == pytest.approx(expected, rel=1e-14), name
+    assert isinstance(s.n, int) and s.n == 3
+
+
+def test_physical_to_scaled_field_scale() -> None:
+    q = PHYS_FIELD
+    t = math.sqrt(q["I1"] / q["C"])
+    L = 2 * q["C"] / (q["eps"] * q["a"] ** 2)
+    expected = {
+        "gamma": q["D"] / q["M"] * t,
+        "eta": math.sqrt(q["K"] * q["I1"] / (q["M"] * q["C"])),
+        "psi": q["zeta"] * q["eps"] * q["a"] * q["I1"] / (q["M"] * q["C"]),
+        "lam": q["a"] ** 2 * q["l"] * q["sigma_bar"] / (2 * q["zeta"] * q["C"]),
+        "beta": q["zeta"] * q["mu"] * q["xi"],
+        "rho": q["I2"] / q["I1"],
+        "v0": q["V0"] * t / L,
+        "omega0": q["Omega0"] * t,
+    }
+    s = PhysicalParams(**q).to_scaled()
+    for name, value in expected.items():
+        assert getattr(s, name) == pytest.approx(value, rel=1e-13), name
+
+
+@pytest.mark.parametrize("q", [PHYS_ROUND, PHYS_FIELD], ids=["round", "field"])
+def test_nominal_torque_two_routes(q: dict) -> None:
+    """Eq. (8) solved for R0 in SI units, divided by C, equals the scaled n*d0 + n*beta*lambda."""
+    phys = PhysicalParams(**q)
+    s = phys.to_scaled()
+    assert phys.scaled_torque(phys.R0) == pytest.approx(s.R0, rel=1e-13)
+    assert phys.physical_torque(s.R0) == pytest.approx(phys.R0, rel=1e-13)
+    # depth of cut scales by L*: d0 [m] / L* = v0 * tau_n0
+    assert phys.d0 / phys.L_star == pytest.approx(s.d0, rel=1e-13)
+    # delay scales by t*: t_n0 = 2 pi/(n Omega0) seconds
+    assert 2 * math.pi / (phys.n * phys.Omega0) / phys.t_star == pytest.approx(s.tau_n0, rel=1e-13)
+
+
+def test_sharp_cutter_and_no_damping_allowed() -> None:
+    s = PhysicalParams(**{**PHYS_ROUND, "l": 0.0, "D": 0.0}).to_scaled()
+    assert s.lam == 0.0 and s.gamma == 0.0
+    s = PhysicalParams(**{**PHYS_ROUND, "sigma_bar": 0.0}).to_scaled()
+    assert s.lam == 0.0
+
+
+def test_physical_beta_above_one_is_reported() -> None:
+    phys = PhysicalParams(**{**PHYS_ROUND, "mu": 2.0, "xi": 2.0})  # beta = 0.5*2*2 = 2
+    with pytest.raises(ParameterError, match="beta") as exc:
+        phys.to_scaled()
+    assert "2.0" in str(exc.value)
+
+
+# ---------------------------------------------------------------------------------------------
+# named sets, replace, dicts
+# ---------------------------------------------------------------------------------------------
+
+
+def test_get_params_reference() -> None:
+    assert get_params("reference") == REFERENCE
+
+
+def test_get_params_unknown_lists_known() -> None:
+    with pytest.raises(ParameterError) as exc:
+        get_params("nope")
+    assert "nope" in str(exc.value) and "reference" in str(exc.value)
+
+
+def test_reference_file_equals_reference() -> None:
+    assert load_params(DATA / "reference.toml") == REFERENCE
+
+
+def test_params_from_spec(tmp_path: Path) -> None:
+    assert params_from_spec("reference") == REFERENCE
+    f = save_params(ScaledParams(**SCALED_ROUND), tmp_path / "x.json")
+    assert params_from_spec(str(f)) == ScaledParams(**SCALED_ROUND)
+    with pytest.raises(ParameterError, match="missing"):
+        params_from_spec("missing")
+
+
+def test_replace_validates_and_aliases() -> None:
+    p = REFERENCE.replace(omega0=10.0)
+    assert p.omega0 == 10.0 and p.tau_n0 == pytest.approx(math.pi / 20, rel=1e-15)
+    assert REFERENCE.omega0 == 5.0  # the original is untouched
+    assert REFERENCE.replace(**{"lambda": 2.5}).lam == 2.5
+    with pytest.raises(ParameterError, match="beta"):
+        REFERENCE.replace(beta=1.5)
+    with pytest.raises(ParameterError, match="bogus"):
+        REFERENCE.replace(bogus=1.0)
+    with pytest.raises(ParameterError, match="Omega0"):
+        PhysicalParams(**PHYS_ROUND).replace(Omega0=0.0)
+
+
+def test_frozen() -> None:
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        REFERENCE.psi = 1.0  # type: ignore[misc]
+
+
+def test_dict_round_trip_and_keys() -> None:
+    d = REFERENCE.to_dict()
+    assert list(d) == ["n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0"]
+    assert ScaledParams.from_dict(d) == REFERENCE
+    d_lam = {("lam" if k == "lambda" else k): v for k, v in d.items()}
+    assert ScaledParams.from_dict(d_lam) == REFERENCE
+    with pytest.raises(ParameterError, match="twice"):
+        ScaledParams.from_dict({**d, "lam": 1.0})
+    assert PhysicalParams.from_dict(PhysicalParams(**PHYS_FIELD).to_dict()) == PhysicalParams(
+        **PHYS_FIELD
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# files
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_scaled_file_round_trip(tmp_path: Path, suffix: str) -> None:
+    for p in (REFERENCE, ScaledParams(**SCALED_ROUND), REFERENCE.replace(psi=1.0 / 3.0, v0=1e-7)):
+        path = save_params(p, tmp_path / f"p{suffix}")
+        assert load_params(path) == p  # bit-exact: floats are written with repr
+    assert [f.name for f in tmp_path.iterdir()] == [f"p{suffix}"]  # no temp file left behind
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_physical_file_round_trip(tmp_path: Path, suffix: str) -> None:
+    phys = PhysicalParams(**PHYS_FIELD)
+    path = save_params(phys, tmp_path / f"phys{suffix}")
+    assert read_params(path) == phys
+    assert load_params(path) == phys.to_scaled()
+
+
+def test_toml_text_layout(tmp_path: Path) -> None:
+    path = save_params(REFERENCE, tmp_path / "ref.toml")
+    text = path.read_text()
+    assert 'kind = "scaled"' in text and "lambda = 1.58" in text and "n = 4\n" in text
+    data = tomllib.loads(text)
+    assert data["kind"] == "scaled" and isinstance(data["n"], int)
+    json_data = json.loads(save_params(REFERENCE, tmp_path / "ref.json").read_text())
+    assert json_data["kind"] == "scaled" and json_data["lambda"] == 1.58
+
+
+def _write(path: Path, data: dict) -> Path:
+    if path.suffix == ".json":
+        path.write_text(json.dumps(data))
+    else:
+        lines = [f"{k} = {json.dumps(v)}" for k, v in data.items()]
+        path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_unknown_key_is_error(tmp_path: Path, suffix: str) -> None:
+    data = {"kind": "scaled", **REFERENCE.to_dict(), "omega_0": 5.0}
+    with pytest.raises(ParameterError, match="omega_0"):
+        load_params(_write(tmp_path / f"p{suffix}", data))
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_missing_key_is_error(tmp_path: Path, suffix: str) -> None:
+    data = {"kind": "scaled", **REFERENCE.to_dict()}
+    del data["rho"]
+    with pytest.raises(ParameterError, match="missing.*rho"):
+        load_params(_write(tmp_path / f"p{suffix}", data))
+
+
+def test_physical_unknown_and_missing_key(tmp_path: Path) -> None:
+    data = {"kind": "physical", **PHYS_ROUND, "Omega": 1.0}
+    with pytest.raises(ParameterError, match="'Omega'"):
+        load_params(_write(tmp_path / "a.toml", data))
+    data = {"kind": "physical", **PHYS_ROUND}
+    del data["sigma_bar"]
+    with pytest.raises(ParameterError, match="sigma_bar"):
+        load_params(_write(tmp_path / "b.toml", data))
+
+
+def test_file_kind_errors(tmp_path: Path) -> None:
+    with pytest.raises(ParameterError, match="kind"):
+        load_params(_write(tmp_path / "a.toml", REFERENCE.to_dict()))
+    with pytest.raises(ParameterError, match="'scaledd'"):
+        load_params(_write(tmp_path / "b.toml", {"kind": "scaledd", **REFERENCE.to_dict()}))
+    # physical fields under the scaled kind: the first foreign key is named
+    with pytest.raises(ParameterError, match="unknown key 'M'"):
+        load_params(_write(tmp_path / "c.toml", {"kind": "scaled", **PHYS_ROUND}))
+
+
+def test_file_format_errors(tmp_path: Path) -> None:
+    with pytest.raises(ParameterError, match="suffix"):
+        load_params(tmp_path / "p.yaml")
+    with pytest.raises(ParameterError, match="suffix"):
+        save_params(REFERENCE, tmp_path / "p.txt")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("kind = scaled\n")
+    with pytest.raises(ParameterError, match="not valid toml"):
+        load_params(bad)
+    with pytest.raises(ParameterError, match="cannot read"):
+        load_params(tmp_path / "absent.json")
+    with pytest.raises(ParameterError, match="psi"):
+        load_params(_write(tmp_path / "s.json", {"kind": "scaled", **SCALED_OK, "psi": "250"}))
+
+
+# ---------------------------------------------------------------------------------------------
+# validation
+# ---------------------------------------------------------------------------------------------
+
+nan, inf = float("nan"), float("inf")
+
+SCALED_BAD = [
+    ("n", 0),
+    ("n", -2),
+    ("n", 4.5),
+    ("n", True),
+    ("n", "4"),
+    ("n", nan),
+    ("psi", 0.0),
+    ("psi", -250.0),
+    ("psi", nan),
+    ("psi", inf),
+    ("psi", "250"),
+    ("psi", None),
+    ("gamma", -0.1),
+    ("gamma", nan),
+    ("eta", 0.0),
+    ("eta", -inf),
+    ("lam", -1.0),
+    ("lam", nan),
+    ("beta", 0.0),
+    ("beta", -0.5),
+    ("beta", 1.0000001),
+    ("beta", inf),
+    ("rho", 0.0),
+    ("rho", False),
+    ("v0", 0.0),
+    ("v0", -1.0),
+    ("omega0", 0.0),
+    ("omega0", -5.0),
+    ("omega0", inf),
+]
+
+
+@pytest.mark.parametrize(("field", "value"), SCALED_BAD)
+def test_scaled_validation(field: str, value: object) -> None:
+    with pytest.raises(ParameterError) as exc:
+        ScaledParams(**{**SCALED_OK, field: value})
+    msg = str(exc.value)
+    assert field in msg and repr(value) in msg
+    assert isinstance(exc.value, ValueError)
+
+
+PHYS_STRICT = ["M", "I1", "I2", "C", "K", "a", "eps", "zeta", "mu", "xi", "V0", "Omega0"]
+PHYS_NONNEG = ["D", "sigma_bar", "l"]
+PHYS_BAD = (
+    [(f, 0.0) for f in PHYS_STRICT]
+    + [(f, -1.0) for f in PHYS_STRICT + PHYS_NONNEG]
+    + [(f, nan) for f in PHYS_STRICT + PHYS_NONNEG]
+    + [(f, inf) for f in ["M", "C", "D", "Omega0"]]
+    + [("n", 0), ("n", 2.5), ("n", True), ("M", "1"), ("l", True)]
+)
+
+
+@pytest.mark.parametrize(("field", "value"), PHYS_BAD)
+def test_physical_validation(field: str, value: object) -> None:
+    with pytest.raises(ParameterError) as exc:
+        PhysicalParams(**{**PHYS_ROUND, field: value})
+    msg = str(exc.value)
+    assert f"PhysicalParams.{field} " in msg and repr(value) in msg
+
+
+def test_accepted_edge_values_and_coercion() -> None:
+    p = ScaledParams(**SCALED_OK)  # gamma = 0, lam = 0, beta = 1 are allowed
+    assert (p.gamma, p.lam, p.beta) == (0.0, 0.0, 1.0)
+    q = ScaledParams(**{**SCALED_OK, "n": 4.0, "psi": 250})
+    assert type(q.n) is int and q.n == 4 and type(q.psi) is float
+    r = ScaledParams(**{**SCALED_OK, "n": np.int64(4), "psi": np.float32(250.0)})
+    assert type(r.n) is int and type(r.psi) is float and r == q
+    assert PhysicalParams(**{**PHYS_ROUND, "n": 3.0}).n == 3
