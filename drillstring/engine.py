@@ -107,7 +107,7 @@ class EngineOptions:
     event_tol: time tolerance of event location.
     """
 
-    h: float = 1e-3
+    h: float = 5e-4
     torsional_stick: bool = False
     on_invalid: str = "stop"
     freeze_torsion: bool = False
@@ -176,7 +176,8 @@ class Status:
 
 
 class Event(NamedTuple):
-    """A located event: time, kind, axial modes before/after, V and g* at the event."""
+    """A located event: time, kind, axial modes before/after, V, g*, u and the running
+    integral of g (over tau, from 0) at the event."""
 
     tau: float
     kind: str
@@ -184,6 +185,8 @@ class Event(NamedTuple):
     to_mode: str
     V: float
     gstar: float
+    u: float
+    g_integral: float
 
 
 @dataclass
@@ -263,12 +266,15 @@ class Engine:
             ]
         )
         self._I = np.zeros(L.I_SIZE, dtype=np.int64)
+        # the initial state joins the prehistory at tau = 0: a discontinuity node (a second node
+        # at tau = 0 when the state jumps there, e.g. dphi(0) != 0 after a nominal past)
         last = n_nodes - 1
-        same = np.array_equal(self._H[1:, last], self._Y[:4])
-        if not same:
-            self._H[1:, n_nodes] = self._Y[:4]
-            self._H[0, n_nodes] = 0.0
+        if not np.array_equal(self._H[1:5, last], self._Y[:4]):
             n_nodes += 1
+            last += 1
+            self._H[0, last] = 0.0
+            self._H[1:5, last] = self._Y[:4]
+        self._H[L.H_FLAG, last] = 1.0
         self._I[L.I_HEND] = n_nodes
         self._D = np.zeros(L.D_SIZE)
         self._E = np.zeros((opt.event_capacity, L.E_COLS))
@@ -455,6 +461,8 @@ class Engine:
                         MODE_NAMES[int(row[L.E_TO])],
                         float(row[L.E_V]),
                         float(row[L.E_GSTAR]),
+                        float(row[L.E_U]),
+                        float(row[L.E_GINT]),
                     )
                 )
         self._I[L.I_ENUM] = 0
@@ -463,6 +471,11 @@ class Engine:
     @property
     def tau(self) -> float:
         return float(self._X[L.X_TAU])
+
+    @property
+    def g_integral(self) -> float:
+        """Integral of the contact multiplier g over tau from 0 (RK4 quadrature)."""
+        return float(self._X[L.X_GINT])
 
     @property
     def mode(self) -> str:

@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .kernel.history import interpolate
-from .kernel.layout import H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
+from .kernel.layout import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
 from .params import ScaledParams
 
 HistoryFunction = Callable[[float], tuple[float, float, float, float]]
@@ -38,13 +38,13 @@ def build_prehistory(
     """
     w0, v0 = params.omega0, params.v0
     blade = 2.0 * np.pi / params.n
-    nodes: list[tuple[float, float, float, float, float]] = []
+    nodes: list[tuple[float, ...]] = []
     phi_end = None
     k = 0
     while True:
         tau = -k * h
         u, du, phi, dphi = (float(x) for x in history(tau))
-        vals = (tau, v0 * tau + u, v0 + du, w0 * tau + phi, w0 + dphi)
+        vals = (tau, v0 * tau + u, v0 + du, w0 * tau + phi, w0 + dphi, 0.0)
         if not all(np.isfinite(vals)):
             raise ValueError(f"history({tau!r}) returned a non-finite value: {(u, du, phi, dphi)}")
         if vals[4] < 0.0:
@@ -93,6 +93,7 @@ class HistoryView:
             "V": self._H[H_V],
             "Phi": self._H[H_PHI],
             "W": self._H[H_W],
+            "discontinuity": self._H[H_FLAG] > 0.0,
         }
 
     def evaluate(self, tau: float) -> tuple[float, float, float, float]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import jit_for
-from .layout import H_PHI, H_TAU, H_U, H_V, H_W
+from .layout import H_FLAG, H_PHI, H_TAU, H_U, H_V, H_W
 
 jit = jit_for(__name__)
 
@@ -117,7 +117,7 @@ def delay_lookup(
 
 @jit
 def append_node(
-    H: np.ndarray, end: int, tau: float, U: float, V: float, Phi: float, W: float
+    H: np.ndarray, end: int, tau: float, U: float, V: float, Phi: float, W: float, flag: float
 ) -> int:
     """Write a node at column ``end`` (caller guarantees capacity); returns the new end."""
     H[H_TAU, end] = tau
@@ -125,7 +125,29 @@ def append_node(
     H[H_V, end] = V
     H[H_PHI, end] = Phi
     H[H_W, end] = W
+    H[H_FLAG, end] = flag
     return end + 1
+
+
+@jit
+def next_discontinuity(
+    H: np.ndarray, start: int, end: int, k_hint: int, s0: float, s1: float
+) -> float:
+    """Time of the first flagged node in (s0, s1], or -inf if none.
+
+    A flagged node is a derivative discontinuity of the stored solution (an event, or the joint
+    of prehistory and initial state). When the delayed instant tau - tau_n passes it, the
+    right-hand side loses smoothness, so the step must end exactly there to keep RK4's order.
+    """
+    k = find_interval(H, start, end, k_hint, H_TAU, s0)
+    if k < start:
+        k = start - 1
+    k += 1
+    while k < end and H[H_TAU, k] <= s1:
+        if H[H_FLAG, k] > 0.0 and H[H_TAU, k] > s0:
+            return H[H_TAU, k]
+        k += 1
+    return -np.inf
 
 
 @jit

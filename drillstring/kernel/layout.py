@@ -47,7 +47,8 @@ LATCH_ANGLE_TWIST = 2
 
 # float scalars X
 X_TAU = 0
-X_SIZE = 1
+X_GINT = 1  # running integral of g over tau (for the averaged contact force, Section III)
+X_SIZE = 2
 
 # int scalars I
 I_MODE = 0
@@ -73,7 +74,8 @@ D_GSTAR = 3  # g that keeps dV/dtau = 0
 D_S = 4  # scaled twist torque S = R0 + Theta - Phi
 D_TOB = 5  # torque on bit T
 D_R = 6  # applied R - R0
-D_SIZE = 7
+D_QG = 7  # RK4 quadrature of g over the last step
+D_SIZE = 8
 
 # history rows
 H_TAU = 0
@@ -81,7 +83,10 @@ H_U = 1
 H_V = 2
 H_PHI = 3
 H_W = 4
-H_ROWS = 5
+H_FLAG = (
+    5  # 1: derivative discontinuity at this node (event, or tau = 0), tracked through the delay
+)
+H_ROWS = 6
 
 # event log columns
 E_TAU = 0
@@ -90,7 +95,9 @@ E_FROM = 2
 E_TO = 3
 E_V = 4
 E_GSTAR = 5
-E_COLS = 6
+E_GINT = 6  # running integral of g at the event
+E_U = 7  # u = U - v0*tau at the event
+E_COLS = 8
 
 # axial/torsional modes
 MODE_SLIP = 0  # moving down, full wearflat contact, g = 0

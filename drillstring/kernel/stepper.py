@@ -22,7 +22,7 @@ import numpy as np
 from .._jit import jit_for
 from ..control_law import feedback_torque
 from .filippov import contact, g_star, max_bit_torque, mode_at_zero_velocity, torque_on_bit
-from .history import append_node, compact, delay_lookup
+from .history import append_node, compact, delay_lookup, next_discontinuity
 from .layout import (
     C_ACTIVE,
     C_F0,
@@ -40,16 +40,19 @@ from .layout import (
     D_D,
     D_G,
     D_GSTAR,
+    D_QG,
     D_R,
     D_S,
     D_SIZE,
     D_TAUN,
     D_TOB,
     E_FROM,
+    E_GINT,
     E_GSTAR,
     E_KIND,
     E_TAU,
     E_TO,
+    E_U,
     E_V,
     EV_BOUNCE,
     EV_BOUNCE_END,
@@ -88,6 +91,7 @@ from .layout import (
     P_BLADE,
     P_OMEGA0,
     P_R0,
+    P_V0,
     ST_BOUNCE,
     ST_DELAY,
     ST_EVLOG_FULL,
@@ -97,6 +101,7 @@ from .layout import (
     ST_REVERSE,
     ST_TSTICK_OUT,
     ST_ZENO,
+    X_GINT,
     X_TAU,
 )
 from .model import rhs
@@ -114,6 +119,7 @@ EVF_BOUNCE_END = 6  # d back above 0
 EVF_RELEASE = 7  # torsional stick: twist torque exceeds T_max
 EVF_REVERSE = 8  # torsional stick: twist torque below 0
 N_EVF = 9
+EVF_DELAY = 9  # the delayed instant tau - tau_n passes a stored discontinuity (not a mode event)
 
 ZENO_LIMIT = 64
 
@@ -178,21 +184,26 @@ def rk4(P, O, C, H, I, mode, tau, Y, h, Ynew, Dnew, K, Yt, ext):
     st = stage(P, O, C, H, I, mode, tau, Y, K[0], Dnew, ext)
     if st != ST_OK:
         return st
+    qg = Dnew[D_G]
     for i in range(6):
         Yt[i] = Y[i] + 0.5 * h * K[0, i]
     st = stage(P, O, C, H, I, mode, tau + 0.5 * h, Yt, K[1], Dnew, ext)
     if st != ST_OK:
         return st
+    qg += 2.0 * Dnew[D_G]
     for i in range(6):
         Yt[i] = Y[i] + 0.5 * h * K[1, i]
     st = stage(P, O, C, H, I, mode, tau + 0.5 * h, Yt, K[2], Dnew, ext)
     if st != ST_OK:
         return st
+    qg += 2.0 * Dnew[D_G]
     for i in range(6):
         Yt[i] = Y[i] + h * K[2, i]
     st = stage(P, O, C, H, I, mode, tau + h, Yt, K[3], Dnew, ext)
     if st != ST_OK:
         return st
+    qg += Dnew[D_G]
+    Dnew[D_QG] = h / 6.0 * qg
     for i in range(6):
         Ynew[i] = Y[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
         if not math.isfinite(Ynew[i]):
@@ -220,7 +231,10 @@ def event_active(ev, mode, O, I):
 
 
 @jit
-def event_value(ev, P, Y, D):
+def event_value(ev, P, Y, D, t, tdisc):
+    """Event function ``ev`` at time t, state Y, diagnostics D (positive before the event)."""
+    if ev == EVF_DELAY:
+        return tdisc - (t - D[D_TAUN])
     if ev == EVF_V_DOWN:
         return Y[1]
     if ev == EVF_V_UP:
@@ -241,7 +255,7 @@ def event_value(ev, P, Y, D):
 
 
 @jit
-def locate(ev, P, O, C, H, I, mode, tau, Y, h, f0, f1, Yev, Dev, K, Yt, Ytr, Dtr, ext):
+def locate(ev, P, O, C, H, I, mode, tau, Y, h, f0, f1, Yev, Dev, K, Yt, Ytr, Dtr, tdisc, ext):
     """Step fraction of the event (Illinois regula falsi); the far-side state into Yev, Dev."""
     lo = 0.0
     hi = 1.0
@@ -263,7 +277,7 @@ def locate(ev, P, O, C, H, I, mode, tau, Y, h, f0, f1, Yev, Dev, K, Yt, Ytr, Dtr
         I[I_NREJECT] += 1
         if st != ST_OK:
             return -1.0
-        f = event_value(ev, P, Ytr, Dtr)
+        f = event_value(ev, P, Ytr, Dtr, tau + th * h, tdisc)
         if f <= 0.0:
             hi = th
             fhi = f
@@ -284,8 +298,11 @@ def locate(ev, P, O, C, H, I, mode, tau, Y, h, f0, f1, Yev, Dev, K, Yt, Ytr, Dtr
 
 
 @jit
-def log_event(E, I, tau, kind, frm, to, v, gs):
+def log_event(E, I, X, P, Y, kind, frm, to, v, gs):
     n = I[I_ENUM]
+    tau = X[X_TAU]
+    E[n, E_GINT] = X[X_GINT]
+    E[n, E_U] = Y[0] - P[P_V0] * tau
     E[n, E_TAU] = tau
     E[n, E_KIND] = kind
     E[n, E_FROM] = frm
@@ -297,7 +314,7 @@ def log_event(E, I, tau, kind, frm, to, v, gs):
 
 
 @jit
-def push_node(H, I, tau, Y):
+def push_node(H, I, tau, Y, flag):
     """Append the accepted state as a history node; a torsional-stick stretch keeps two nodes."""
     start = I[I_HSTART]
     end = I[I_HEND]
@@ -318,7 +335,7 @@ def push_node(H, I, tau, Y):
         ):
             H[H_TAU, a] = tau
             return
-    I[I_HEND] = append_node(H, end, tau, Y[0], Y[1], Y[2], Y[3])
+    I[I_HEND] = append_node(H, end, tau, Y[0], Y[1], Y[2], Y[3], flag)
     # nodes before the current delay interval can never be reached again (Phi non-decreasing)
     keep = I[I_KHINT] - 2
     if keep > start:
@@ -335,7 +352,6 @@ def refresh(P, O, C, X, Y, I, H, D, K, ext):
 def apply_event(ev, P, O, C, X, Y, I, H, D, E, K, ext):
     """Mode change at a located event (state already at the event); returns a status."""
     mode = I[I_MODE]
-    tau = X[X_TAU]
     v_event = Y[1]
     gs = D[D_GSTAR]
     if ev == EVF_V_DOWN or ev == EVF_V_UP:
@@ -344,16 +360,16 @@ def apply_event(ev, P, O, C, X, Y, I, H, D, E, K, ext):
         if new == MODE_STICK:
             I[I_NSTICK] += 1
         I[I_MODE] = new
-        log_event(E, I, tau, EV_MODE, mode, new, v_event, gs)
+        log_event(E, I, X, P, Y, EV_MODE, mode, new, v_event, gs)
     elif ev == EVF_G_LOW:
         I[I_MODE] = MODE_SLIP
-        log_event(E, I, tau, EV_MODE, mode, MODE_SLIP, v_event, gs)
+        log_event(E, I, X, P, Y, EV_MODE, mode, MODE_SLIP, v_event, gs)
     elif ev == EVF_G_HIGH:
         I[I_MODE] = MODE_UP
-        log_event(E, I, tau, EV_MODE, mode, MODE_UP, v_event, gs)
+        log_event(E, I, X, P, Y, EV_MODE, mode, MODE_UP, v_event, gs)
     elif ev == EVF_W:
         if O[O_TSTICK] == 0.0:
-            log_event(E, I, tau, EV_TSTICK_STOP, mode, mode, v_event, gs)
+            log_event(E, I, X, P, Y, EV_TSTICK_STOP, mode, mode, v_event, gs)
             return ST_TSTICK_OUT
         if D[D_S] < 0.0:
             return ST_REVERSE
@@ -361,7 +377,7 @@ def apply_event(ev, P, O, C, X, Y, I, H, D, E, K, ext):
         Y[1] = 0.0  # rock is not penetrated without rotation (NOTES.md section 6)
         I[I_MODE] = MODE_TSTICK
         I[I_NTSTICK] += 1
-        log_event(E, I, tau, EV_MODE, mode, MODE_TSTICK, v_event, gs)
+        log_event(E, I, X, P, Y, EV_MODE, mode, MODE_TSTICK, v_event, gs)
     elif ev == EVF_RELEASE:
         Y[1] = 0.0
         Y[3] = 0.0
@@ -369,18 +385,18 @@ def apply_event(ev, P, O, C, X, Y, I, H, D, E, K, ext):
         if new == MODE_STICK:
             I[I_NSTICK] += 1
         I[I_MODE] = new
-        log_event(E, I, tau, EV_MODE, mode, new, v_event, gs)
+        log_event(E, I, X, P, Y, EV_MODE, mode, new, v_event, gs)
     elif ev == EVF_REVERSE:
         return ST_REVERSE
     elif ev == EVF_BOUNCE:
         I[I_NBOUNCE] += 1
-        log_event(E, I, tau, EV_BOUNCE, mode, mode, v_event, gs)
+        log_event(E, I, X, P, Y, EV_BOUNCE, mode, mode, v_event, gs)
         if O[O_CONTINUE] == 0.0:
             return ST_BOUNCE
         I[I_BOUNCING] = 1
     else:
         I[I_BOUNCING] = 0
-        log_event(E, I, tau, EV_BOUNCE_END, mode, mode, v_event, gs)
+        log_event(E, I, X, P, Y, EV_BOUNCE_END, mode, mode, v_event, gs)
     return refresh(P, O, C, X, Y, I, H, D, K, ext)
 
 
@@ -406,12 +422,14 @@ def step(P, O, C, X, Y, I, H, D, E, K, W, h, t_end, ext):
     for ev in range(N_EVF):
         if not event_active(ev, mode, O, I):
             continue
-        f1 = event_value(ev, P, Ynew, Dnew)
-        f0 = event_value(ev, P, Y, D)
+        f1 = event_value(ev, P, Ynew, Dnew, t_end, 0.0)
+        f0 = event_value(ev, P, Y, D, tau, 0.0)
         if f1 < 0.0 or (f1 == 0.0 and f0 > 0.0):
             Yev[:] = Ynew
             Dev[:] = Dnew
-            th = locate(ev, P, O, C, H, I, mode, tau, Y, h, f0, f1, Yev, Dev, K, Yt, Ytr, Dtr, ext)
+            th = locate(
+                ev, P, O, C, H, I, mode, tau, Y, h, f0, f1, Yev, Dev, K, Yt, Ytr, Dtr, 0.0, ext
+            )
             if th < 0.0:
                 return ST_DELAY
             if th < best:
@@ -419,18 +437,62 @@ def step(P, O, C, X, Y, I, H, D, E, K, W, h, t_end, ext):
                 best_ev = ev
                 Ybest[:] = Yev
                 Dbest[:] = Dev
+    # a stored discontinuity passed by the delayed instant ends the step there (order of RK4)
+    s0 = tau - D[D_TAUN]
+    s1 = t_end - Dnew[D_TAUN]
+    tdisc = next_discontinuity(H, I[I_HSTART], I[I_HEND], I[I_KHINT], s0, s1)
+    if tdisc > s0:
+        f0 = tdisc - s0
+        f1 = tdisc - s1
+        if f1 < 0.0:
+            Yev[:] = Ynew
+            Dev[:] = Dnew
+            th = locate(
+                EVF_DELAY,
+                P,
+                O,
+                C,
+                H,
+                I,
+                mode,
+                tau,
+                Y,
+                h,
+                f0,
+                f1,
+                Yev,
+                Dev,
+                K,
+                Yt,
+                Ytr,
+                Dtr,
+                tdisc,
+                ext,
+            )
+            if th < 0.0:
+                return ST_DELAY
+            if th < best:
+                best = th
+                best_ev = EVF_DELAY
+                Ybest[:] = Yev
+                Dbest[:] = Dev
     I[I_NSTEPS] += 1
     if best_ev < 0:
         Y[:] = Ynew
         D[:] = Dnew
+        X[X_GINT] += Dnew[D_QG]
         X[X_TAU] = t_end
-        push_node(H, I, t_end, Y)
+        push_node(H, I, t_end, Y, 0.0)
         return ST_OK
     Y[:] = Ybest
     D[:] = Dbest
+    X[X_GINT] += Dbest[D_QG]
     X[X_TAU] = t_end if best == 1.0 else tau + best * h
+    if best_ev == EVF_DELAY:
+        push_node(H, I, X[X_TAU], Y, 0.0)
+        return ST_OK
     st = apply_event(best_ev, P, O, C, X, Y, I, H, D, E, K, ext)
-    push_node(H, I, X[X_TAU], Y)
+    push_node(H, I, X[X_TAU], Y, 1.0)
     return st
 
 
@@ -445,7 +507,7 @@ def switch_on(P, C, X, Y, I, D, E):
     if latch == LATCH_ANGLE_TWIST:
         C[C_TWISTREF] = (Y[2] - Y[4]) - C[C_K0]
     C[C_ACTIVE] = 1.0
-    log_event(E, I, tau, EV_SWITCH_ON, I[I_MODE], I[I_MODE], Y[1], D[D_GSTAR])
+    log_event(E, I, X, P, Y, EV_SWITCH_ON, I[I_MODE], I[I_MODE], Y[1], D[D_GSTAR])
 
 
 @jit
