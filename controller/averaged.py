@@ -1,0 +1,235 @@
+"""Averaged torsional model of Section IV-V of the paper.
+
+The fast axial stick-slip is replaced by its average (22)-(24); the torsional dynamics (12)-(13)
+then become (25) with the state-dependent delay (14). Two linear models follow from it:
+
+* the delay form (28)-(30): ``x' = A0 x(tau) + A1 x(tau - tau_n) + B R_fb`` with
+  ``x = [phi, dphi/dtau, phi - theta - K0, dtheta/dtau]`` and ``R - R0 = R_ff + R_fb``,
+  ``R_ff = -K0`` (31); the matrices are those of NOTES.md section 4;
+* the ODE (13), (27), obtained with the Taylor approximation (26) of the delay, in the same state.
+
+Everything here is a pure function of a :class:`~drillstring.params.ScaledParams` and the two axial
+quantities ``A`` (slope of (22)) and ``taubar_crit`` (critical delay of (21), fast time scale),
+which come from the axial analysis.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from drillstring.params import ScaledParams
+
+__all__ = [
+    "AveragedModel",
+    "averaged_model",
+    "averaged_rhs",
+    "closed_loop_roots",
+    "default_delay_sweep",
+    "delay_roots",
+    "linearised_ode_matrix",
+    "ode_poles",
+    "open_loop_roots",
+    "spectral_abscissa_sweep",
+]
+
+#: Number of rightmost characteristic roots returned by default.
+N_ROOTS_DEFAULT = 8
+
+
+@dataclass(frozen=True, eq=False)
+class AveragedModel:
+    """Matrices and constants of the averaged torsional model (29)-(31).
+
+    Attributes:
+        A0, A1: 4x4 matrices of (30) (NOTES.md section 4).
+        B: input matrix of (30), shape (4, 1).
+        c: ``n*v0/omega0*(beta*A - 1)`` of (28)-(30); negative means velocity weakening.
+        K0: ``n*v0*beta*A*(tau_n0 - tau_n_crit)``, the constant of (27)-(28).
+        R_ff: feed-forward torque ``-K0`` of (31).
+        tau_n0: nominal delay ``2*pi/(n*omega0)``.
+        tau_n_crit: ``taubar_crit/sqrt(n*psi)``, critical delay in the slow time scale.
+        A, taubar_crit: the axial quantities the model was built from.
+        rho: inertia ratio (16).
+    """
+
+    A0: NDArray[np.float64]
+    A1: NDArray[np.float64]
+    B: NDArray[np.float64]
+    c: float
+    K0: float
+    R_ff: float
+    tau_n0: float
+    tau_n_crit: float
+    A: float
+    taubar_crit: float
+    rho: float
+
+
+def _finite(name: str, value: float) -> float:
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> AveragedModel:
+    """Build the averaged torsional model (29)-(31) for ``params`` and the axial pair.
+
+    Args:
+        params: scaled parameter set.
+        A: slope ``A(gammabar, etabar)`` of the averaged contact force (22); must be > 0.
+        taubar_crit: critical delay of (21) in the fast time ``taubar``; must satisfy
+            ``0 < taubar_crit < taubar_n0``, the validity condition of (25) (Section IV).
+
+    Raises:
+        ValueError: for non-finite or out-of-range ``A`` or ``taubar_crit``.
+    """
+    A = _finite("A", A)
+    taubar_crit = _finite("taubar_crit", taubar_crit)
+    if A <= 0.0:
+        raise ValueError(f"A (slope of (22)) must be > 0, got {A!r}")
+    if taubar_crit <= 0.0:
+        raise ValueError(f"taubar_crit must be > 0, got {taubar_crit!r}")
+    if taubar_crit >= params.taubar_n0:
+        raise ValueError(
+            f"taubar_crit = {taubar_crit!r} must be below taubar_n0 = {params.taubar_n0!r}: "
+            "the averaged model (25) only holds when the axial motion is a stick-slip limit cycle"
+        )
+    n, v0, omega0, beta, rho = params.n, params.v0, params.omega0, params.beta, params.rho
+    tau_n0 = params.tau_n0
+    tau_n_crit = taubar_crit / params.sqrt_npsi
+    c = n * v0 / omega0 * (beta * A - 1.0)
+    K0 = n * v0 * beta * A * (tau_n0 - tau_n_crit)
+    A0 = np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-c, 0.0, -1.0, 0.0],
+            [0.0, 1.0, 0.0, -1.0],
+            [0.0, 0.0, 1.0 / rho, 0.0],
+        ]
+    )
+    A1 = np.zeros((4, 4))
+    A1[1, 0] = c
+    B = np.array([[0.0], [0.0], [0.0], [1.0 / rho]])
+    return AveragedModel(
+        A0=A0,
+        A1=A1,
+        B=B,
+        c=c,
+        K0=K0,
+        R_ff=-K0,
+        tau_n0=tau_n0,
+        tau_n_crit=tau_n_crit,
+        A=A,
+        taubar_crit=taubar_crit,
+        rho=rho,
+    )
+
+
+def averaged_rhs(
+    model: AveragedModel, x: ArrayLike, x_delayed: ArrayLike, R_fb: float = 0.0
+) -> NDArray[np.float64]:
+    """Right-hand side of (29): ``A0 x + A1 x_delayed + B R_fb``."""
+    x = np.asarray(x, dtype=float).reshape(4)
+    xd = np.asarray(x_delayed, dtype=float).reshape(4)
+    return model.A0 @ x + model.A1 @ xd + model.B[:, 0] * float(R_fb)
+
+
+def linearised_ode_matrix(model: AveragedModel) -> NDArray[np.float64]:
+    """System matrix of the ODE (13), (27) with ``R - R0 = R_ff`` (no feedback), same state x.
+
+    (27): ``phi'' + (phi - theta) = K0 - c*tau_n0*phi'``, since
+    ``n*v0*(beta*A - 1)*2*pi/(n*omega0**2) = c*tau_n0``. The angle ``phi`` only enters
+    through the twist, so the matrix has the rigid-body eigenvalue 0.
+    """
+    c, t0, rho = model.c, model.tau_n0, model.rho
+    return np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, -c * t0, -1.0, 0.0],
+            [0.0, 1.0, 0.0, -1.0],
+            [0.0, 0.0, 1.0 / rho, 0.0],
+        ]
+    )
+
+
+def ode_poles(model: AveragedModel) -> NDArray[np.complex128]:
+    """Poles of the linear ODE (13), (27), sorted by real part, descending."""
+    ev = np.linalg.eigvals(linearised_ode_matrix(model))
+    return ev[np.lexsort((-ev.imag, -ev.real))]
+
+
+def _closed_loop_A0(model: AveragedModel, F: ArrayLike | None) -> NDArray[np.float64]:
+    if F is None:
+        return model.A0
+    Fv = np.asarray(F, dtype=float).reshape(-1)
+    if Fv.shape != (4,) or not np.all(np.isfinite(Fv)):
+        raise ValueError(f"F must be 4 finite numbers, got {F!r}")
+    return model.A0 + model.B @ Fv[None, :]
+
+
+def _balanced(
+    A0: NDArray[np.float64], A1: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Diagonal similarity ``D^-1 (.) D`` (powers of two, exact) balancing ``|A0| + |A1|``.
+
+    The characteristic roots are unchanged; large gains make ``||A0 + B F||`` (hence the
+    collocation degree of the root finder, which grows with the norm) needlessly large.
+    """
+    _, (scale, _) = scipy.linalg.matrix_balance(
+        np.abs(A0) + np.abs(A1), permute=False, separate=True
+    )
+    return A0 / scale[:, None] * scale[None, :], A1 / scale[:, None] * scale[None, :]
+
+
+def delay_roots(
+    model: AveragedModel,
+    F: ArrayLike | None = None,
+    tau: float | None = None,
+    n_roots: int = N_ROOTS_DEFAULT,
+) -> NDArray[np.complex128]:
+    """Rightmost characteristic roots of ``x' = (A0 + B F) x + A1 x(t - tau)``.
+
+    ``F = None`` is the open loop (R_fb = 0), ``tau = None`` the nominal delay ``tau_n0``.
+    Roots come from :func:`drillstring.spectrum.dde_roots` (automatic region: every root within
+    ``min(1, 2/tau)`` of the rightmost one), applied to a balanced similar system, sorted by real
+    part, descending; at most ``n_roots`` are returned.
+    """
+    from drillstring.spectrum import dde_roots
+
+    tau = model.tau_n0 if tau is None else _finite("tau", tau)
+    if tau <= 0.0:
+        raise ValueError(f"delay tau must be > 0, got {tau!r}")
+    Ab, A1b = _balanced(_closed_loop_A0(model, F), model.A1)
+    roots = np.asarray(dde_roots(Ab, delayed=[(tau, A1b)]))
+    return roots[:n_roots]
+
+
+def open_loop_roots(model: AveragedModel, n_roots: int = N_ROOTS_DEFAULT) -> NDArray[np.complex128]:
+    """Rightmost roots of the open-loop delay system (29) at ``tau_n0`` (R_fb = 0)."""
+    return delay_roots(model, None, None, n_roots)
+
+
+def closed_loop_roots(
+    model: AveragedModel, F: ArrayLike, tau: float | None = None, n_roots: int = N_ROOTS_DEFAULT
+) -> NDArray[np.complex128]:
+    """Rightmost roots of (29) with ``R_fb = F x`` at delay ``tau`` (default ``tau_n0``)."""
+    return delay_roots(model, F, tau, n_roots)
+
+
+def spectral_abscissa_sweep(
+    model: AveragedModel, F: ArrayLike | None, taus: Sequence[float] | NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Spectral abscissa (largest real part of the roots) for each constant delay in ``taus``."""
+    return np.array([float(delay_roots(model, F, t, 1)[0].real) for t in taus])
+
+
+def default_delay_sweep(model: AveragedModel, n: int = 25) -> NDArray[np.float64]:
+    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` (first point ``5*tau_n0/n``)."""
+    return np.linspace(5.0 * model.tau_n0 / n, 5.0 * model.tau_n0, n)

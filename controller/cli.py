@@ -1,0 +1,200 @@
+"""``drillstring design``: open-loop analysis, LMI synthesis (33), certificate, gains file.
+
+Implementation of the subcommand only (:func:`design_main`); the global ``drillstring`` CLI
+dispatches to it. Example::
+
+    drillstring design --params reference --A 0.45 --out gains.json
+
+prints the open-loop characteristic roots of (29) and the poles of the ODE (13), (27), the alpha
+line search, the gain F (and the paper's gain for comparison), the certificate (32) with its
+margins and the closed-loop spectral abscissa over the delay sweep, then writes the gains file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from drillstring.controller.averaged import (
+    AveragedModel,
+    averaged_model,
+    ode_poles,
+    open_loop_roots,
+)
+from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F, write_gains
+from drillstring.controller.synthesis import (
+    GAIN_MAX,
+    SynthesisInfeasible,
+    SynthesisResult,
+    evaluate_gain,
+    synthesize,
+    to_gains_file,
+)
+from drillstring.params import ParameterError, ScaledParams, params_from_spec
+
+__all__ = ["build_parser", "design_main"]
+
+
+def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
+    """Argument parser of the ``design`` subcommand."""
+    ap = argparse.ArgumentParser(
+        prog=prog,
+        description="Torsional analysis and LMI state-feedback synthesis (paper Sections IV-V).",
+    )
+    ap.add_argument(
+        "--params", default="reference", help="parameter set name or file (default: reference)"
+    )
+    ap.add_argument(
+        "--A",
+        type=float,
+        required=True,
+        dest="A",
+        help="slope A(gammabar, etabar) of the averaged contact force (22) (axial analysis)",
+    )
+    ap.add_argument(
+        "--taubar-crit",
+        type=float,
+        default=None,
+        help="critical delay of (21) in fast time (default: computed by "
+        "drillstring.axial_stability.taubar_crit)",
+    )
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=DEFAULT_GAINS_PATH,
+        help=f"gains file to write (default: {DEFAULT_GAINS_PATH})",
+    )
+    ap.add_argument(
+        "--gain-max",
+        type=float,
+        default=GAIN_MAX,
+        help=f"bound on ||F||_2 of an admissible design (default: {GAIN_MAX:g})",
+    )
+    ap.add_argument(
+        "--no-paper", action="store_true", help="skip the evaluation of the paper's gain"
+    )
+    return ap
+
+
+def _fmt_c(z: complex) -> str:
+    return f"{z.real:+.5f} {'+' if z.imag >= 0 else '-'} {abs(z.imag):.5f}j"
+
+
+def _print_open_loop(model: AveragedModel) -> None:
+    dde = open_loop_roots(model)
+    ode = ode_poles(model)
+    print("Open loop (R_fb = 0): rightmost roots")
+    print(f"  {'delay system (29) at tau_n0':>32}   {'ODE (13),(27)':>26}")
+    for i in range(max(len(dde), len(ode))):
+        a = _fmt_c(dde[i]) if i < len(dde) else ""
+        b = _fmt_c(ode[i]) if i < len(ode) else ""
+        print(f"  {a:>32}   {b:>26}")
+    n_dde = int(np.sum(dde.real > 1e-9))
+    n_ode = int(np.sum(ode.real > 1e-9))
+    print(
+        f"  unstable: {n_dde} (delay system), {n_ode} (ODE); velocity weakening c = "
+        f"{model.c:.5f} < 0; the root at 0 is the rigid-body angle phi"
+    )
+
+
+def _print_search(result: SynthesisResult) -> None:
+    print("Alpha line search (LMI (33), min ||X||; decay = spectral abscissa at tau_n0)")
+    print(f"  {'alpha':>10} {'solver':>9} {'status':>22} {'||F||':>11} {'abscissa':>10}  note")
+    for att in sorted(result.attempts, key=lambda a: a.alpha):
+        g = f"{att.gain_norm:.4g}" if att.gain_norm is not None else "-"
+        s = f"{att.abscissa:.5f}" if att.abscissa is not None else "-"
+        mark = " *" if att.alpha == result.alpha else ""
+        print(
+            f"  {att.alpha:10.4g} {att.solver:>9} {att.status[:22]:>22} {g:>11} {s:>10}  "
+            f"{att.note}{mark}"
+        )
+
+
+def _print_certificate(result: SynthesisResult) -> None:
+    cert = result.certificate
+    print(f"Certificate (independent of the solver), alpha = {cert.alpha:.6g}, P = S^-1:")
+    print(f"  largest eigenvalue of (32) with A0 + B F: {cert.lmi_max_eig:.4e} (must be < 0)")
+    print(f"  decay margin -max eig(M, diag(P, P)):     {cert.lmi_decay_margin:.4e} (must be > 0)")
+    print(f"  smallest eigenvalue of P:                 {cert.P_min_eig:.4e}")
+    print(f"  closed-loop spectral abscissa at tau_n0:  {cert.abscissa_nominal:.5f}")
+    print("  spectral abscissa over constant delays in (0, 5*tau_n0]:")
+    for t, a in zip(cert.taus, cert.abscissa, strict=True):
+        print(f"    tau = {t:8.5f}   {a:+.5f}")
+    print(f"  certificate {'PASSED' if cert.passed else 'FAILED'}")
+
+
+def design_main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``design`` subcommand; returns the process exit code (0 ok, 2 error)."""
+    args = build_parser().parse_args(argv)
+    try:
+        params: ScaledParams = params_from_spec(args.params)
+        if args.taubar_crit is None:
+            from drillstring.axial_stability import taubar_crit
+
+            tc = float(taubar_crit(params))
+        else:
+            tc = args.taubar_crit
+        model = averaged_model(params, args.A, tc)
+    except (ParameterError, ValueError, OSError) as exc:
+        print(f"drillstring design: {exc}", file=sys.stderr)
+        return 2
+
+    print(f"Parameters: {params.to_dict()}")
+    print(
+        f"  tau_n0 = {model.tau_n0:.6f}, taubar_n0 = {params.taubar_n0:.5f}, A = {model.A:.6g}, "
+        f"taubar_crit = {model.taubar_crit:.6f} (tau_n_crit = {model.tau_n_crit:.6f})"
+    )
+    print(f"  c = {model.c:.6f}, K0 = {model.K0:.6f}, R_ff = {model.R_ff:.6f}")
+    _print_open_loop(model)
+
+    try:
+        result = synthesize(model, gain_max=args.gain_max)
+    except SynthesisInfeasible as exc:
+        print(f"drillstring design: {exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        print(f"drillstring design: {exc}", file=sys.stderr)
+        return 2
+    _print_search(result)
+    print(f"Chosen alpha = {result.alpha:.6g} ({result.solver}: {result.status})")
+    print(
+        f"  F = [{', '.join(f'{v:.4f}' for v in result.F)}]   ||F|| = "
+        f"{np.linalg.norm(result.F):.4g}"
+    )
+    print(
+        f"  paper F = [{', '.join(f'{v:.1f}' for v in PAPER_F)}]   ||F|| = "
+        f"{np.linalg.norm(PAPER_F):.4g}"
+    )
+    _print_certificate(result)
+
+    if not args.no_paper:
+        ev = evaluate_gain(PAPER_F, params, model.A, model.taubar_crit)
+        cert_txt = (
+            f"yes (alpha = {ev.certificate.alpha:.4g}, decay margin "
+            f"{ev.certificate.lmi_decay_margin:.3e})"
+            if ev.certificate is not None
+            else "none found on the alpha grid"
+        )
+        print("Paper's gain on this averaged model:")
+        print(f"  rightmost roots at tau_n0: {', '.join(_fmt_c(z) for z in ev.roots_nominal[:4])}")
+        print(
+            f"  spectral abscissa: {ev.abscissa_nominal:.5f} at tau_n0, max over sweep "
+            f"{float(np.max(ev.abscissa)):.5f}; Razumikhin certificate: {cert_txt}"
+        )
+
+    if not result.certificate.passed:
+        print(
+            "drillstring design: certificate check failed; gains file not written", file=sys.stderr
+        )
+        return 2
+    path = write_gains(to_gains_file(result, params), args.out)
+    print(f"Wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(design_main())

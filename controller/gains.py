@@ -1,0 +1,247 @@
+"""Gains file: the designed state feedback ``R_fb = F x`` and what it was designed for.
+
+JSON layout (``format_version`` 1)::
+
+    {
+      "format": "drillstring-gains", "format_version": 1, "version": "<package version>",
+      "F": [4 numbers], "K0": ..., "R_ff": ..., "alpha": ..., "A": ..., "taubar_crit": ...,
+      "params": {ScaledParams.to_dict()}, "params_sha256": "<hex>",
+      "certificate": {"lmi32_max_eig": ..., ...}, "spectral_abscissa": ...,
+      "solver": "CLARABEL", "solver_status": "optimal"
+    }
+
+``x = [phi, dphi/dtau, phi - theta - K0, dtheta/dtau]`` and ``R - R0 = R_ff + F x`` (31).
+``params_sha256`` is the SHA-256 of the canonical JSON (sorted keys, no spaces) of the parameter
+set; reading checks it, the field types, ``R_ff = -K0`` and that ``K0`` is the value (27) gives
+for the stored parameters, ``A`` and ``taubar_crit``. Writing is atomic (temporary file in the same
+folder, then ``os.replace``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from drillstring.params import ParameterError, ScaledParams
+
+__all__ = [
+    "DEFAULT_GAINS_PATH",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "PAPER_F",
+    "GainsFile",
+    "GainsFileError",
+    "params_hash",
+    "read_gains",
+    "write_gains",
+]
+
+#: Gain published in Section V of the paper (Theorem 1 at its Table I), ``R_fb = F x``.
+PAPER_F: tuple[float, float, float, float] = (-3448.5, -1574.7, 481.8, -89.0)
+#: Default location of the gains file baked into the controller FMU.
+DEFAULT_GAINS_PATH = Path(__file__).with_name("gains.json")
+FORMAT = "drillstring-gains"
+FORMAT_VERSION = 1
+
+_KEYS = (
+    "format",
+    "format_version",
+    "version",
+    "F",
+    "K0",
+    "R_ff",
+    "alpha",
+    "A",
+    "taubar_crit",
+    "params",
+    "params_sha256",
+    "certificate",
+    "spectral_abscissa",
+    "solver",
+    "solver_status",
+)
+
+
+class GainsFileError(ValueError):
+    """A gains file that cannot be read, is malformed, or does not match its parameter hash."""
+
+
+def _package_version() -> str:
+    try:
+        return metadata.version("drillstring")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def params_hash(params: ScaledParams) -> str:
+    """SHA-256 (hex) of the canonical JSON of ``params.to_dict()`` (sorted keys, no spaces)."""
+    text = json.dumps(params.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _real(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise GainsFileError(f"gains file: {name} must be a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise GainsFileError(f"gains file: {name} must be finite, got {value!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class GainsFile:
+    """Content of a gains file (see the module docstring for the JSON layout)."""
+
+    F: tuple[float, float, float, float]
+    K0: float
+    R_ff: float
+    alpha: float
+    A: float
+    taubar_crit: float
+    params: ScaledParams
+    certificate: Mapping[str, float]
+    spectral_abscissa: float
+    solver: str
+    solver_status: str
+    version: str = field(default_factory=_package_version)
+
+    def __post_init__(self) -> None:
+        F = tuple(_real(f"F[{i}]", v) for i, v in enumerate(self.F))
+        if len(F) != 4:
+            raise GainsFileError(f"gains file: F must have 4 entries, got {len(F)}: {self.F!r}")
+        object.__setattr__(self, "F", F)
+        for name in ("K0", "R_ff", "alpha", "A", "taubar_crit", "spectral_abscissa"):
+            object.__setattr__(self, name, _real(name, getattr(self, name)))
+        if not isinstance(self.params, ScaledParams):
+            raise GainsFileError(f"gains file: params must be ScaledParams, got {self.params!r}")
+        if not isinstance(self.certificate, Mapping):
+            raise GainsFileError(f"gains file: certificate must be a mapping: {self.certificate!r}")
+        cert = {str(k): _real(f"certificate[{k!r}]", v) for k, v in self.certificate.items()}
+        object.__setattr__(self, "certificate", cert)
+        for name in ("solver", "solver_status", "version"):
+            value = getattr(self, name)
+            if not isinstance(value, str):
+                raise GainsFileError(f"gains file: {name} must be a string, got {value!r}")
+        if self.alpha <= 0.0:
+            raise GainsFileError(f"gains file: alpha must be > 0, got {self.alpha!r}")
+        if not math.isclose(self.R_ff, -self.K0, rel_tol=1e-12, abs_tol=1e-15):
+            raise GainsFileError(f"gains file: R_ff = {self.R_ff!r} is not -K0 = {-self.K0!r} (31)")
+        from drillstring.controller.averaged import averaged_model
+
+        try:
+            K0 = averaged_model(self.params, self.A, self.taubar_crit).K0
+        except ValueError as exc:
+            raise GainsFileError(f"gains file: A/taubar_crit do not fit params: {exc}") from None
+        if not math.isclose(self.K0, K0, rel_tol=1e-9, abs_tol=1e-15):
+            raise GainsFileError(
+                f"gains file: K0 = {self.K0!r} differs from (27) with the stored params, A and "
+                f"taubar_crit: {K0!r}"
+            )
+
+    @property
+    def params_sha256(self) -> str:
+        return params_hash(self.params)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return {
+            "format": FORMAT,
+            "format_version": FORMAT_VERSION,
+            "version": self.version,
+            "F": list(self.F),
+            "K0": self.K0,
+            "R_ff": self.R_ff,
+            "alpha": self.alpha,
+            "A": self.A,
+            "taubar_crit": self.taubar_crit,
+            "params": self.params.to_dict(),
+            "params_sha256": self.params_sha256,
+            "certificate": dict(self.certificate),
+            "spectral_abscissa": self.spectral_abscissa,
+            "solver": self.solver,
+            "solver_status": self.solver_status,
+        }
+
+    @classmethod
+    def from_json_dict(cls, data: Any, source: str = "gains file") -> GainsFile:
+        """Validate a parsed JSON object (keys, types, hash) and build the dataclass."""
+        if not isinstance(data, dict):
+            raise GainsFileError(f"{source}: expected a JSON object, got {type(data).__name__}")
+        unknown = sorted(set(data) - set(_KEYS))
+        missing = [k for k in _KEYS if k not in data]
+        if unknown:
+            raise GainsFileError(f"{source}: unknown key(s) {', '.join(unknown)}")
+        if missing:
+            raise GainsFileError(f"{source}: missing key(s) {', '.join(missing)}")
+        if data["format"] != FORMAT or data["format_version"] != FORMAT_VERSION:
+            raise GainsFileError(
+                f"{source}: format {data['format']!r} version {data['format_version']!r} is not "
+                f"{FORMAT!r} version {FORMAT_VERSION}"
+            )
+        if not isinstance(data["F"], list):
+            raise GainsFileError(f"{source}: F must be a list of 4 numbers, got {data['F']!r}")
+        try:
+            params = ScaledParams.from_dict(data["params"])
+        except ParameterError as exc:
+            raise GainsFileError(f"{source}: bad parameter set: {exc}") from None
+        expected = params_hash(params)
+        if data["params_sha256"] != expected:
+            raise GainsFileError(
+                f"{source}: parameter hash mismatch: file says {data['params_sha256']!r}, "
+                f"the stored parameter set hashes to {expected!r} (file edited or corrupted)"
+            )
+        try:
+            return cls(
+                F=tuple(data["F"]),  # type: ignore[arg-type]
+                K0=data["K0"],
+                R_ff=data["R_ff"],
+                alpha=data["alpha"],
+                A=data["A"],
+                taubar_crit=data["taubar_crit"],
+                params=params,
+                certificate=data["certificate"],
+                spectral_abscissa=data["spectral_abscissa"],
+                solver=data["solver"],
+                solver_status=data["solver_status"],
+                version=data["version"],
+            )
+        except GainsFileError as exc:
+            raise GainsFileError(f"{source}: {exc}") from None
+
+
+def write_gains(gains: GainsFile, path: str | os.PathLike[str] = DEFAULT_GAINS_PATH) -> Path:
+    """Write ``gains`` as JSON to ``path`` atomically (temp file + ``os.replace``); return it."""
+    path = Path(path)
+    text = json.dumps(gains.to_json_dict(), indent=2, allow_nan=False) + "\n"
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_gains(path: str | os.PathLike[str] = DEFAULT_GAINS_PATH) -> GainsFile:
+    """Read and validate a gains file; :class:`GainsFileError` names what is wrong."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise GainsFileError(f"cannot read gains file {str(path)!r}: {exc}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise GainsFileError(f"gains file {str(path)!r} is not valid JSON: {exc}") from None
+    return GainsFile.from_json_dict(data, source=f"gains file {str(path)!r}")

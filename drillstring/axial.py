@@ -1,0 +1,296 @@
+"""Fast axial dynamics, Section III: axial stick-slip limit cycle (Fig. 3), averaged contact
+force (lambda/vbar0)<gbar>_a and its linear fit (22) giving the slope A (Fig. 4).
+
+The fast model (18) is the engine's model with the torsion frozen at nominal speed (constant
+delay) in units where n*psi = 1 and v0 = 1: then tau = taubar, u = ubar (eq. (19) with constant
+delay), gamma = gammabar, eta = etabar, and lambda = lambda/vbar0. The Filippov contact logic is
+the engine's; nothing of the model is written again here.
+
+Averages are exact integrals over one detected period: the engine integrates g with the RK4
+quadrature and records the running integral at every event. A second estimate follows from
+averaging (11) over a period (V, u periodic, <d - d0> = 0): etabar^2 <ubar> = (lambda/vbar0)<gbar>.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm import tqdm
+
+from .axial_stability import critical_delay
+from .engine import Engine, EngineOptions, Event
+from .params import ScaledParams
+
+DEFAULT_LAM_OVER_VBAR0 = 50.0  # reference set: 1.58*sqrt(1000) = 49.96; bit never moves up
+FIG4_GAMMABARS = (0.2, 0.4, 0.6)
+FIG4_ETABAR2 = 0.1
+
+
+def fast_params(
+    gammabar: float, etabar2: float, taubar_n: float, lam_over_vbar0: float = DEFAULT_LAM_OVER_VBAR0
+) -> ScaledParams:
+    """Parameters that make the engine integrate (18): n*psi = 1, v0 = 1, omega0 = 2*pi/taubar_n."""
+    for name, v in (("gammabar", gammabar), ("etabar2", etabar2), ("taubar_n", taubar_n)):
+        if not (isinstance(v, int | float) and math.isfinite(v)):
+            raise ValueError(f"{name} must be a finite number, got {v!r}")
+    if etabar2 <= 0:
+        raise ValueError(f"etabar2 must be > 0 for the fast axial model, got {etabar2!r}")
+    if taubar_n <= 0:
+        raise ValueError(f"taubar_n must be > 0, got {taubar_n!r}")
+    return ScaledParams(
+        n=1,
+        psi=1.0,
+        gamma=float(gammabar),
+        eta=math.sqrt(etabar2),
+        lam=float(lam_over_vbar0),
+        beta=1.0,
+        rho=1.0,
+        v0=1.0,
+        omega0=2.0 * math.pi / taubar_n,
+    )
+
+
+@dataclass(frozen=True)
+class LimitCycle:
+    """Outcome of the limit-cycle search at one (gammabar, etabar^2, taubar_n).
+
+    kind: "periodic", "equilibrium" (perturbation decayed), "not_converged", or "invalid" (the
+    bit moved up or the run left the model). ``average`` is (lambda/vbar0)<gbar>_a (0 at the
+    equilibrium), ``average_check`` the estimate etabar^2 <ubar> from one sampled period.
+    """
+
+    gammabar: float
+    etabar2: float
+    taubar_n: float
+    kind: str
+    period: float = math.nan
+    average: float = math.nan
+    average_check: float = math.nan
+    stick_fraction: float = math.nan
+    stick_phases: int = 0
+    period_drift: float = math.nan
+    time_simulated: float = 0.0
+    samples: dict[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
+
+
+def _stick_entries(events: list[Event]) -> list[Event]:
+    return [e for e in events if e.kind == "mode" and e.to_mode == "stick"]
+
+
+def _periodicity(entries: list[Event], max_phases: int, tol: float) -> tuple[int, float, float]:
+    """Smallest k (stick phases per period) whose last two periods agree; (k, T, drift)."""
+    for k in range(1, max_phases + 1):
+        if len(entries) < 2 * k + 2:
+            break
+        a, b, c = entries[-1 - 2 * k], entries[-1 - k], entries[-1]
+        t1 = b.tau - a.tau
+        t2 = c.tau - b.tau
+        drift = abs(t2 - t1)
+        du = abs(c.u - b.u)
+        if drift < tol * max(1.0, t2) and du < tol * max(1.0, abs(c.u)):
+            return k, t2, drift
+    return 0, math.nan, math.nan
+
+
+def limit_cycle(
+    gammabar: float,
+    etabar2: float,
+    taubar_n: float,
+    *,
+    lam_over_vbar0: float = DEFAULT_LAM_OVER_VBAR0,
+    h: float = 0.01,
+    kick: float = 0.05,
+    tol: float = 1e-9,
+    max_periods: int = 400,
+    max_phases: int = 8,
+    n_samples: int = 2000,
+) -> LimitCycle:
+    """Simulate (18) from a small kick until the motion is periodic (or decays).
+
+    Periodicity: the stick-entry times and positions repeat with k stick phases per period, the
+    last two periods agreeing to ``tol`` (relative). The average over that period is the exact
+    RK4 integral of g. One period is then sampled (``n_samples`` points) for plots and the
+    second estimate etabar^2 <ubar>.
+    """
+    p = fast_params(gammabar, etabar2, taubar_n, lam_over_vbar0)
+    eng = Engine(p, EngineOptions(h=h, freeze_torsion=True), initial={"u": kick})
+    chunk = 10.0 * (taubar_n + 2.0 * math.pi)
+    t_max = max_periods * (taubar_n + 2.0 * math.pi)
+    base = dict(gammabar=gammabar, etabar2=etabar2, taubar_n=taubar_n)
+    while eng.tau < t_max:
+        t0 = eng.tau
+        n_events_before = len(eng.events)
+        grid = np.linspace(t0, t0 + chunk, 201)[1:]
+        amp = 0.0
+        for t in grid:
+            st = eng.advance(t)
+            if not st.ok:
+                return LimitCycle(**base, kind="invalid", time_simulated=eng.tau)
+            amp = max(amp, abs(eng.outputs()["du"]))
+        events = eng.events
+        if any(e.to_mode == "up" for e in events):
+            return LimitCycle(**base, kind="invalid", time_simulated=eng.tau)
+        if len(events) == n_events_before:
+            # no contact event in this chunk: linear regime; decayed means the equilibrium
+            if amp < 1e-10:
+                return LimitCycle(
+                    **base,
+                    kind="equilibrium",
+                    average=0.0,
+                    average_check=0.0,
+                    stick_fraction=0.0,
+                    time_simulated=eng.tau,
+                )
+            continue
+        entries = _stick_entries(events)
+        k, period, drift = _periodicity(entries, max_phases, tol)
+        if k:
+            break
+    else:
+        return LimitCycle(**base, kind="not_converged", time_simulated=eng.tau)
+
+    # the last k stick phases form one period: integral of g from the recorded running integral
+    first, last = entries[-1 - k], entries[-1]
+    g_int = last.g_integral - first.g_integral
+    average = lam_over_vbar0 * g_int / period
+    # stick time inside the period, from the mode events between the two entries
+    in_period = [e for e in eng.events if first.tau <= e.tau <= last.tau and e.kind == "mode"]
+    stick_time = 0.0
+    t_in = None
+    for e in in_period:
+        if e.to_mode == "stick":
+            t_in = e.tau
+        elif e.from_mode == "stick" and t_in is not None:
+            stick_time += e.tau - t_in
+            t_in = None
+    # sample one further period (same orbit) for the figure and the second estimate
+    samples: dict[str, np.ndarray] = {}
+    check = math.nan
+    if n_samples > 0:
+        t0 = eng.tau
+        ts = t0 + period * np.arange(n_samples + 1) / n_samples
+        ub = np.empty(ts.size)
+        dub = np.empty(ts.size)
+        gb = np.empty(ts.size)
+        for i, t in enumerate(ts):
+            if i > 0:
+                eng.advance(t)
+            o = eng.outputs()
+            ub[i], dub[i], gb[i] = o["u"], o["du"], o["g"]
+        check = etabar2 * float(np.trapezoid(ub, ts) / period)
+        samples = {"taubar": ts - t0, "ubar": ub, "dubar": dub, "gbar": gb}
+    return LimitCycle(
+        **base,
+        kind="periodic",
+        period=period,
+        average=average,
+        average_check=check,
+        stick_fraction=stick_time / period,
+        stick_phases=k,
+        period_drift=drift,
+        time_simulated=eng.tau,
+        samples=samples,
+    )
+
+
+def averaged_contact_force(gammabar: float, etabar2: float, taubar_n: float, **kw) -> float:
+    """(lambda/vbar0)<gbar>_a at one delay (0 at a stable equilibrium); NaN if not periodic."""
+    lc = limit_cycle(gammabar, etabar2, taubar_n, n_samples=0, **kw)
+    if lc.kind in ("periodic", "equilibrium"):
+        return lc.average
+    return math.nan
+
+
+@dataclass(frozen=True)
+class SlopeFit:
+    """Linear fit (22): (lambda/vbar0)<gbar>_a = A (taubar_n - taubar_zero) over periodic points."""
+
+    gammabar: float
+    etabar2: float
+    A: float
+    taubar_zero: float
+    taubar_crit: float
+    taubar: np.ndarray
+    average: np.ndarray
+    residual_rms: float
+
+
+def fit_slope(
+    gammabar: float, etabar2: float, taubar: Sequence[float], average: Sequence[float]
+) -> SlopeFit:
+    """Least-squares line through the periodic points (finite, positive averages)."""
+    t = np.asarray(taubar, dtype=float)
+    a = np.asarray(average, dtype=float)
+    ok = np.isfinite(a) & (a > 0)
+    if ok.sum() < 2:
+        raise ValueError(
+            f"fit_slope needs at least two periodic points, got {int(ok.sum())} "
+            f"(gammabar={gammabar}, etabar2={etabar2})"
+        )
+    A, b = np.polyfit(t[ok], a[ok], 1)
+    resid = a[ok] - (A * t[ok] + b)
+    return SlopeFit(
+        gammabar=gammabar,
+        etabar2=etabar2,
+        A=float(A),
+        taubar_zero=float(-b / A),
+        taubar_crit=critical_delay(gammabar, etabar2),
+        taubar=t,
+        average=a,
+        residual_rms=float(np.sqrt(np.mean(resid**2))),
+    )
+
+
+def default_fit_delays(gammabar: float, etabar2: float, n: int = 25) -> np.ndarray:
+    """Delays for Fig. 4 / the slope A: from 1.5 taubar_crit to taubar_crit + 30."""
+    tc = critical_delay(gammabar, etabar2)
+    return np.linspace(1.5 * tc, tc + 30.0, n)
+
+
+def average_curve(
+    gammabar: float,
+    etabar2: float,
+    taubars: Sequence[float],
+    *,
+    progress: bool = True,
+    **kw,
+) -> list[LimitCycle]:
+    """Limit cycles along a line of delays (serial; see drillstring.sweep for Dask)."""
+    out = []
+    for tb in tqdm(list(taubars), desc=f"gammabar={gammabar:g}", disable=not progress, leave=False):
+        out.append(limit_cycle(gammabar, etabar2, float(tb), n_samples=0, **kw))
+    return out
+
+
+@dataclass(frozen=True)
+class AxialDesignInputs:
+    """A and taubar_crit of (22) for a parameter set: the input of the controller design."""
+
+    A: float
+    taubar_crit: float
+    taubar_zero: float
+    gammabar: float
+    etabar2: float
+    fit: SlopeFit = field(repr=False, compare=False)
+
+
+def design_inputs(
+    params: ScaledParams, taubars: Sequence[float] | None = None, *, progress: bool = False, **kw
+) -> AxialDesignInputs:
+    """Slope A from the averaged contact force at the parameter set's (gammabar, etabar^2), and
+    taubar_crit from the crossing formula of (21)."""
+    g, e2 = params.gammabar, params.etabar2
+    tb = default_fit_delays(g, e2, n=9) if taubars is None else np.asarray(taubars, dtype=float)
+    curve = average_curve(g, e2, tb, progress=progress, **kw)
+    fit = fit_slope(g, e2, tb, [lc.average for lc in curve])
+    return AxialDesignInputs(
+        A=fit.A,
+        taubar_crit=fit.taubar_crit,
+        taubar_zero=fit.taubar_zero,
+        gammabar=g,
+        etabar2=e2,
+        fit=fit,
+    )
