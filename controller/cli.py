@@ -3,7 +3,7 @@
 Implementation of the subcommand only (:func:`design_main`); the global ``drillstring`` CLI
 dispatches to it. Example::
 
-    drillstring design --params reference --A 0.45 --out gains.json
+    drillstring design --params reference --out gains.json   # A from the axial analysis
 
 prints the open-loop characteristic roots of (29) and the poles of the ODE (13), (27), the alpha
 line search, the gain F (and the paper's gain for comparison), the certificate (32) with its
@@ -51,9 +51,10 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
     ap.add_argument(
         "--A",
         type=float,
-        required=True,
+        default=None,
         dest="A",
-        help="slope A(gammabar, etabar) of the averaged contact force (22) (axial analysis)",
+        help="slope A(gammabar, etabar) of the averaged contact force (22) (default: computed "
+        "by drillstring.axial.design_inputs from limit cycles at the set's gammabar, etabar^2)",
     )
     ap.add_argument(
         "--taubar-crit",
@@ -138,7 +139,18 @@ def design_main(argv: Sequence[str] | None = None) -> int:
             tc = float(taubar_crit(params))
         else:
             tc = args.taubar_crit
-        model = averaged_model(params, args.A, tc)
+        A = args.A
+        if A is None:
+            from drillstring.axial import design_inputs
+
+            print("Computing the slope A of (22) from axial limit cycles ...", flush=True)
+            inputs = design_inputs(params, progress=True)
+            A = inputs.A
+            print(
+                f"  A = {A:.6f} (fit zero at taubar = {inputs.taubar_zero:.4f}, "
+                f"taubar_crit = {inputs.taubar_crit:.4f})"
+            )
+        model = averaged_model(params, A, tc)
     except (ParameterError, ValueError, OSError) as exc:
         print(f"drillstring design: {exc}", file=sys.stderr)
         return 2

@@ -17,11 +17,11 @@ from drillstring.controller.averaged import (
 )
 from drillstring.params import REFERENCE
 
-# PLACEHOLDER for the slope A(gammabar, etabar) of (22) at the reference set. It will be replaced
-# by the value computed by drillstring.axial once that module exists. The conclusions tested here
-# and in test_synthesis.py are also checked on A_RANGE around it, so they do not hinge on it.
-A_REF_PLACEHOLDER = 0.45
-A_RANGE = (0.3, 0.45, 0.6)
+# Slope A(gammabar, etabar) of (22) at the reference set, as drillstring.axial.design_inputs
+# measures it (0.3855; tests/test_axial.py checks the fit). It is an input here, not a result:
+# the conclusions below are also checked on A_RANGE around it, so they do not hinge on it.
+A_REF = 0.3855
+A_RANGE = (0.3, A_REF, 0.6)
 # Critical delay of (21) at the reference set (gammabar = 0.2, etabar^2 = 0.1).
 TAUBAR_CRIT_REF = critical_delay(REFERENCE.gammabar, REFERENCE.etabar2)
 
@@ -65,12 +65,12 @@ def test_matrices_give_rhs_of_13_28(p):
 def test_ode_matrix_is_27():
     """(27): phi'' + (phi - theta) = K0 - n v0 (beta A - 1) 2 pi/(n omega0^2) phi'."""
     p = REFERENCE
-    m = averaged_model(p, A_REF_PLACEHOLDER, TAUBAR_CRIT_REF)
+    m = averaged_model(p, A_REF, TAUBAR_CRIT_REF)
     rng = np.random.default_rng(7)
     M = linearised_ode_matrix(m)
     for _ in range(10):
         phi, dphi, theta, dtheta = rng.normal(size=4)
-        A = A_REF_PLACEHOLDER
+        A = A_REF
         ddphi = (
             -(phi - theta)
             + m.K0

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from test_averaged import A_REF_PLACEHOLDER, TAUBAR_CRIT_REF, rhp_zero_count
+from test_averaged import A_REF, TAUBAR_CRIT_REF, rhp_zero_count
 
 from drillstring.controller.averaged import averaged_model, closed_loop_roots
 from drillstring.controller.cli import design_main
@@ -44,7 +44,7 @@ def block33(A0, A1, B, S, X, alpha):
 
 @pytest.fixture(scope="module")
 def result():
-    return design(REFERENCE, A_REF_PLACEHOLDER, TAUBAR_CRIT_REF)
+    return design(REFERENCE, A_REF, TAUBAR_CRIT_REF)
 
 
 def test_synthesis_feasible_and_certified(result):
@@ -89,7 +89,7 @@ def test_synthesis_feasible_around_placeholder(A):
 
 
 def test_b_zero_is_infeasible():
-    m = averaged_model(REFERENCE, A_REF_PLACEHOLDER, TAUBAR_CRIT_REF)
+    m = averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF)
     m0 = dataclasses.replace(m, B=np.zeros((4, 1)))
     with pytest.raises(SynthesisInfeasible) as info:
         synthesize(m0)
@@ -100,9 +100,9 @@ def test_b_zero_is_infeasible():
     assert not any(a.accepted for a in info.value.attempts)
 
 
-@pytest.mark.parametrize("A", [0.3, A_REF_PLACEHOLDER, 0.6])
+@pytest.mark.parametrize("A", [0.3, A_REF, 0.6])
 def test_paper_gain_stabilises_averaged_model(A):
-    taus = None if A == A_REF_PLACEHOLDER else [5 * REFERENCE.tau_n0]  # full sweep once
+    taus = None if A == A_REF else [5 * REFERENCE.tau_n0]  # full sweep once
     ev = evaluate_gain(PAPER_F, REFERENCE, A, TAUBAR_CRIT_REF, taus=taus)
     m = ev.model
     Abar = m.A0 + m.B @ np.asarray(PAPER_F)[None, :]
@@ -114,14 +114,14 @@ def test_paper_gain_stabilises_averaged_model(A):
     assert np.linalg.eigvalsh(0.5 * (M32 + M32.T))[-1] < 0.0
     assert np.linalg.eigvalsh(P)[0] > 0.0
     assert ev.stable_sweep
-    if A == A_REF_PLACEHOLDER:
+    if A == A_REF:
         assert len(ev.abscissa) >= 20
 
 
 def test_open_loop_not_certified():
     """A gain that leaves the loop unstable gets no certificate and a positive abscissa."""
     ev = evaluate_gain(
-        [0.0, 0.0, 0.0, 0.0], REFERENCE, A_REF_PLACEHOLDER, TAUBAR_CRIT_REF, taus=[0.3]
+        [0.0, 0.0, 0.0, 0.0], REFERENCE, A_REF, TAUBAR_CRIT_REF, taus=[0.3]
     )
     assert ev.abscissa_nominal > 0.0
     assert not ev.has_certificate
@@ -136,7 +136,7 @@ def test_gains_file_round_trip_and_hash(result, tmp_path):
     assert back.F == tuple(float(v) for v in result.F)
     assert back.params == REFERENCE
     assert back.K0 == result.model.K0 and back.R_ff == -result.model.K0
-    assert back.alpha == result.alpha and back.A == A_REF_PLACEHOLDER
+    assert back.alpha == result.alpha and back.A == A_REF
     assert back.taubar_crit == TAUBAR_CRIT_REF
     assert back.certificate["lmi32_max_eig"] < 0.0
     assert back == g
@@ -167,14 +167,14 @@ def test_gains_file_round_trip_and_hash(result, tmp_path):
 
 
 def test_closed_loop_roots_reject_bad_gain():
-    m = averaged_model(REFERENCE, A_REF_PLACEHOLDER, TAUBAR_CRIT_REF)
+    m = averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF)
     with pytest.raises(ValueError, match="F must be 4 finite"):
         closed_loop_roots(m, [1.0, 2.0, float("nan"), 0.0])
 
 
 def test_design_command_writes_certified_gains(tmp_path, capsys):
     out = tmp_path / "g.json"
-    argv = ["--params", "reference", "--A", str(A_REF_PLACEHOLDER), "--out", str(out)]
+    argv = ["--params", "reference", "--A", str(A_REF), "--out", str(out)]
     assert design_main([*argv, "--no-paper"]) == 0
     text = capsys.readouterr().out
     assert "certificate PASSED" in text and "Open loop" in text and "alpha" in text
