@@ -44,3 +44,23 @@ def test_open_loop_with_feedforward_only_does_not_converge(lmi_design):
     r = simulate(REFERENCE, 60.0, control=m.R_ff, initial={"dphi": DPHI0}, progress=False)
     late = r.tau >= 50.0
     assert (not r.status.ok) or np.max(np.abs(r.dphi[late])) > 0.5 * abs(DPHI0)
+
+
+def test_fig6_switch_on_suppresses_torsional_stick_slip(lmi_design):
+    """Fig. 6: torsional stick-slip under way (torsional-stick model on), controller switched on
+    bumplessly at tau = 25: no torsional stick afterwards, dphi back to a small ripple."""
+    from drillstring.engine import EngineOptions
+
+    m = lmi_design.model
+    law = AffineFeedback(F=tuple(lmi_design.F), K0=m.K0, R_ff=m.R_ff, t_on=25.0, latch="angle")
+    opts = EngineOptions(torsional_stick=True)
+    r = simulate(REFERENCE, 60.0, control=law, initial={"dphi": -4.9}, options=opts, progress=False)
+    assert r.status.ok, r.status.message
+    stick_starts = [e.tau for e in r.events if e.to_mode == "torsional_stick"]
+    assert len(stick_starts) >= 2 and max(stick_starts) < 25.0
+    assert [e.tau for e in r.events if e.kind == "switch_on"] == [25.0]
+    after = r.tau > 25.0
+    assert np.all(r.mode[after] != 3)
+    assert np.all(r.d >= 0.0)
+    late = r.tau >= 50.0
+    assert np.max(np.abs(r.dphi[late])) < 0.05 * 4.9
