@@ -101,7 +101,7 @@ def limit_cycle(
     taubar_n: float,
     *,
     lam_over_vbar0: float = DEFAULT_LAM_OVER_VBAR0,
-    h: float = 0.01,
+    h: float = 0.02,
     kick: float = 0.05,
     tol: float = 1e-9,
     max_periods: int = 400,

@@ -65,7 +65,7 @@ def test_average_has_two_consistent_estimates(cycle):
 
 def test_average_independent_of_initial_condition_and_step(cycle):
     other_kick = limit_cycle(G, E2, 10.0, kick=0.5, n_samples=0)
-    half_step = limit_cycle(G, E2, 10.0, h=0.005, n_samples=0)
+    half_step = limit_cycle(G, E2, 10.0, h=0.01, n_samples=0)
     assert other_kick.average == pytest.approx(cycle.average, rel=1e-6)
     assert half_step.average == pytest.approx(cycle.average, rel=1e-6)
     assert half_step.period == pytest.approx(cycle.period, rel=1e-6)
