@@ -120,9 +120,7 @@ def test_paper_gain_stabilises_averaged_model(A):
 
 def test_open_loop_not_certified():
     """A gain that leaves the loop unstable gets no certificate and a positive abscissa."""
-    ev = evaluate_gain(
-        [0.0, 0.0, 0.0, 0.0], REFERENCE, A_REF, TAUBAR_CRIT_REF, taus=[0.3]
-    )
+    ev = evaluate_gain([0.0, 0.0, 0.0, 0.0], REFERENCE, A_REF, TAUBAR_CRIT_REF, taus=[0.3])
     assert ev.abscissa_nominal > 0.0
     assert not ev.has_certificate
 

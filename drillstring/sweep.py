@@ -1,0 +1,549 @@
+"""Parameter sweeps on Dask: ``drillstring sweep SPEC --out DIR``.
+
+One task per point of the sweep (:mod:`drillstring.sweep_spec`); the point functions are in
+:mod:`drillstring.sweep_studies`. The axial design inputs A, taubar_crit of (22), which depend on
+(gammabar, etabar^2) only, are one task per distinct pair; the point tasks depend on it.
+
+Execution: a ``dask.distributed.LocalCluster`` (processes, one thread each) by default,
+``--scheduler ADDRESS`` for an existing cluster, or serially in this process (``--workers 0``,
+:func:`run_sweep` with ``serial=True``). The numba kernel is loaded (or compiled and cached) once
+in this process before the workers start, so that they load it from numba's cache instead of
+compiling it each (``summary.json`` records what every worker did).
+
+Output in DIR:
+
+* ``results.csv``: one row per point, appended (and flushed) as each point finishes, so an
+  interrupted sweep keeps what it finished; ``--resume`` skips the points already in the file
+  (``--retry-failed`` also recomputes the points that recorded an error). Columns: ``index``
+  (row-major point number), the grid indices ``i`` (and ``j``), the swept values, the study's
+  metrics, ``seconds`` (wall time of the point) and ``error`` (empty, or the exception of a failed
+  point). When the sweep completes, the file is rewritten sorted by index.
+* ``spec.json``: the validated spec (a resume must use the same one); ``summary.json``.
+* ``plots/<metric>.png``: heat map (2-D) or line plot (1-D) per metric, reference point marked.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+import time
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from .fileio import save_figure, write_csv, write_json
+from .sweep_spec import SweepSpec, SweepSpecError, load_spec
+from .sweep_studies import METRICS, DesignInputs, axial_design, design_key, evaluate_point
+
+__all__ = [
+    "PointFunction",
+    "SweepError",
+    "SweepReport",
+    "columns",
+    "compute_row",
+    "kernel_warmup",
+    "read_results",
+    "run_sweep",
+    "sweep_main",
+    "write_plots",
+]
+
+RESULTS = "results.csv"
+SPEC = "spec.json"
+SUMMARY = "summary.json"
+PLOTS = "plots"
+MAX_ERROR_CHARS = 4000
+
+#: ``f(spec, index, design) -> {metric: value}``; the default is ``evaluate_point``.
+PointFunction = Callable[[SweepSpec, int, DesignInputs | None], dict[str, Any]]
+
+
+class SweepError(RuntimeError):
+    """The sweep cannot run: output folder in use, mismatching resume, bad results file."""
+
+
+# --------------------------------------------------------------------------------------------
+# rows and the results file
+# --------------------------------------------------------------------------------------------
+
+
+def columns(spec: SweepSpec) -> list[str]:
+    """Header of ``results.csv``."""
+    grid = ["i", "j"][: len(spec.axes)]
+    return ["index", *grid, *spec.names, *(m for m, _ in METRICS[spec.study]), "seconds", "error"]
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, float):
+        return repr(value)
+    if value is None:
+        return ""
+    return str(value)
+
+
+def _one_line(text: str) -> str:
+    text = " | ".join(line.strip() for line in str(text).splitlines() if line.strip())
+    return text if len(text) <= MAX_ERROR_CHARS else text[: MAX_ERROR_CHARS - 3] + "..."
+
+
+def compute_row(
+    spec: SweepSpec,
+    index: int,
+    design: DesignInputs | None,
+    point_fn: PointFunction | None = None,
+) -> list[str]:
+    """Evaluate one point and format its CSV row; an exception becomes the ``error`` column."""
+    t0 = time.perf_counter()
+    metrics: dict[str, Any] = {}
+    error = ""
+    try:
+        metrics = (point_fn or evaluate_point)(spec, index, design)
+    except Exception as exc:  # a failed point is a result, not the end of the sweep
+        error = _one_line(f"{type(exc).__name__}: {exc}") or type(exc).__name__
+        metrics = {}
+    seconds = time.perf_counter() - t0
+    return _row(spec, index, metrics, seconds, error)
+
+
+def _row(
+    spec: SweepSpec, index: int, metrics: dict[str, Any], seconds: float, error: str
+) -> list[str]:
+    ij = spec.grid_index(index)
+    values = spec.point_values(index)
+    out = [str(index), *(str(k) for k in ij), *(repr(values[n]) for n in spec.names)]
+    out += [_fmt(metrics.get(m)) if not error else "" for m, _ in METRICS[spec.study]]
+    out += [f"{seconds:.3f}", error]
+    return out
+
+
+def read_results(path: str | os.PathLike[str], header: Sequence[str]) -> tuple[dict, bool]:
+    """Rows of a results file by point index, and whether the file needs a clean rewrite.
+
+    A last line without its newline (the run was killed while writing it) is dropped; a point
+    present twice keeps its first row. The header must be ``header``.
+    """
+    text = Path(path).read_text(encoding="utf-8")
+    dirty = False
+    if text and not text.endswith("\n"):
+        text = text[: text.rfind("\n") + 1]
+        dirty = True
+    rows = list(csv.reader(text.splitlines()))
+    if not rows:
+        return {}, True
+    if rows[0] != list(header):
+        raise SweepError(
+            f"{path}: columns {rows[0]} differ from this sweep's columns {list(header)}"
+        )
+    out: dict[int, list[str]] = {}
+    for k, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise SweepError(f"{path}: line {k} has {len(row)} fields, expected {len(header)}")
+        try:
+            index = int(row[0])
+        except ValueError:
+            raise SweepError(f"{path}: line {k}: bad point index {row[0]!r}") from None
+        if index in out:
+            dirty = True
+            continue
+        out[index] = row
+    return out, dirty
+
+
+def _rewrite(path: Path, header: Sequence[str], rows: dict[int, list[str]]) -> None:
+    write_csv(path, header, (rows[k] for k in sorted(rows)))
+
+
+# --------------------------------------------------------------------------------------------
+# execution
+# --------------------------------------------------------------------------------------------
+
+
+def kernel_warmup() -> dict[str, Any]:
+    """Run a tiny simulation so that numba loads the cached kernel (or compiles and caches it);
+    return the dispatchers' cache hits and misses in this process (misses: compiled here)."""
+    from . import _jit
+
+    info: dict[str, Any] = {"pid": os.getpid(), "jit": _jit.numba_available()}
+    if not info["jit"]:
+        return info
+    from .kernel import filippov, stepper
+    from .params import REFERENCE
+    from .simulate import simulate
+
+    t0 = time.perf_counter()
+    simulate(REFERENCE, 0.05, dt_out=0.05, initial={"dphi": -0.5}, progress=False)
+    hits = misses = 0
+    for module in (stepper, filippov):
+        for obj in vars(module).values():
+            stats = getattr(obj, "stats", None)
+            if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
+                hits += sum(stats.cache_hits.values())
+                misses += sum(stats.cache_misses.values())
+    info.update(cache_hits=hits, cache_misses=misses, seconds=time.perf_counter() - t0)
+    return info
+
+
+def _design_params(spec: SweepSpec, todo: Sequence[int]) -> dict[int, Any]:
+    """For each point, the parameter set whose design key it uses (full-model studies)."""
+    return {} if spec.study == "axial" else {k: spec.point_params(k) for k in todo}
+
+
+def _serial_rows(
+    spec: SweepSpec, todo: Sequence[int], point_fn: PointFunction | None
+) -> Iterator[list[str]]:
+    from threadpoolctl import threadpool_limits
+
+    params = _design_params(spec, todo)
+    with threadpool_limits(1):  # as on a worker (one thread, OMP/BLAS threads 1)
+        for index in todo:
+            design = axial_design(params[index]) if index in params else None
+            yield compute_row(spec, index, design, point_fn)
+
+
+def _dask_rows(
+    spec: SweepSpec, todo: Sequence[int], client: Any, point_fn: PointFunction | None
+) -> Iterator[list[str]]:
+    from dask.distributed import as_completed
+
+    token = uuid.uuid4().hex[:8]
+    params = _design_params(spec, todo)
+    designs: dict[tuple[float, float], Any] = {}
+    for index in todo:
+        if index in params:
+            key = design_key(params[index])
+            if key not in designs:
+                designs[key] = client.submit(
+                    axial_design,
+                    params[index],
+                    key=f"axial-design-{len(designs)}-{token}",
+                    pure=False,
+                    priority=10,
+                )
+    futures = {}
+    for index in todo:
+        dep = designs[design_key(params[index])] if index in params else None
+        fut = client.submit(
+            compute_row, spec, index, dep, point_fn, key=f"point-{index}-{token}", pure=False
+        )
+        futures[fut.key] = (index, fut)
+    try:
+        for fut in as_completed([f for _, f in futures.values()]):
+            index = futures[fut.key][0]
+            try:
+                row = fut.result()
+            except Exception as exc:  # worker lost, cancelled, unpicklable result, ...
+                row = _row(spec, index, {}, math.nan, _one_line(f"{type(exc).__name__}: {exc}"))
+            futures.pop(fut.key)
+            fut.release()
+            yield row
+    finally:
+        pending = [f for _, f in futures.values()] + list(designs.values())
+        if pending:
+            client.cancel(pending)
+
+
+@contextmanager
+def _dask_client(scheduler: str | None, workers: int | None) -> Iterator[tuple[Any, dict]]:
+    from dask.distributed import Client, LocalCluster
+
+    info: dict[str, Any] = {"parent": kernel_warmup()}
+    if scheduler:
+        client = Client(scheduler)
+        cluster = None
+    else:
+        n = workers or os.cpu_count() or 1
+        cluster = LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        client = Client(cluster)
+    try:
+        info["scheduler"] = client.scheduler.address
+        info["workers"] = client.run(kernel_warmup)
+        compiled = {w: r for w, r in info["workers"].items() if r.get("cache_misses")}
+        if compiled:
+            print(
+                f"drillstring sweep: warning: the numba kernel was compiled (not loaded from the "
+                f"cache) on {len(compiled)} worker(s): {', '.join(compiled)}",
+                file=sys.stderr,
+            )
+        yield client, info
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+@dataclass
+class SweepReport:
+    """What a :func:`run_sweep` call did."""
+
+    out_dir: Path
+    results: Path
+    n_points: int
+    n_skipped: int
+    n_computed: int
+    n_failed: int
+    complete: bool
+    wall_time: float
+    plots: list[Path] = field(default_factory=list)
+    execution: dict[str, Any] = field(default_factory=dict)
+
+
+def _canonical(obj: Any) -> Any:
+    return json.loads(json.dumps(obj, sort_keys=True))
+
+
+def _prepare(
+    spec: SweepSpec, out: Path, resume: bool, retry_failed: bool
+) -> tuple[dict[int, list[str]], list[str]]:
+    header = columns(spec)
+    results = out / RESULTS
+    spec_path = out / SPEC
+    if results.exists() and results.stat().st_size > 0:
+        if not resume:
+            raise SweepError(
+                f"{results} already holds results: pass --resume to continue that sweep, or "
+                "choose another output folder"
+            )
+        if spec_path.exists():
+            old = json.loads(spec_path.read_text(encoding="utf-8"))
+            new = _canonical(spec.to_dict())
+            if old != new:
+                diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+                raise SweepError(
+                    f"cannot resume: the sweep in {out} was run with a different spec "
+                    f"(differs in: {', '.join(diff)})"
+                )
+        rows, dirty = read_results(results, header)
+        bad = [k for k in rows if not 0 <= k < spec.n_points]
+        if bad:
+            raise SweepError(f"{results}: point indices {bad[:5]} are outside this sweep")
+        if retry_failed:
+            failed = [k for k, r in rows.items() if r[-1]]
+            for k in failed:
+                del rows[k]
+            dirty = dirty or bool(failed)
+        if dirty:
+            _rewrite(results, header, rows)
+    else:
+        rows = {}
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(spec_path, spec.to_dict())
+    return rows, header
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out_dir: str | os.PathLike[str],
+    *,
+    serial: bool = False,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    retry_failed: bool = False,
+    progress: bool = True,
+    plots: bool = True,
+    point_fn: PointFunction | None = None,
+    client: Any = None,
+) -> SweepReport:
+    """Run (or resume) a sweep into ``out_dir``; see the module docstring.
+
+    ``serial``: in this process, no Dask. Otherwise ``client`` (an existing
+    ``dask.distributed.Client``), else ``scheduler`` (address), else a new LocalCluster with
+    ``workers`` processes. ``point_fn`` replaces the study's point function (tests); on Dask it
+    must be importable by the workers.
+    """
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    done, header = _prepare(spec, out, resume, retry_failed)
+    results = out / RESULTS
+    todo = [k for k in range(spec.n_points) if k not in done]
+    n_failed_before = sum(1 for r in done.values() if r[-1])
+    execution: dict[str, Any] = {"mode": "serial" if serial else "dask"}
+    n_computed = n_failed = 0
+    bar = tqdm(
+        total=spec.n_points,
+        initial=len(done),
+        desc=f"sweep {spec.study}",
+        unit="pt",
+        disable=not progress,
+        smoothing=0.0,
+    )
+    try:
+        with results.open("a", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh, lineterminator="\n")
+            if fh.tell() == 0:
+                writer.writerow(header)
+                fh.flush()
+
+            def consume(rows: Iterator[list[str]]) -> None:
+                nonlocal n_computed, n_failed
+                for row in rows:
+                    writer.writerow(row)
+                    fh.flush()
+                    done[int(row[0])] = row
+                    n_computed += 1
+                    n_failed += bool(row[-1])
+                    bar.update(1)
+                    if n_failed:
+                        bar.set_postfix(failed=n_failed + n_failed_before, refresh=False)
+
+            if not todo:
+                pass
+            elif serial:
+                consume(_serial_rows(spec, todo, point_fn))
+            elif client is not None:
+                execution["scheduler"] = client.scheduler.address
+                consume(_dask_rows(spec, todo, client, point_fn))
+            else:
+                with _dask_client(scheduler, workers) as (cl, info):
+                    execution.update(info)
+                    consume(_dask_rows(spec, todo, cl, point_fn))
+    finally:
+        bar.close()
+    complete = len(done) == spec.n_points
+    if complete:
+        _rewrite(results, header, done)
+    report = SweepReport(
+        out_dir=out,
+        results=results,
+        n_points=spec.n_points,
+        n_skipped=spec.n_points - len(todo),
+        n_computed=n_computed,
+        n_failed=n_failed + n_failed_before,
+        complete=complete,
+        wall_time=time.perf_counter() - t0,
+        execution=execution,
+    )
+    if plots and complete:
+        report.plots = write_plots(spec, done, out / PLOTS)
+    write_json(
+        out / SUMMARY,
+        {
+            "points": report.n_points,
+            "skipped_as_done": report.n_skipped,
+            "computed": report.n_computed,
+            "failed": report.n_failed,
+            "complete": report.complete,
+            "wall_time_s": report.wall_time,
+            "execution": _canonical(execution),
+        },
+    )
+    return report
+
+
+# --------------------------------------------------------------------------------------------
+# plots
+# --------------------------------------------------------------------------------------------
+
+
+def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> list[Path]:
+    """One PNG per metric of ``spec.metrics`` over the swept plane (or line)."""
+    from .sweep_plots import metric_figure
+
+    header = columns(spec)
+    kinds = dict(METRICS[spec.study])
+    reference = spec.reference_values()
+    title_base = f"{spec.study} sweep, base {Path(spec.base_label).name}"
+    paths = []
+    for metric in spec.metrics:
+        col = header.index(metric)
+        raw = [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
+        kind = kinds[metric]
+        values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
+        fig = metric_figure(metric, kind, values, spec.axes, reference, f"{title_base}: {metric}")
+        paths.append(save_figure(fig, out_dir / f"{metric}.png"))
+    return paths
+
+
+# --------------------------------------------------------------------------------------------
+# command line
+# --------------------------------------------------------------------------------------------
+
+
+def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
+    """Argument parser of the ``sweep`` subcommand."""
+    ap = argparse.ArgumentParser(
+        prog=prog,
+        description="Parameter sweep on Dask: open-loop / closed-loop / axial maps "
+        "(one task per point, results streamed to CSV, heat maps).",
+    )
+    ap.add_argument("spec", type=Path, help="sweep description (.toml or .json)")
+    ap.add_argument("--out", type=Path, required=True, help="output folder")
+    ap.add_argument(
+        "--scheduler",
+        default=None,
+        help="address of an existing Dask scheduler (default: a LocalCluster on this machine)",
+    )
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="worker processes of the LocalCluster (default: CPU count); 0 runs serially in "
+        "this process without Dask",
+    )
+    ap.add_argument("--resume", action="store_true", help="skip the points already in the output")
+    ap.add_argument(
+        "--retry-failed", action="store_true", help="with --resume: recompute failed points too"
+    )
+    ap.add_argument("--no-plots", action="store_true", help="do not draw the metric maps")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return ap
+
+
+def sweep_main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``sweep`` subcommand; exit code 0 done, 2 bad input, 130 interrupted."""
+    args = build_parser().parse_args(argv)
+    prog = "drillstring sweep"
+    if args.workers is not None and args.workers < 0:
+        print(f"{prog}: --workers must be >= 0, got {args.workers}", file=sys.stderr)
+        return 2
+    if args.scheduler and args.workers is not None:
+        print(
+            f"{prog}: --workers applies to the local cluster, not to --scheduler", file=sys.stderr
+        )
+        return 2
+    if args.retry_failed and not args.resume:
+        print(f"{prog}: --retry-failed needs --resume", file=sys.stderr)
+        return 2
+    try:
+        spec = load_spec(args.spec)
+        report = run_sweep(
+            spec,
+            args.out,
+            serial=args.workers == 0,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            resume=args.resume,
+            retry_failed=args.retry_failed,
+            progress=not args.no_progress,
+            plots=not args.no_plots,
+        )
+    except (SweepSpecError, SweepError, OSError) as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(
+            f"{prog}: interrupted; finished points are in {args.out / RESULTS}, "
+            "continue with --resume",
+            file=sys.stderr,
+        )
+        return 130
+    print(
+        f"{report.n_points} points ({report.n_skipped} already done, {report.n_computed} computed,"
+        f" {report.n_failed} failed) in {report.wall_time:.1f} s; results: {report.results}"
+    )
+    if report.plots:
+        print(f"maps: {report.out_dir / PLOTS} ({len(report.plots)} PNG)")
+    return 0

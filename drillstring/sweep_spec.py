@@ -1,0 +1,517 @@
+"""Sweep description files: base parameter set, swept axes, study kind, run length and options.
+
+TOML (``.toml``) or JSON (``.json``), chosen by suffix. Top-level keys (any other is an error)::
+
+    study = "open-loop"            # "open-loop" | "closed-loop" | "axial"
+    tau_end = 60.0                 # run length in scaled time (full-model studies only)
+    base = "reference"             # a known set name or a parameter file (relative to this file),
+                                   # or a table: {name = ...} | {file = ...} |
+                                   # {kind = "scaled" | "physical", <all fields>}
+    metrics = ["root_real", ...]   # optional: the metrics drawn as heat maps (default: all)
+
+    [[sweep]]                      # one or two axes
+    param = "omega0"               # see below
+    start = 3.0
+    stop = 8.0
+    num = 11                       # >= 2
+    scale = "linear"               # or "log" (start, stop > 0)
+
+    [options]                      # optional, per study (see OPTION_DEFAULTS)
+    h = 5e-4
+
+Swept names: with a scaled base, the fields of :class:`~drillstring.params.ScaledParams`
+(``lambda`` for the paper's lambda) or the derived ``gammabar`` (sets gamma = gammabar*sqrt(n*psi))
+and ``etabar2`` (sets eta = sqrt(etabar2*n*psi)), eq. (18); with a physical base, the fields of
+:class:`~drillstring.params.PhysicalParams` (each point is converted by eqs. (15)-(16)). The axial
+study sweeps the fast-model quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18); those not
+swept are the base set's gammabar, etabar^2 and taubar_n0.
+
+Validation happens on load: every key, value and grid point is checked and any problem raises
+:class:`SweepSpecError` (a ``ValueError``) naming the key and the value.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import numbers
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .params import (
+    KNOWN_PARAMS,
+    ParameterError,
+    PhysicalParams,
+    ScaledParams,
+    read_params,
+)
+
+__all__ = [
+    "AXIAL_NAMES",
+    "OPTION_DEFAULTS",
+    "STUDIES",
+    "Axis",
+    "SweepOptions",
+    "SweepSpec",
+    "SweepSpecError",
+    "load_spec",
+    "spec_from_dict",
+]
+
+STUDIES = ("open-loop", "closed-loop", "axial")
+SCALES = ("linear", "log")
+DERIVED_NAMES = ("gammabar", "etabar2")
+SCALED_NAMES = ("n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0")
+PHYSICAL_NAMES = tuple(f.name for f in fields(PhysicalParams))
+AXIAL_NAMES = ("gammabar", "etabar2", "taubar_n")
+TOP_KEYS = ("study", "base", "sweep", "tau_end", "options", "metrics")
+AXIS_KEYS = ("param", "start", "stop", "num", "scale")
+
+#: Options each study accepts, with their defaults (``None``: the library default is used).
+OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
+    # h: engine step; dphi0: initial dphi/dtau (paper: -2.5); dt_out: output sampling
+    "open-loop": {"h": 5e-4, "dphi0": -2.5, "dt_out": 1e-2},
+    # gains: "design" (LMI (33) at each point) or a gains file; feedforward: R_ff of the file
+    # ("file") or -K0 of (27) at the point ("point"); window/tol: convergence criterion
+    "closed-loop": {
+        "h": 5e-4,
+        "dphi0": -2.5,
+        "dt_out": 1e-2,
+        "gains": "design",
+        "gain_max": None,
+        "feedforward": "file",
+        "window": 10.0,
+        "tol": 0.05,
+    },
+    # limit_cycle() of drillstring.axial: step, initial kick, period budget, lambda/vbar0
+    "axial": {"h": 1e-2, "kick": 0.05, "max_periods": 400, "lam_over_vbar0": 50.0},
+}
+
+
+class SweepSpecError(ValueError):
+    """An invalid sweep description: unknown or missing key, bad value, unreadable file."""
+
+
+# --------------------------------------------------------------------------------------------
+# value checks (style of drillstring.params)
+# --------------------------------------------------------------------------------------------
+
+
+def _real(where: str, value: Any, *, lower: float | None = None, strict: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise SweepSpecError(f"{where} must be a real number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise SweepSpecError(f"{where} must be finite, got {value!r}")
+    if lower is not None and ((strict and not x > lower) or (not strict and not x >= lower)):
+        raise SweepSpecError(f"{where} must be {'>' if strict else '>='} {lower:g}, got {value!r}")
+    return x
+
+
+def _int(where: str, value: Any, *, lower: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise SweepSpecError(f"{where} must be an integer >= {lower}, got {value!r}")
+    if int(value) < lower:
+        raise SweepSpecError(f"{where} must be an integer >= {lower}, got {value!r}")
+    return int(value)
+
+
+def _str(where: str, value: Any, choices: tuple[str, ...] | None = None) -> str:
+    if not isinstance(value, str):
+        raise SweepSpecError(f"{where} must be a string, got {value!r}")
+    if choices is not None and value not in choices:
+        raise SweepSpecError(f"{where} must be one of {', '.join(choices)}, got {value!r}")
+    return value
+
+
+def _table(where: str, value: Any, known: tuple[str, ...]) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise SweepSpecError(f"{where} must be a table/object, got {value!r}")
+    for key in value:
+        if key not in known:
+            raise SweepSpecError(f"unknown key {key!r} in {where} (known keys: {', '.join(known)})")
+    return dict(value)
+
+
+# --------------------------------------------------------------------------------------------
+# dataclasses
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept parameter: ``num`` values from ``start`` to ``stop`` (both included)."""
+
+    param: str
+    start: float
+    stop: float
+    num: int
+    scale: str = "linear"
+
+    def values(self) -> np.ndarray:
+        """The grid values (np.linspace or np.geomspace)."""
+        if self.scale == "log":
+            return np.geomspace(self.start, self.stop, self.num)
+        return np.linspace(self.start, self.stop, self.num)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "param": self.param,
+            "start": self.start,
+            "stop": self.stop,
+            "num": self.num,
+            "scale": self.scale,
+        }
+
+
+@dataclass(frozen=True)
+class SweepOptions:
+    """Study options (see :data:`OPTION_DEFAULTS`); ``gains_file`` is the loaded gains file."""
+
+    values: tuple[tuple[str, Any], ...]
+    gains_file: Any = field(default=None, compare=False)  # GainsFile | None
+
+    def __getitem__(self, key: str) -> Any:
+        return dict(self.values)[key]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return dict(self.values).get(key, default)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = dict(self.values)
+        if self.gains_file is not None:
+            out["gains_F"] = list(self.gains_file.F)
+            out["gains_K0"] = self.gains_file.K0
+            out["gains_params_sha256"] = self.gains_file.params_sha256
+        return out
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A validated sweep: see the module docstring. Points are numbered row-major:
+    ``index = i*num_1 + j`` for the axis-0 index i and the axis-1 index j."""
+
+    study: str
+    base: ScaledParams | PhysicalParams
+    base_label: str
+    axes: tuple[Axis, ...]
+    tau_end: float | None
+    options: SweepOptions
+    metrics: tuple[str, ...]
+    source: str = "sweep spec"
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(a.num for a in self.axes)
+
+    @property
+    def n_points(self) -> int:
+        return int(np.prod(self.shape))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(a.param for a in self.axes)
+
+    @property
+    def scaled_base(self) -> ScaledParams:
+        return self.base.to_scaled() if isinstance(self.base, PhysicalParams) else self.base
+
+    def grid_index(self, index: int) -> tuple[int, ...]:
+        if not 0 <= index < self.n_points:
+            raise IndexError(f"point index {index} outside 0..{self.n_points - 1}")
+        return tuple(int(k) for k in np.unravel_index(index, self.shape))
+
+    def point_values(self, index: int) -> dict[str, float]:
+        """Swept parameter values at point ``index``."""
+        ij = self.grid_index(index)
+        return {a.param: float(a.values()[k]) for a, k in zip(self.axes, ij, strict=True)}
+
+    def point_params(self, index: int) -> ScaledParams:
+        """The scaled parameter set of point ``index`` (full-model studies)."""
+        if self.study == "axial":
+            raise ValueError("the axial study has no full parameter set per point")
+        values = self.point_values(index)
+        if isinstance(self.base, PhysicalParams):
+            return self.base.replace(**values).to_scaled()
+        direct = {k: v for k, v in values.items() if k not in DERIVED_NAMES}
+        p = self.base.replace(**direct) if direct else self.base
+        changes: dict[str, float] = {}
+        if "gammabar" in values:
+            changes["gamma"] = values["gammabar"] * p.sqrt_npsi
+        if "etabar2" in values:
+            changes["eta"] = math.sqrt(values["etabar2"] * p.n * p.psi)
+        return p.replace(**changes) if changes else p
+
+    def axial_point(self, index: int) -> tuple[float, float, float]:
+        """(gammabar, etabar2, taubar_n) of point ``index`` (axial study)."""
+        ref = self.reference_values(AXIAL_NAMES)
+        ref.update(self.point_values(index))
+        return ref["gammabar"], ref["etabar2"], ref["taubar_n"]
+
+    def reference_values(self, names: tuple[str, ...] | None = None) -> dict[str, float]:
+        """The base set's value of each swept (or given) parameter: the reference point."""
+        out: dict[str, float] = {}
+        s = self.scaled_base
+        for name in names or self.names:
+            if name == "taubar_n":
+                out[name] = s.taubar_n0
+            elif name in DERIVED_NAMES:
+                out[name] = float(getattr(s, name))
+            elif isinstance(self.base, PhysicalParams):
+                out[name] = float(getattr(self.base, name))
+            else:
+                out[name] = float(getattr(s, "lam" if name == "lambda" else name))
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """Canonical JSON-able form (resolved base set): written next to the results and compared
+        on ``--resume``."""
+        kind = "physical" if isinstance(self.base, PhysicalParams) else "scaled"
+        return {
+            "study": self.study,
+            "base": {"kind": kind, **self.base.to_dict()},
+            "base_label": self.base_label,
+            "sweep": [a.to_dict() for a in self.axes],
+            "tau_end": self.tau_end,
+            "options": self.options.to_dict(),
+            "metrics": list(self.metrics),
+        }
+
+
+# --------------------------------------------------------------------------------------------
+# parsing
+# --------------------------------------------------------------------------------------------
+
+
+def _base(value: Any, base_dir: Path) -> tuple[ScaledParams | PhysicalParams, str]:
+    def from_file(name: str) -> tuple[ScaledParams | PhysicalParams, str]:
+        path = Path(name)
+        path = (path if path.is_absolute() else base_dir / path).resolve()
+        try:
+            return read_params(path), str(path)
+        except ParameterError as exc:
+            raise SweepSpecError(f"base: {exc}") from None
+
+    if isinstance(value, str):
+        if value in KNOWN_PARAMS:
+            return KNOWN_PARAMS[value], value
+        if Path(value).suffix.lower() in (".toml", ".json"):
+            return from_file(value)
+        known = ", ".join(sorted(KNOWN_PARAMS))
+        raise SweepSpecError(
+            f"base = {value!r} is neither a known parameter set ({known}) nor a .toml/.json file"
+        )
+    if not isinstance(value, Mapping):
+        raise SweepSpecError(f"base must be a set name, a file or a table, got {value!r}")
+    data = dict(value)
+    if "name" in data or "file" in data:
+        if len(data) != 1:
+            raise SweepSpecError(
+                f"base: give one of 'name', 'file' or an inline set, got keys {sorted(data)}"
+            )
+        if "name" in data:
+            name = _str("base.name", data["name"])
+            if name not in KNOWN_PARAMS:
+                known = ", ".join(sorted(KNOWN_PARAMS))
+                raise SweepSpecError(f"base.name must be one of {known}, got {name!r}")
+            return KNOWN_PARAMS[name], name
+        return from_file(_str("base.file", data["file"]))
+    kind = data.pop("kind", None)
+    if kind not in ("scaled", "physical"):
+        raise SweepSpecError(
+            "base table needs 'name', 'file', or kind = \"scaled\" | \"physical\" with all "
+            f"fields; got kind = {kind!r}"
+        )
+    cls = ScaledParams if kind == "scaled" else PhysicalParams
+    try:
+        return cls.from_dict(data), f"inline {kind}"
+    except ParameterError as exc:
+        raise SweepSpecError(f"base: {exc}") from None
+
+
+def _axis(k: int, value: Any, allowed: tuple[str, ...]) -> Axis:
+    where = f"sweep[{k}]"
+    data = _table(where, value, AXIS_KEYS)
+    for key in ("param", "start", "stop", "num"):
+        if key not in data:
+            raise SweepSpecError(f"{where}: missing key {key!r}")
+    param = _str(f"{where}.param", data["param"])
+    if param == "lam":
+        param = "lambda"
+    if param not in allowed:
+        raise SweepSpecError(f"{where}.param must be one of {', '.join(allowed)}, got {param!r}")
+    start = _real(f"{where}.start", data["start"])
+    stop = _real(f"{where}.stop", data["stop"])
+    num = _int(f"{where}.num", data["num"], lower=2)
+    scale = _str(f"{where}.scale", data.get("scale", "linear"), SCALES)
+    if scale == "log" and not (start > 0 and stop > 0):
+        raise SweepSpecError(
+            f"{where}: a log scale needs start > 0 and stop > 0, got start={start!r}, stop={stop!r}"
+        )
+    if start == stop:
+        raise SweepSpecError(f"{where}: start and stop are equal ({start!r}); nothing to sweep")
+    return Axis(param=param, start=start, stop=stop, num=num, scale=scale)
+
+
+def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
+    defaults = OPTION_DEFAULTS[study]
+    data = _table(f"options (study {study!r})", value, tuple(defaults))
+    out = dict(defaults)
+    gains_file = None
+    for key, v in data.items():
+        where = f"options.{key}"
+        if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max"):
+            out[key] = _real(where, v, lower=0.0)
+        elif key == "dphi0":
+            out[key] = _real(where, v)
+        elif key == "max_periods":
+            out[key] = _int(where, v, lower=1)
+        elif key == "feedforward":
+            out[key] = _str(where, v, ("file", "point"))
+        elif key == "gains":
+            out[key] = _str(where, v)
+    if study in ("open-loop", "closed-loop") and out["h"] > out["dt_out"]:
+        raise SweepSpecError(
+            f"options.h = {out['h']!r} must not exceed options.dt_out = {out['dt_out']!r}"
+        )
+    if study == "closed-loop" and out["dphi0"] == 0.0:
+        raise SweepSpecError(
+            "options.dphi0 must be nonzero for the closed-loop study (convergence is measured "
+            "relative to the initial deviation), got 0.0"
+        )
+    if study == "closed-loop" and out["gains"] != "design":
+        from .controller.gains import GainsFileError, read_gains
+
+        path = Path(out["gains"])
+        path = (path if path.is_absolute() else base_dir / path).resolve()
+        try:
+            gains_file = read_gains(path)
+        except GainsFileError as exc:
+            raise SweepSpecError(f"options.gains: {exc}") from None
+        out["gains"] = str(path)
+    return SweepOptions(values=tuple(out.items()), gains_file=gains_file)
+
+
+def spec_from_dict(
+    data: Mapping[str, Any], source: str = "sweep spec", base_dir: str | os.PathLike[str] = "."
+) -> SweepSpec:
+    """Validate a parsed sweep description; relative file names are taken from ``base_dir``."""
+    try:
+        return _spec_from_dict(data, source, Path(base_dir))
+    except SweepSpecError as exc:
+        raise SweepSpecError(f"{source}: {exc}") from None
+
+
+def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> SweepSpec:
+    from .sweep_studies import METRICS, plottable
+
+    data = _table("top level", data, TOP_KEYS)
+    for key in ("study", "base", "sweep"):
+        if key not in data:
+            raise SweepSpecError(f"missing key {key!r}")
+    study = _str("study", data["study"], STUDIES)
+    base, label = _base(data["base"], base_dir)
+
+    if study == "axial":
+        allowed = AXIAL_NAMES
+    elif isinstance(base, PhysicalParams):
+        allowed = PHYSICAL_NAMES
+    else:
+        allowed = SCALED_NAMES + DERIVED_NAMES
+    sweep = data["sweep"]
+    if isinstance(sweep, Mapping):
+        sweep = [sweep]
+    if not isinstance(sweep, list) or not 1 <= len(sweep) <= 2:
+        raise SweepSpecError(f"sweep must be a list of one or two axes, got {sweep!r}")
+    axes = tuple(_axis(k, a, allowed) for k, a in enumerate(sweep))
+    if len(axes) == 2:
+        a, b = axes[0].param, axes[1].param
+        clash = {frozenset(("gamma", "gammabar")), frozenset(("eta", "etabar2"))}
+        if a == b or frozenset((a, b)) in clash:
+            raise SweepSpecError(f"sweep[0].param = {a!r} and sweep[1].param = {b!r} conflict")
+
+    if study == "axial":
+        if "tau_end" in data:
+            raise SweepSpecError("tau_end is not used by the axial study (remove it)")
+        tau_end = None
+    else:
+        if "tau_end" not in data:
+            raise SweepSpecError(f"missing key 'tau_end' (run length of the {study} study)")
+        tau_end = _real("tau_end", data["tau_end"], lower=0.0)
+    options = _options(study, data.get("options", {}), base_dir)
+    if study == "closed-loop" and options["window"] > tau_end:
+        raise SweepSpecError(
+            f"options.window = {options['window']!r} exceeds tau_end = {tau_end!r}"
+        )
+
+    known = plottable(study)
+    raw_metrics = data.get("metrics", list(known))
+    if not isinstance(raw_metrics, list) or not raw_metrics:
+        raise SweepSpecError(f"metrics must be a non-empty list of names, got {raw_metrics!r}")
+    for m in raw_metrics:
+        if m not in known:
+            all_names = ", ".join(name for name, _ in METRICS[study])
+            raise SweepSpecError(
+                f"metrics: unknown metric {m!r} for study {study!r} (known: {all_names})"
+            )
+    spec = SweepSpec(
+        study=study,
+        base=base,
+        base_label=label,
+        axes=axes,
+        tau_end=tau_end,
+        options=options,
+        metrics=tuple(raw_metrics),
+        source=source,
+    )
+    _check_points(spec)
+    return spec
+
+
+def _check_points(spec: SweepSpec) -> None:
+    """Build every point's parameters so that a bad grid value fails now, not in a worker."""
+    from .axial import fast_params
+
+    for index in range(spec.n_points):
+        try:
+            if spec.study == "axial":
+                g, e2, tb = spec.axial_point(index)
+                fast_params(g, e2, tb, spec.options["lam_over_vbar0"])
+            else:
+                p = spec.point_params(index)
+                if p.omega0 + spec.options["dphi0"] <= 0.0:
+                    raise ValueError(
+                        f"omega0 + dphi0 = {p.omega0 + spec.options['dphi0']!r} <= 0: the bit "
+                        "would start in torsional stick"
+                    )
+        except ValueError as exc:
+            values = ", ".join(f"{k} = {v!r}" for k, v in spec.point_values(index).items())
+            raise SweepSpecError(f"sweep point {index} ({values}) is invalid: {exc}") from None
+
+
+def load_spec(path: str | os.PathLike[str]) -> SweepSpec:
+    """Read and validate a sweep file (.toml or .json)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise SweepSpecError(f"sweep spec {str(path)!r}: suffix must be .toml or .json")
+    try:
+        if suffix == ".toml":
+            with path.open("rb") as fh:
+                data = tomllib.load(fh)
+        else:
+            with path.open(encoding="utf-8") as fh:
+                data = json.load(fh)
+    except OSError as exc:
+        raise SweepSpecError(f"cannot read sweep spec {str(path)!r}: {exc}") from None
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+        raise SweepSpecError(f"sweep spec {str(path)!r} is not valid {suffix[1:]}: {exc}") from None
+    if not isinstance(data, dict):
+        raise SweepSpecError(f"sweep spec {str(path)!r}: top level must be a table/object")
+    return spec_from_dict(data, source=f"sweep spec {str(path)!r}", base_dir=path.parent)

@@ -1,0 +1,324 @@
+"""Point functions of the parameter sweeps: one parameter point -> a dict of metrics.
+
+Every function here is a deterministic function of its arguments (no seeds, no global state other
+than a cache of pure results), so a point computed on a Dask worker equals the same point computed
+in this process.
+
+* ``open-loop``: the averaged model (29) with R_fb = 0 (its rightmost characteristic root at
+  tau_n0, the rigid-body root s = 0 of the bit angle excluded) and the full model (11)-(14), (17)
+  from dphi/dtau(0) = ``dphi0`` with the feed-forward only, R - R0 = R_ff = -K0 (31), torsional
+  stick model off: does dPhi/dtau reach 0 (and when), the fraction of time in axial stick, bit
+  bouncing.
+* ``closed-loop``: the gain of Theorem 1 (LMI (33)) designed at the point, or one fixed gains
+  file, and the full closed loop (29)-(31) from dphi/dtau(0) = ``dphi0``: convergence, residual
+  ripple and the largest torque |R - R0| (Remark 1: the design can fail on the full model).
+* ``axial``: the averaged contact force (lambda/vbar0)<gbar>_a of the fast model (18) (Fig. 4).
+
+A and taubar_crit of (22) depend on (gammabar, etabar^2) only; :func:`axial_design` computes them
+once per distinct pair (the sweep runs it as a separate task that the point tasks depend on).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .sweep_spec import SweepOptions, SweepSpec
+
+__all__ = [
+    "METRICS",
+    "DesignInputs",
+    "axial_design",
+    "axial_metrics",
+    "axial_stick_fraction",
+    "closed_loop_metrics",
+    "design_key",
+    "evaluate_point",
+    "open_loop_metrics",
+    "plottable",
+    "rightmost_nonzero_root",
+]
+
+#: Metric columns per study: (name, type) with type "float", "flag" (0/1), "int" or "str".
+METRICS: dict[str, tuple[tuple[str, str], ...]] = {
+    "open-loop": (
+        ("A", "float"),
+        ("taubar_crit", "float"),
+        ("R_ff", "float"),
+        ("root_real", "float"),
+        ("root_imag", "float"),
+        ("torsional_stick", "flag"),
+        ("time_to_stick", "float"),
+        ("axial_stick_fraction", "float"),
+        ("bit_bounce", "flag"),
+        ("status", "str"),
+        ("tau_reached", "float"),
+    ),
+    "closed-loop": (
+        ("A", "float"),
+        ("taubar_crit", "float"),
+        ("gain_norm", "float"),
+        ("abscissa_closed", "float"),
+        ("converged", "flag"),
+        ("dphi_amplitude", "float"),
+        ("ripple", "float"),
+        ("max_dR", "float"),
+        ("axial_stick_fraction", "float"),
+        ("torsional_stick", "flag"),
+        ("bit_bounce", "flag"),
+        ("status", "str"),
+        ("tau_reached", "float"),
+    ),
+    "axial": (
+        ("average", "float"),
+        ("period", "float"),
+        ("stick_fraction", "float"),
+        ("stick_phases", "int"),
+        ("kind", "str"),
+        ("time_simulated", "float"),
+    ),
+}
+
+
+def plottable(study: str) -> tuple[str, ...]:
+    """Metric names that get a heat map (all of them; strings as categorical maps)."""
+    return tuple(name for name, _ in METRICS[study])
+
+
+# --------------------------------------------------------------------------------------------
+# axial design inputs, once per (gammabar, etabar^2)
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class DesignInputs:
+    """A and taubar_crit of (22) at (gammabar, etabar^2); ``error`` is set if they failed."""
+
+    gammabar: float
+    etabar2: float
+    A: float = math.nan
+    taubar_crit: float = math.nan
+    error: str = ""
+
+    def check(self) -> None:
+        if self.error:
+            raise RuntimeError(
+                f"axial design inputs at gammabar = {self.gammabar!r}, etabar2 = "
+                f"{self.etabar2!r} failed: {self.error}"
+            )
+
+
+def design_key(params: Any) -> tuple[float, float]:
+    """(gammabar, etabar^2): all that :func:`drillstring.axial.design_inputs` reads."""
+    return (float(params.gammabar), float(params.etabar2))
+
+
+_DESIGN_CACHE: dict[tuple[float, float], DesignInputs] = {}
+
+
+def axial_design(params: Any) -> DesignInputs:
+    """:func:`drillstring.axial.design_inputs` for ``params``, cached by :func:`design_key`
+    (exact floats: the function depends on nothing else). Never raises; errors are recorded."""
+    key = design_key(params)
+    if key not in _DESIGN_CACHE:
+        from .axial import design_inputs
+
+        try:
+            d = design_inputs(params)
+            out = DesignInputs(*key, A=float(d.A), taubar_crit=float(d.taubar_crit))
+        except Exception as exc:  # recorded and reported by every point that needs it
+            out = DesignInputs(*key, error=f"{type(exc).__name__}: {exc}")
+        _DESIGN_CACHE[key] = out
+    return _DESIGN_CACHE[key]
+
+
+# --------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------
+
+
+def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
+    """Rightmost root after removing the rigid-body root s = 0 of (29).
+
+    In (29) the angle phi enters only as c*(phi(tau - tau_n) - phi(tau)) and through the twist, so
+    s = 0 is a root for every parameter set; it is not a torsional instability. The root with the
+    smallest modulus is dropped if it is below ``tol``.
+    """
+    r = np.asarray(roots, dtype=complex)
+    if r.size and np.min(np.abs(r)) < tol:
+        r = np.delete(r, int(np.argmin(np.abs(r))))
+    if r.size == 0:
+        return complex(math.nan, math.nan)
+    k = int(np.argmax(r.real))
+    return complex(r[k].real, abs(r[k].imag))
+
+
+def axial_stick_fraction(result: Any) -> float:
+    """Fraction of the simulated time spent in axial stick (mode 1), exact from the mode events."""
+    from .engine import MODE_NAMES
+
+    t_end = float(result.tau[-1])
+    if not t_end > 0.0:
+        return math.nan
+    mode = MODE_NAMES[int(result.mode[0])]
+    t_prev, stuck = 0.0, 0.0
+    for e in result.events:
+        if e.kind != "mode" or e.tau > t_end:
+            continue
+        if mode == "stick":
+            stuck += e.tau - t_prev
+        mode, t_prev = e.to_mode, e.tau
+    if mode == "stick":
+        stuck += t_end - t_prev
+    return stuck / t_end
+
+
+def _run(params: Any, tau_end: float, control: Any, opts: SweepOptions) -> Any:
+    from .engine import EngineOptions
+    from .simulate import simulate
+
+    return simulate(
+        params,
+        tau_end,
+        control=control,
+        initial={"dphi": opts["dphi0"]},
+        dt_out=opts["dt_out"],
+        options=EngineOptions(h=opts["h"], torsional_stick=False, on_invalid="stop"),
+        progress=False,
+    )
+
+
+def _outcome(result: Any) -> dict[str, Any]:
+    code = result.status.code
+    return {
+        "torsional_stick": int(code == "torsional_stick"),
+        "bit_bounce": int(code == "bit_bounce"),
+        "axial_stick_fraction": axial_stick_fraction(result),
+        "status": code,
+        "tau_reached": float(result.tau[-1]),
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# studies
+# --------------------------------------------------------------------------------------------
+
+
+def open_loop_metrics(
+    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+) -> dict[str, Any]:
+    """Open-loop metrics at one point (see the module docstring)."""
+    from .controller.averaged import averaged_model, open_loop_roots
+
+    design.check()
+    model = averaged_model(params, design.A, design.taubar_crit)
+    root = rightmost_nonzero_root(open_loop_roots(model))
+    res = _run(params, tau_end, float(model.R_ff), opts)
+    out = {
+        "A": design.A,
+        "taubar_crit": design.taubar_crit,
+        "R_ff": float(model.R_ff),
+        "root_real": root.real,
+        "root_imag": root.imag,
+        **_outcome(res),
+    }
+    out["time_to_stick"] = res.status.tau if out["torsional_stick"] else math.nan
+    return out
+
+
+def applied_torque(result: Any, F: Any, K0: float, R_ff: float) -> np.ndarray:
+    """R - R0 of the law (29)-(31) (switched on at 0, no latch) along the sampled trajectory."""
+    F = np.asarray(F, dtype=float)
+    return (
+        R_ff
+        + F[0] * result.phi
+        + F[1] * result.dphi
+        + F[2] * (result.phi - result.theta - K0)
+        + F[3] * result.dtheta
+    )
+
+
+def closed_loop_metrics(
+    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+) -> dict[str, Any]:
+    """Closed-loop metrics at one point (see the module docstring)."""
+    from .control_law import AffineFeedback
+    from .controller.averaged import averaged_model, closed_loop_roots
+
+    design.check()
+    model = averaged_model(params, design.A, design.taubar_crit)
+    gains = opts.gains_file
+    if gains is None:
+        from .controller.synthesis import synthesize
+
+        kw = {} if opts["gain_max"] is None else {"gain_max": opts["gain_max"]}
+        syn = synthesize(model, **kw)
+        F = np.asarray(syn.F, dtype=float).reshape(4)
+        K0, R_ff = model.K0, model.R_ff
+        abscissa = float(syn.certificate.abscissa_nominal)
+    else:
+        F = np.asarray(gains.F, dtype=float)
+        if opts["feedforward"] == "file":
+            K0, R_ff = gains.K0, gains.R_ff
+        else:
+            K0, R_ff = model.K0, model.R_ff
+        abscissa = float(closed_loop_roots(model, F, None, 1)[0].real)
+    law = AffineFeedback(F=tuple(float(f) for f in F), K0=float(K0), R_ff=float(R_ff))
+    res = _run(params, tau_end, law, opts)
+    out = {
+        "A": design.A,
+        "taubar_crit": design.taubar_crit,
+        "gain_norm": float(np.linalg.norm(F)),
+        "abscissa_closed": abscissa,
+        "max_dR": float(np.max(np.abs(applied_torque(res, F, K0, R_ff)))),
+        **_outcome(res),
+    }
+    if res.status.ok:
+        last = res.tau >= res.tau[-1] - opts["window"] - 1e-9
+        dphi = res.dphi[last]
+        out["dphi_amplitude"] = float(np.max(np.abs(dphi)))
+        out["ripple"] = float(np.ptp(dphi))
+        out["converged"] = int(out["dphi_amplitude"] < opts["tol"] * abs(opts["dphi0"]))
+    else:
+        out.update(dphi_amplitude=math.nan, ripple=math.nan, converged=0)
+    return out
+
+
+def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
+    """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4)."""
+    from .axial import limit_cycle
+
+    lc = limit_cycle(
+        gammabar,
+        etabar2,
+        taubar_n,
+        lam_over_vbar0=opts["lam_over_vbar0"],
+        h=opts["h"],
+        kick=opts["kick"],
+        max_periods=opts["max_periods"],
+        n_samples=0,
+    )
+    return {
+        "average": lc.average,
+        "period": lc.period,
+        "stick_fraction": lc.stick_fraction,
+        "stick_phases": lc.stick_phases,
+        "kind": lc.kind,
+        "time_simulated": lc.time_simulated,
+    }
+
+
+def evaluate_point(spec: SweepSpec, index: int, design: DesignInputs | None) -> dict[str, Any]:
+    """The metrics of point ``index`` of ``spec`` (``design``: the point's axial design inputs,
+    None for the axial study)."""
+    if spec.study == "axial":
+        return axial_metrics(*spec.axial_point(index), spec.options)
+    if design is None:
+        raise ValueError(f"the {spec.study} study needs the axial design inputs of the point")
+    params = spec.point_params(index)
+    if spec.study == "open-loop":
+        return open_loop_metrics(params, design, spec.tau_end, spec.options)
+    return closed_loop_metrics(params, design, spec.tau_end, spec.options)

@@ -1,0 +1,384 @@
+"""System description for the co-simulation master: units, connections, validation.
+
+A system is a list of :class:`Unit` (instance name -> FMU file + start values) and a
+list of :class:`Connection` (``"unit.output" -> "unit.input"``). :func:`build_system`
+checks them against the FMUs' model descriptions (FMI 2.0 standard, section 2.2) and
+derives what the master needs before any FMU is instantiated:
+
+* the *exchange schedule*: in which order outputs are read and inputs written at a
+  communication point so that every input receives a value computed from already
+  consistent inputs. It follows the output dependencies declared in
+  ``ModelStructure/Outputs`` (FMI 2.0, section 2.2.8); an output without a
+  ``dependencies`` attribute depends on all inputs. A cycle through direct feedthrough
+  is an algebraic loop and is refused with an error naming it.
+* the default Gauss-Seidel order: units whose connected outputs have no direct
+  feedthrough from connected inputs first, then the others in dependency order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fmpy import read_model_description
+
+__all__ = [
+    "Unit",
+    "Connection",
+    "VarRef",
+    "ExchangeRound",
+    "System",
+    "build_system",
+    "parse_connection",
+]
+
+_SETTABLE_INITIAL = ("exact", "approx")
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One FMU instance in the system.
+
+    ``name`` is the instance name (no dots: ``"unit.variable"`` is split at the first
+    dot), ``fmu`` the path of the ``.fmu`` file, ``start_values`` maps variable names to
+    start values set before initialization (parameters, inputs, ``initial="exact"``
+    or ``"approx"`` variables).
+    """
+
+    name: str
+    fmu: str | Path
+    start_values: Mapping[str, float | int | bool | str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name or "." in self.name:
+            raise ValueError(f"unit name must be a non-empty string without '.', got {self.name!r}")
+        if not Path(self.fmu).is_file():
+            raise ValueError(f"unit {self.name!r}: FMU file {str(self.fmu)!r} does not exist")
+
+
+@dataclass(frozen=True)
+class Connection:
+    """``source`` (``"unit.output"``) feeds ``target`` (``"unit.input"``)."""
+
+    source: str
+    target: str
+
+
+def parse_connection(spec: Connection | tuple[str, str] | str) -> Connection:
+    """Accept a :class:`Connection`, a ``(source, target)`` pair or ``"a.y -> b.u"``."""
+    if isinstance(spec, Connection):
+        return spec
+    if isinstance(spec, str):
+        parts = [p.strip() for p in spec.split("->")]
+        if len(parts) != 2 or not all(parts):
+            raise ValueError(f"connection {spec!r} is not of the form 'unit.output -> unit.input'")
+        return Connection(parts[0], parts[1])
+    if isinstance(spec, tuple) and len(spec) == 2 and all(isinstance(s, str) for s in spec):
+        return Connection(spec[0], spec[1])
+    raise ValueError(f"connection {spec!r}: expected 'a.y -> b.u', (source, target) or Connection")
+
+
+@dataclass(frozen=True)
+class VarRef:
+    """A resolved variable: unit index, name, value reference, FMI type and causality."""
+
+    unit: int
+    name: str
+    vr: int
+    type: str
+    causality: str
+    variability: str
+    initial: str | None
+
+
+@dataclass(frozen=True)
+class ExchangeRound:
+    """One round of the exchange schedule.
+
+    ``gets``: (unit index, output keys) read in this round; ``sets``: (unit index, input
+    keys) written afterwards. Keys are ``"unit.variable"`` strings.
+    """
+
+    gets: tuple[tuple[int, tuple[str, ...]], ...]
+    sets: tuple[tuple[int, tuple[str, ...]], ...]
+
+
+@dataclass(frozen=True)
+class System:
+    """A validated system: what the master needs to run it (see :func:`build_system`)."""
+
+    units: tuple[Unit, ...]
+    model_descriptions: tuple[Any, ...]
+    variables: tuple[Mapping[str, VarRef], ...]
+    connections: tuple[Connection, ...]
+    #: connected outputs, "unit.var", each once, in unit then declaration order
+    outputs: tuple[str, ...]
+    #: connected inputs "unit.var" -> source output "unit.var"
+    input_source: Mapping[str, str]
+    schedule: tuple[ExchangeRound, ...]
+    #: default Gauss-Seidel order (unit indices)
+    gs_order: tuple[int, ...]
+    #: unit index -> True if a connected output depends directly on a connected input
+    feedthrough: tuple[bool, ...]
+
+    @property
+    def unit_names(self) -> tuple[str, ...]:
+        return tuple(u.name for u in self.units)
+
+    def resolve(self, key: str) -> VarRef:
+        """``"unit.variable"`` -> :class:`VarRef`, with a clear error when unknown."""
+        return _resolve(self.units, self.variables, key)
+
+
+def _resolve(units: Sequence[Unit], variables: Sequence[Mapping[str, VarRef]], key: str) -> VarRef:
+    unit_name, var = _split(key)
+    names = [u.name for u in units]
+    if unit_name not in names:
+        raise ValueError(f"unknown unit {unit_name!r} in {key!r}; units are {names}")
+    try:
+        return variables[names.index(unit_name)][var]
+    except KeyError:
+        raise ValueError(f"unit {unit_name!r} has no variable {var!r} (in {key!r})") from None
+
+
+def _unit_from_mapping(name: str, spec: object) -> Unit:
+    """``name -> Unit | fmu path | (fmu path, start values)``."""
+    if isinstance(spec, Unit):
+        if spec.name != name:
+            raise ValueError(f"unit {spec.name!r} listed under the name {name!r}")
+        return spec
+    if isinstance(spec, str | Path):
+        return Unit(name, spec)
+    if isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], Mapping):
+        return Unit(name, spec[0], spec[1])
+    raise ValueError(
+        f"unit {name!r}: expected a Unit, an FMU path or (FMU path, start values), got {spec!r}"
+    )
+
+
+def _split(key: str) -> tuple[str, str]:
+    if not isinstance(key, str) or "." not in key:
+        raise ValueError(f"variable {key!r} is not of the form 'unit.variable'")
+    unit_name, var = key.split(".", 1)
+    if not unit_name or not var:
+        raise ValueError(f"variable {key!r} is not of the form 'unit.variable'")
+    return unit_name, var
+
+
+def _load(unit: Unit) -> tuple[Any, dict[str, Any]]:
+    md = read_model_description(str(unit.fmu))
+    if md.fmiVersion != "2.0":
+        raise ValueError(f"unit {unit.name!r}: FMI version {md.fmiVersion!r}, need 2.0")
+    if md.coSimulation is None:
+        raise ValueError(f"unit {unit.name!r}: {unit.fmu} has no CoSimulation interface")
+    return md, {v.name: v for v in md.modelVariables}
+
+
+def _check_start_value(unit: Unit, var: VarRef, value: object) -> None:
+    settable = var.causality in ("parameter", "input") or (
+        var.initial in _SETTABLE_INITIAL and var.causality != "independent"
+    )
+    if var.variability == "constant" or not settable:
+        raise ValueError(
+            f"unit {unit.name!r}: cannot set a start value for {var.name!r} "
+            f"(causality {var.causality!r}, variability {var.variability!r}, "
+            f"initial {var.initial!r})"
+        )
+    ok = {
+        "Real": isinstance(value, int | float) and not isinstance(value, bool),
+        "Integer": isinstance(value, int) and not isinstance(value, bool),
+        "Enumeration": isinstance(value, int) and not isinstance(value, bool),
+        "Boolean": isinstance(value, bool),
+        "String": isinstance(value, str),
+    }.get(var.type, False)
+    if not ok:
+        raise ValueError(
+            f"unit {unit.name!r}: start value {value!r} for {var.name!r} does not fit its "
+            f"type {var.type}"
+        )
+
+
+def build_system(
+    units: Sequence[Unit] | Mapping[str, Unit | str | Path | tuple[str | Path, Mapping]],
+    connections: Iterable[Connection | tuple[str, str] | str],
+    gs_order: Sequence[str] | None = None,
+) -> System:
+    """Validate units and connections against the model descriptions.
+
+    Raises :class:`ValueError` naming the offending unit, variable or connection for:
+    duplicate unit names, unknown units or variables, a source that is not an output,
+    a target that is not an input, non-Real connections, an input connected twice,
+    unsettable or ill-typed start values, an algebraic loop, a bad ``gs_order``.
+    """
+    if isinstance(units, Mapping):
+        units = [_unit_from_mapping(name, spec) for name, spec in units.items()]
+    units = tuple(units)
+    if not units:
+        raise ValueError("a system needs at least one unit")
+    names = [u.name for u in units]
+    for name in names:
+        if names.count(name) > 1:
+            raise ValueError(f"unit name {name!r} is used more than once")
+
+    mds, variables = [], []
+    for i, unit in enumerate(units):
+        md, mvars = _load(unit)
+        refs = {
+            n: VarRef(i, n, v.valueReference, v.type, v.causality, v.variability, v.initial)
+            for n, v in mvars.items()
+        }
+        for vname, value in unit.start_values.items():
+            if vname not in refs:
+                raise ValueError(f"unit {unit.name!r} has no variable {vname!r} (start values)")
+            _check_start_value(unit, refs[vname], value)
+        mds.append(md)
+        variables.append(refs)
+
+    conns = tuple(parse_connection(c) for c in connections)
+    input_source: dict[str, str] = {}
+    for c in conns:
+        label = f"connection '{c.source} -> {c.target}'"
+        src, dst = _resolve(units, variables, c.source), _resolve(units, variables, c.target)
+        if src.causality != "output":
+            raise ValueError(
+                f"{label}: source {c.source!r} has causality {src.causality!r}, expected 'output'"
+            )
+        if dst.causality != "input":
+            raise ValueError(
+                f"{label}: target {c.target!r} has causality {dst.causality!r}, expected 'input'"
+            )
+        if src.type != "Real" or dst.type != "Real":
+            raise ValueError(
+                f"{label}: only Real -> Real connections are supported "
+                f"(got {src.type} -> {dst.type})"
+            )
+        if c.target in input_source:
+            raise ValueError(
+                f"input {c.target!r} is connected twice: from {input_source[c.target]!r} "
+                f"and from {c.source!r}"
+            )
+        input_source[c.target] = c.source
+
+    # connected outputs, in unit and declaration order
+    used = set(input_source.values())
+    outputs = tuple(
+        f"{u.name}.{v.name}"
+        for u, md in zip(units, mds, strict=True)
+        for v in md.modelVariables
+        if f"{u.name}.{v.name}" in used
+    )
+
+    # direct dependencies of each connected output on connected inputs (FMI 2.0, 2.2.8)
+    connected_inputs = [[k for k in input_source if k.split(".", 1)[0] == u.name] for u in units]
+    deps: dict[str, set[str]] = {}
+    for i, (u, md) in enumerate(zip(units, mds, strict=True)):
+        declared = {o.variable.name: o.dependencies for o in md.outputs}
+        for key in outputs:
+            if key.split(".", 1)[0] != u.name:
+                continue
+            d = declared.get(key.split(".", 1)[1])
+            if d is None:  # absent attribute (or output missing from ModelStructure): all
+                deps[key] = set(connected_inputs[i])
+            else:
+                names_d = {f"{u.name}.{v.name}" for v in d}
+                deps[key] = names_d & set(connected_inputs[i])
+    feedthrough = tuple(
+        any(deps[k] for k in outputs if k.split(".", 1)[0] == u.name) for u in units
+    )
+
+    schedule = _schedule(units, outputs, deps, input_source)
+    order = _gs_order(units, outputs, deps, input_source, feedthrough, gs_order)
+    return System(
+        units=units,
+        model_descriptions=tuple(mds),
+        variables=tuple(variables),
+        connections=conns,
+        outputs=outputs,
+        input_source=input_source,
+        schedule=schedule,
+        gs_order=order,
+        feedthrough=feedthrough,
+    )
+
+
+def _unit_index(units: Sequence[Unit], key: str) -> int:
+    name = key.split(".", 1)[0]
+    return next(i for i, u in enumerate(units) if u.name == name)
+
+
+def _schedule(
+    units: Sequence[Unit],
+    outputs: Sequence[str],
+    deps: Mapping[str, set[str]],
+    input_source: Mapping[str, str],
+) -> tuple[ExchangeRound, ...]:
+    """Rounds of (read ready outputs, write the inputs they feed) until all are fresh."""
+    fresh: set[str] = set()
+    remaining = list(outputs)
+    rounds = []
+    while remaining:
+        ready = [o for o in remaining if deps[o] <= fresh]
+        if not ready:
+            loop = ", ".join(f"{o} <- {sorted(deps[o] - fresh)}" for o in remaining)
+            raise ValueError(
+                "algebraic loop through direct feedthrough (outputs waiting for inputs): "
+                f"{loop}. Check the FMUs' ModelStructure/Outputs dependencies."
+            )
+        remaining = [o for o in remaining if o not in ready]
+        ready_set = set(ready)
+        targets = [i for i, s in input_source.items() if s in ready_set]
+        fresh.update(targets)
+        rounds.append(
+            ExchangeRound(
+                gets=_group(units, ready),
+                sets=_group(units, targets),
+            )
+        )
+    return tuple(rounds)
+
+
+def _group(units: Sequence[Unit], keys: Sequence[str]) -> tuple[tuple[int, tuple[str, ...]], ...]:
+    by_unit: dict[int, list[str]] = {}
+    for k in keys:
+        by_unit.setdefault(_unit_index(units, k), []).append(k)
+    return tuple((i, tuple(by_unit[i])) for i in sorted(by_unit))
+
+
+def _gs_order(
+    units: Sequence[Unit],
+    outputs: Sequence[str],
+    deps: Mapping[str, set[str]],
+    input_source: Mapping[str, str],
+    feedthrough: Sequence[bool],
+    given: Sequence[str] | None,
+) -> tuple[int, ...]:
+    names = [u.name for u in units]
+    if given is not None:
+        given = list(given)
+        if sorted(given) != sorted(names):
+            raise ValueError(
+                f"Gauss-Seidel order {given} must list every unit exactly once: {names}"
+            )
+        return tuple(names.index(n) for n in given)
+    order = [i for i in range(len(units)) if not feedthrough[i]]
+    pending = [i for i in range(len(units)) if feedthrough[i]]
+    while pending:
+        # a feedthrough unit goes once every feedthrough unit feeding its
+        # feedthrough inputs is placed (acyclic: the schedule already checked)
+        for i in pending:
+            needs = {
+                _unit_index(units, input_source[inp])
+                for o in outputs
+                if _unit_index(units, o) == i
+                for inp in deps[o]
+            }
+            if all(j in order or j == i for j in needs):
+                order.append(i)
+                pending.remove(i)
+                break
+        else:  # only reachable through a feedthrough cycle across units
+            order.extend(pending)
+            break
+    return tuple(order)
