@@ -22,8 +22,12 @@ test: venv
 	$(BIN)/ruff format --check .
 	$(BIN)/pytest -q
 
+# The main job: LMI design (with A from the axial analysis), both FMUs, then the figures and the
+# co-simulation / monolithic agreement (drillstring/demo.py). Everything lands in out/ and build/.
 demo: venv
-	$(BIN)/drillstring demo --out out
+	$(BIN)/drillstring design --out out/gains.json
+	$(BIN)/python build_fmus.py --gains out/gains.json --out build
+	$(BIN)/drillstring demo --gains out/gains.json --fmus build --out out
 
 lint: venv
 	$(BIN)/ruff check .
