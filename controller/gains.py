@@ -23,13 +23,13 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from drillstring.fileio import write_text
 from drillstring.params import ParameterError, ScaledParams
 
 __all__ = [
@@ -220,17 +220,7 @@ def write_gains(gains: GainsFile, path: str | os.PathLike[str] = DEFAULT_GAINS_P
     """Write ``gains`` as JSON to ``path`` atomically (temp file + ``os.replace``); return it."""
     path = Path(path)
     text = json.dumps(gains.to_json_dict(), indent=2, allow_nan=False) + "\n"
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_text(path, text)
 
 
 def read_gains(path: str | os.PathLike[str] = DEFAULT_GAINS_PATH) -> GainsFile:

@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,6 +62,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from drillstring.fileio import atomic_write
 from drillstring.spectrum import DDESystem, dde_roots
 
 if TYPE_CHECKING:
@@ -437,21 +437,6 @@ def stability_diagram(
     return StabilityDiagram(gs, (t0, t1), (e0, e1), boundaries, sg, tg, eg, stable)
 
 
-def _atomic_write(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
 def write_stability_diagram(
     out_dir: str | os.PathLike[str],
     gammabars: Sequence[float] = FIG2_GAMMABARS,
@@ -478,7 +463,7 @@ def write_stability_diagram(
         for i, seg in enumerate(d.boundaries[g]):
             rows.extend(f"{g:.17g},{i},{t:.17g},{e:.17g}" for t, e in seg)
     csv_path = out / "fig2_boundaries.csv"
-    _atomic_write(csv_path, lambda fh: fh.write(("\n".join(rows) + "\n").encode()))
+    atomic_write(csv_path, lambda fh: fh.write(("\n".join(rows) + "\n").encode()))
 
     fig = Figure(figsize=(7.0, 4.6), dpi=150)
     FigureCanvasAgg(fig)  # Agg canvas, no pyplot state
@@ -509,5 +494,5 @@ def write_stability_diagram(
     ax.legend(handles=handles, loc="lower right", fontsize=8, framealpha=0.9)
     fig.tight_layout()
     png_path = out / "fig2_stability.png"
-    _atomic_write(png_path, lambda fh: fig.savefig(fh, format="png"))
+    atomic_write(png_path, lambda fh: fig.savefig(fh, format="png"))
     return {"png": png_path, "csv": csv_path}

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import csv
 import math
 import os
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,6 +12,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .engine import Control, Engine, EngineOptions, Event, InitialState, Status
+from .fileio import write_csv
 from .history import HistoryFunction
 from .params import ScaledParams
 
@@ -57,22 +56,8 @@ class SimulationResult:
 
     def to_csv(self, path: str | os.PathLike[str]) -> Path:
         """Write the sampled columns to CSV atomically (temp file + rename)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-        try:
-            with os.fdopen(fd, "w", newline="") as fh:
-                w = csv.writer(fh)
-                w.writerow(COLUMNS)
-                cols = [self.data[c] for c in COLUMNS]
-                for row in zip(*cols, strict=True):
-                    w.writerow([repr(float(x)) for x in row])
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
-        return path
+        cols = [self.data[c] for c in COLUMNS]
+        return write_csv(path, COLUMNS, zip(*(c.tolist() for c in cols), strict=True))
 
 
 def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
