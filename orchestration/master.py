@@ -25,7 +25,25 @@ Run, in FMI 2.0 terms (standard section 4.2.4, state machine of a co-simulation 
      FMI 2.0 units hold inputs constant over a step unless they can interpolate, so the
      master gives the *mean* of that line over the step (its value at ``t_n + H/2``),
      which reproduces its integral exactly: a second-order coupling;
-   * after the step, exchange at ``t_n + H`` and record one row.
+   * after the step, exchange at ``t_n + H`` and record one row. ``exchange="propagate"``
+     (default) uses the dependency-ordered schedule of step 2, so an output with direct
+     feedthrough is read only after its inputs received their values at ``t_n + H``.
+     ``exchange="simple"`` is libcosim's ``fixed_step_algorithm`` (and that of many
+     simple fixed-step masters): every connected output is read once, right after the step,
+     and only then are all inputs written from those values. A feedthrough output read
+     this way was computed from the inputs its unit had *during* the step (those of
+     ``t_n``), so a signal passing through a feedthrough unit reaches its target one
+     macro step late; with a memoryless controller between two plant outputs and the
+     plant input that is a loop delay of ``H`` on top of the hold, an ``O(H)`` change of
+     the result. Initialization is the same in both modes (step 2: consistent inputs,
+     as libcosim's N rounds of set/read/transfer give for an acyclic system).
+     ``grid="ns"`` puts the communication points on libcosim's integer-nanosecond time
+     grid, ``t_k = (t0_ns + k*H_ns)/1e9`` with ``H_ns = round(H*1e9)``, ``t0_ns =
+     round(t0*1e9)`` (integers, then one division: exactly what libcosim passes to
+     ``fmi2DoStep``), step ``t_{k+1} - t_k`` in double; ``grid="float"`` (default) uses
+     ``t_k = t0 + k*H`` and passes the nominal ``H``. Both together reproduce a libcosim
+     run bit for bit (tests/test_crosscheck.py). A shortened last step ends on the stop
+     time in both grids.
 
 4. Step-size control (``step_control=StepControl(...)``): before a step every unit's
    state is saved (``fmi2GetFMUstate``). After it the local coupling error is estimated
@@ -93,6 +111,7 @@ log = logging.getLogger(__name__)
 
 Scheme = Literal["jacobi", "gauss-seidel"]
 Extrapolation = Literal["zoh", "linear"]
+Exchange = Literal["propagate", "simple"]
 
 _MAX_LOG = 100_000  # messages kept in CosimResult.log
 
@@ -242,13 +261,18 @@ class Master:
         extrapolation: Extrapolation = "zoh",
         step_control: StepControl | None = None,
         progress: bool | None = None,
+        exchange: Exchange = "propagate",
+        grid: Literal["float", "ns"] = "float",
     ) -> CosimResult:
         """Co-simulate from ``start_time`` to ``stop_time``.
 
         Fixed macro step ``step`` (the last step is shortened to land on ``stop_time``),
         or adaptive with ``step_control`` (``step`` then is the initial step, default
         ``step_control.h_init`` or ``h_max``). ``progress``: tqdm bar (None: only on a
-        terminal). Never raises for FMU failures: see :attr:`CosimResult.failure`.
+        terminal). ``exchange`` and ``grid``: exchange at communication points and time
+        grid of fixed-step runs (module docstring; ``"simple"`` with ``"ns"`` is
+        libcosim's fixed-step algorithm). Never raises for FMU failures: see
+        :attr:`CosimResult.failure`.
         """
         if not (math.isfinite(start_time) and math.isfinite(stop_time) and stop_time > start_time):
             raise ValueError(
@@ -258,6 +282,20 @@ class Master:
             raise ValueError(f"scheme must be 'jacobi' or 'gauss-seidel', got {scheme!r}")
         if extrapolation not in ("zoh", "linear"):
             raise ValueError(f"extrapolation must be 'zoh' or 'linear', got {extrapolation!r}")
+        if exchange not in ("propagate", "simple"):
+            raise ValueError(f"exchange must be 'propagate' or 'simple', got {exchange!r}")
+        if grid not in ("float", "ns"):
+            raise ValueError(f"grid must be 'float' or 'ns', got {grid!r}")
+        if grid == "ns":
+            if step_control is not None:
+                raise ValueError("grid='ns' is for fixed-step runs, not with step_control")
+            if step is None or not (math.isfinite(step) and round(step * 1e9) >= 1):
+                raise ValueError(f"grid='ns' needs a step of at least 1 ns, got {step!r}")
+            for name, v in (("step", step), ("start_time", start_time)):
+                if abs(round(v * 1e9) - v * 1e9) > 1e-6 + 1e-12 * abs(v) * 1e9:
+                    raise ValueError(
+                        f"grid='ns' needs a {name} that is a whole number of ns, got {v!r}"
+                    )
         if step_control is None:
             if step is None or not (math.isfinite(step) and step > 0):
                 raise ValueError(f"fixed-step run needs a finite step > 0, got {step!r}")
@@ -284,7 +322,7 @@ class Master:
                     f"unit {unit.name!r} cannot handle variable communication step sizes; use "
                     "a fixed step that divides stop_time - start_time"
                 )
-        run = _Run(self, start_time, stop_time, scheme, extrapolation)
+        run = _Run(self, start_time, stop_time, scheme, extrapolation, exchange, grid == "ns")
         return run.execute(step, step_control, progress)
 
 
@@ -305,12 +343,23 @@ def _n_steps(span: float, h: float) -> tuple[int, bool]:
 class _Run:
     """State of one co-simulation run (buffers, instances); used once by Master.run."""
 
-    def __init__(self, master: Master, t0: float, t_end: float, scheme: str, extrapolation: str):
+    def __init__(
+        self,
+        master: Master,
+        t0: float,
+        t_end: float,
+        scheme: str,
+        extrapolation: str,
+        exchange: str = "propagate",
+        ns_grid: bool = False,
+    ):
         self.master = master
         self.sys = master.system
         self.t0, self.t_end = float(t0), float(t_end)
         self.gauss_seidel = scheme == "gauss-seidel"
         self.linear = extrapolation == "linear"
+        self.simple = exchange == "simple"
+        self.ns_grid = ns_grid
         self.instances = [Instance(i, u.name) for i, u in enumerate(self.sys.units)]
         self.by_name = {inst.name.encode("utf-8"): inst for inst in self.instances}
         self.log: list[tuple[str, str, str, str]] = []
@@ -355,6 +404,11 @@ class _Run:
             for i, keys in rnd.sets:
                 op = self._batch(insts[i], False, keys, [yidx[src_of[k]] for k in keys])
                 self.xops.append(_flat(op, op.idx))
+        # exchange after a step: the schedule, or (simple) all reads, then all writes
+        self.step_xops = self.xops
+        if self.simple:
+            gets = [op for op in self.xops if op[5] is None]
+            self.step_xops = gets + [op for op in self.xops if op[5] is not None]
 
         # per unit: all its connected inputs (set) and connected outputs (get)
         self.input_ops: list[RealBatch | None] = []
@@ -412,10 +466,11 @@ class _Run:
                     other.dead = other.fatal = True
         raise _Failure(inst.index, function, status, t, h)
 
-    def _exchange(self, t: float) -> None:
-        """Read outputs / write inputs in schedule order (all inputs fresh at t)."""
+    def _exchange(self, t: float, ops: list | None = None) -> None:
+        """Read outputs / write inputs in schedule order (all inputs fresh at t), or in
+        the order of ``ops`` (``step_xops``: the exchange after a step)."""
         take = self.y.take
-        for fn, comp, vr, n, buf, idx, view, inst, fname in self.xops:
+        for fn, comp, vr, n, buf, idx, view, inst, fname in self.xops if ops is None else ops:
             if idx is not None:  # a set: gather its source values from y
                 take(idx, out=view)
             st = fn(comp, vr, n, buf)
@@ -539,7 +594,7 @@ class _Run:
                         z[out_op.idx] = 0.5 * (y[out_op.idx] + out_op.view)
                     else:
                         z[out_op.idx] = out_op.view
-        self._exchange(t + h)
+        self._exchange(t + h, self.step_xops)
 
     # -- the run -----------------------------------------------------------------------
 
@@ -625,12 +680,17 @@ class _Run:
         rec[0] = self.rec[0]
         self.rec = rec
         record, advance, stats = self._record, self._advance, self.stats
+        ns_grid, h_ns, t0_ns = self.ns_grid, round(h * 1e9), round(t0 * 1e9)
         for n in range(1, n_steps + 1):
             # communication points t0 + n h; every full step passes the nominal h to
             # the units (as masters on an integer time grid do), a last partial step
             # the remainder
-            t_next = t0 + n * h if n < n_steps else self.t_end
-            hn = h if n < n_steps or exact else t_next - t
+            if ns_grid and (n < n_steps or exact):  # libcosim: integer ns, then double
+                t_next = (t0_ns + n * h_ns) / 1e9
+                hn = t_next - t
+            else:
+                t_next = t0 + n * h if n < n_steps else self.t_end
+                hn = h if n < n_steps or exact else t_next - t
             if need_prev:
                 np.copyto(y_save, y)
             advance(t, hn, y_prev if have_prev else None, h_prev, 1)
