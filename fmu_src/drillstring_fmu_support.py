@@ -27,6 +27,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from pythonfmu import Boolean, Integer, Real, String
+
 CONFIG_FILE = "drillstring_fmu.json"
 STATE_MAGIC = b"DSFMUSTATE\x00"
 STATE_FORMAT = 1
@@ -197,3 +199,55 @@ def guard_process_exit(resources: str | os.PathLike[str] | None, model_identifie
         return f"exit guard: __cxa_atexit failed for {binary}"
     _GUARDED.add(key)
     return f"exit guard: installed for {binary}"
+
+
+class GuardedAccessors:
+    """fmi2Get*/fmi2Set* for a pythonfmu slave that never raise into pythonfmu (which would turn
+    any exception into fmi2Fatal): a failure is logged as an error and remembered in
+    ``self._call_error``; the next fmi2DoStep refuses with fmi2Discard. The slave provides
+    ``_error(msg)``; ``_before_get()`` is a hook run before every read."""
+
+    _call_error: str | None
+
+    def _error(self, msg: str) -> None:  # pragma: no cover - provided by the slave
+        raise NotImplementedError
+
+    def _guarded(self, what: str, fn: Any, *args: Any) -> Any:
+        try:
+            return fn(*args)
+        except Exception as exc:
+            self._call_error = f"{what} failed: {exc}"
+            self._error(self._call_error)
+            return None
+
+    def _before_get(self) -> None:
+        return None
+
+    def _get(self, kind: type, vrs: list[int], fallback: Any) -> list[Any]:
+        self._before_get()
+        out = self._guarded(f"fmi2Get{kind.__name__}", get_values, self, kind, vrs)
+        return out if out is not None else [fallback] * len(vrs)
+
+    def get_real(self, vrs: list[int]) -> list[float]:
+        return self._get(Real, vrs, math.nan)
+
+    def get_integer(self, vrs: list[int]) -> list[int]:
+        return self._get(Integer, vrs, 0)
+
+    def get_boolean(self, vrs: list[int]) -> list[bool]:
+        return self._get(Boolean, vrs, False)
+
+    def get_string(self, vrs: list[int]) -> list[str]:
+        return self._get(String, vrs, "")
+
+    def set_real(self, vrs: list[int], values: list[float]) -> None:
+        self._guarded("fmi2SetReal", set_values, self, Real, vrs, values)
+
+    def set_integer(self, vrs: list[int], values: list[int]) -> None:
+        self._guarded("fmi2SetInteger", set_values, self, Integer, vrs, values)
+
+    def set_boolean(self, vrs: list[int], values: list[bool]) -> None:
+        self._guarded("fmi2SetBoolean", set_values, self, Boolean, vrs, values)
+
+    def set_string(self, vrs: list[int], values: list[str]) -> None:
+        self._guarded("fmi2SetString", set_values, self, String, vrs, values)

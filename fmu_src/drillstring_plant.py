@@ -102,7 +102,7 @@ OUTPUT_DEPENDENCIES: dict[str, tuple[str, ...]] = {
 }
 
 
-class DrillStringPlant(Fmi2Slave):
+class DrillStringPlant(support.GuardedAccessors, Fmi2Slave):
     """Drill-string plant (11)-(14), (17): input R - R0, outputs the perturbation states."""
 
     author = "drillstring project"
@@ -375,43 +375,9 @@ class DrillStringPlant(Fmi2Slave):
         return False
 
     # ----------------------------------------------------------------- get/set (never raise)
-    def _guarded(self, what: str, fn: Any, *args: Any) -> Any:
-        try:
-            return fn(*args)
-        except Exception as exc:
-            self._call_error = f"{what} failed: {exc}"
-            self._error(self._call_error)
-            return None
-
-    def _get(self, kind: type, vrs: list[int], fallback: Any) -> list[Any]:
+    def _before_get(self) -> None:
         if self._phase == "initialization" and not self._param_errors:
             self._guarded("rebuilding the engine", self._ensure_engine)
-        out = self._guarded(f"fmi2Get{kind.__name__}", support.get_values, self, kind, vrs)
-        return out if out is not None else [fallback] * len(vrs)
-
-    def get_real(self, vrs: list[int]) -> list[float]:
-        return self._get(Real, vrs, math.nan)
-
-    def get_integer(self, vrs: list[int]) -> list[int]:
-        return self._get(Integer, vrs, 0)
-
-    def get_boolean(self, vrs: list[int]) -> list[bool]:
-        return self._get(Boolean, vrs, False)
-
-    def get_string(self, vrs: list[int]) -> list[str]:
-        return self._get(String, vrs, "")
-
-    def set_real(self, vrs: list[int], values: list[float]) -> None:
-        self._guarded("fmi2SetReal", support.set_values, self, Real, vrs, values)
-
-    def set_integer(self, vrs: list[int], values: list[int]) -> None:
-        self._guarded("fmi2SetInteger", support.set_values, self, Integer, vrs, values)
-
-    def set_boolean(self, vrs: list[int], values: list[bool]) -> None:
-        self._guarded("fmi2SetBoolean", support.set_values, self, Boolean, vrs, values)
-
-    def set_string(self, vrs: list[int], values: list[str]) -> None:
-        self._guarded("fmi2SetString", support.set_values, self, String, vrs, values)
 
     # ----------------------------------------------------------------- FMU state
     def _get_fmu_state(self) -> PlantState:

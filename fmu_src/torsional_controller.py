@@ -30,7 +30,6 @@ from pythonfmu import (
     Fmi2Initial,
     Fmi2Slave,
     Fmi2Variability,
-    Integer,
     Real,
     String,
 )
@@ -50,7 +49,7 @@ GAIN_NAMES = ("F[1]", "F[2]", "F[3]", "F[4]")
 OUTPUT_DEPENDENCIES: dict[str, tuple[str, ...]] = {"R_minus_R0": tuple(n for n, _ in INPUTS)}
 
 
-class TorsionalController(Fmi2Slave):
+class TorsionalController(support.GuardedAccessors, Fmi2Slave):
     """State feedback with feed-forward R - R0 = R_ff + F x of Section V, eqs. (29)-(31)."""
 
     author = "drillstring project"
@@ -277,43 +276,6 @@ class TorsionalController(Fmi2Slave):
     def _discard(self, msg: str) -> bool:
         self.log(msg, Fmi2Status.discard)
         return False
-
-    # ----------------------------------------------------------------- get/set (never raise)
-    def _guarded(self, what: str, fn: Any, *args: Any) -> Any:
-        try:
-            return fn(*args)
-        except Exception as exc:
-            self._call_error = f"{what} failed: {exc}"
-            self._error(self._call_error)
-            return None
-
-    def _get(self, kind: type, vrs: list[int], fallback: Any) -> list[Any]:
-        out = self._guarded(f"fmi2Get{kind.__name__}", support.get_values, self, kind, vrs)
-        return out if out is not None else [fallback] * len(vrs)
-
-    def get_real(self, vrs: list[int]) -> list[float]:
-        return self._get(Real, vrs, math.nan)
-
-    def get_integer(self, vrs: list[int]) -> list[int]:
-        return self._get(Integer, vrs, 0)
-
-    def get_boolean(self, vrs: list[int]) -> list[bool]:
-        return self._get(Boolean, vrs, False)
-
-    def get_string(self, vrs: list[int]) -> list[str]:
-        return self._get(String, vrs, "")
-
-    def set_real(self, vrs: list[int], values: list[float]) -> None:
-        self._guarded("fmi2SetReal", support.set_values, self, Real, vrs, values)
-
-    def set_integer(self, vrs: list[int], values: list[int]) -> None:
-        self._guarded("fmi2SetInteger", support.set_values, self, Integer, vrs, values)
-
-    def set_boolean(self, vrs: list[int], values: list[bool]) -> None:
-        self._guarded("fmi2SetBoolean", support.set_values, self, Boolean, vrs, values)
-
-    def set_string(self, vrs: list[int], values: list[str]) -> None:
-        self._guarded("fmi2SetString", support.set_values, self, String, vrs, values)
 
     # ----------------------------------------------------------------- FMU state
     def _fields(self) -> dict[str, Any]:
