@@ -8,11 +8,12 @@ values with round-trip precision (``%.17g``).
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from drillstring.fileio import atomic_write
 
 __all__ = ["FmuFailure", "StepStats", "CosimResult", "write_csv"]
 
@@ -106,18 +107,10 @@ def write_csv(data: np.ndarray, path: str | os.PathLike) -> Path:
     path = Path(path)
     header = ",".join(f'"{n}"' for n in names)
     table = np.column_stack([np.asarray(data[n], dtype=float) for n in names])
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", newline="\n") as f:
-            f.write(header + "\n")
-            if len(table):
-                np.savetxt(f, table, fmt="%.17g", delimiter=",")
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+
+    def write(fh) -> None:
+        fh.write((header + "\n").encode())
+        if len(table):
+            np.savetxt(fh, table, fmt="%.17g", delimiter=",")
+
+    return atomic_write(path, write)
