@@ -7,9 +7,23 @@ import io
 import json
 import os
 import tempfile
+import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import IO, Any
+
+
+def load_table(path: Path) -> Any:
+    """Parse a .toml or .json file by its suffix (the caller has checked the suffix).
+
+    Raises OSError, tomllib.TOMLDecodeError or json.JSONDecodeError for the caller to report
+    with its own error type.
+    """
+    if path.suffix.lower() == ".toml":
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    with path.open(encoding="utf-8") as fh:
+        return json.load(fh)
 
 
 def atomic_write(path: str | os.PathLike[str], write: Callable[[IO[bytes]], Any]) -> Path:

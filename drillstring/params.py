@@ -61,7 +61,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
 
-from .fileio import write_text
+from .fileio import load_table, write_text
 
 __all__ = [
     "KNOWN_PARAMS",
@@ -443,12 +443,7 @@ def read_params(path: str | os.PathLike[str]) -> ScaledParams | PhysicalParams:
     path = Path(path)
     suffix = _suffix(path)
     try:
-        if suffix == ".toml":
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
-        else:
-            with path.open(encoding="utf-8") as fh:
-                data = json.load(fh)
+        data = load_table(path)
     except OSError as exc:
         raise ParameterError(f"cannot read parameter file {str(path)!r}: {exc}") from exc
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:

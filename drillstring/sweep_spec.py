@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from .fileio import load_table
 from .params import (
     KNOWN_PARAMS,
     ParameterError,
@@ -502,12 +503,7 @@ def load_spec(path: str | os.PathLike[str]) -> SweepSpec:
     if suffix not in (".toml", ".json"):
         raise SweepSpecError(f"sweep spec {str(path)!r}: suffix must be .toml or .json")
     try:
-        if suffix == ".toml":
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
-        else:
-            with path.open(encoding="utf-8") as fh:
-                data = json.load(fh)
+        data = load_table(path)
     except OSError as exc:
         raise SweepSpecError(f"cannot read sweep spec {str(path)!r}: {exc}") from None
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
