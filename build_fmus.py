@@ -92,7 +92,7 @@ def synthesize_gains(path: Path) -> Path:
     A, LMI synthesis, certificate, gains file); its printout goes to stdout. Replace this call
     when ``drillstring.controller.synthesis`` offers one.
     """
-    from drillstring.controller.cli import design_main
+    from drillstring.apps.design import design_main
 
     path.parent.mkdir(parents=True, exist_ok=True)
     print(f"build_fmus: no gains file at {path}: running `drillstring design`", file=sys.stderr)
@@ -108,7 +108,7 @@ def synthesize_gains(path: Path) -> Path:
 def load_gains(path: Path) -> dict[str, Any]:
     """F, K0, R_ff of a validated gains file, with its name and SHA-256 for traceability."""
     from drillstring.controller.gains import GainsFileError, read_gains
-    from drillstring.params import REFERENCE
+    from drillstring.model.params import REFERENCE
 
     try:
         gains = read_gains(path)

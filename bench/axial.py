@@ -9,7 +9,12 @@ from __future__ import annotations
 
 import time
 
-from drillstring.axial import FIG4_ETABAR2, FIG4_GAMMABARS, default_fit_delays, limit_cycle
+from drillstring.analysis.limit_cycles import (
+    FIG4_ETABAR2,
+    FIG4_GAMMABARS,
+    default_fit_delays,
+    limit_cycle,
+)
 
 
 def main() -> None:

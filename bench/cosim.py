@@ -155,7 +155,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="bench_cosim_") as tmp:
         gains_path = args.gains
         if gains_path is None:
-            from drillstring.controller.cli import design_main
+            from drillstring.apps.design import design_main
 
             print("designing gains ...", flush=True)
             gains_path = Path(tmp) / "gains.json"

@@ -12,10 +12,10 @@ import time
 
 import numpy as np
 
-from drillstring._jit import numba_available
-from drillstring.engine import EngineOptions
-from drillstring.params import REFERENCE
-from drillstring.simulate import simulate
+from drillstring.model.engine import EngineOptions
+from drillstring.model.kernel.jit import numba_available
+from drillstring.model.params import REFERENCE
+from drillstring.model.simulate import simulate
 
 
 def run(h: float, tau_end: float):

@@ -16,8 +16,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from drillstring.sweep import kernel_warmup, run_sweep
-from drillstring.sweep_spec import spec_from_dict
+from drillstring.apps.sweep.runner import kernel_warmup, run_sweep
+from drillstring.apps.sweep.spec import spec_from_dict
 
 
 def bench_spec(tau_end: float, h: float, n: int) -> dict:

@@ -8,9 +8,9 @@ then become (25) with the state-dependent delay (14). Two linear models follow f
   ``R_ff = -K0`` (31); the matrices are those of NOTES.md section 4;
 * the ODE (13), (27), obtained with the Taylor approximation (26) of the delay, in the same state.
 
-Everything here is a pure function of a :class:`~drillstring.params.ScaledParams` and the two axial
-quantities ``A`` (slope of (22)) and ``taubar_crit`` (critical delay of (21), fast time scale),
-which come from the axial analysis.
+Everything here is a pure function of a :class:`~drillstring.model.params.ScaledParams` and
+the two axial quantities ``A`` (slope of (22)) and ``taubar_crit`` (critical delay of (21), fast
+time scale), which come from the axial analysis.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from drillstring.params import ScaledParams
+from drillstring.model.params import ScaledParams
 
 __all__ = [
     "AveragedModel",
@@ -197,11 +197,11 @@ def delay_roots(
     """Rightmost characteristic roots of ``x' = (A0 + B F) x + A1 x(t - tau)``.
 
     ``F = None`` is the open loop (R_fb = 0), ``tau = None`` the nominal delay ``tau_n0``.
-    Roots come from :func:`drillstring.spectrum.dde_roots` (automatic region: every root within
-    ``min(1, 2/tau)`` of the rightmost one), applied to a balanced similar system, sorted by real
-    part, descending; at most ``n_roots`` are returned.
+    Roots come from :func:`drillstring.analysis.spectrum.dde_roots` (automatic region: every
+    root within ``min(1, 2/tau)`` of the rightmost one), applied to a balanced similar system,
+    sorted by real part, descending; at most ``n_roots`` are returned.
     """
-    from drillstring.spectrum import dde_roots
+    from drillstring.analysis.spectrum import dde_roots
 
     tau = model.tau_n0 if tau is None else _finite("tau", tau)
     if tau <= 0.0:

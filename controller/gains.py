@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from drillstring.fileio import write_text
-from drillstring.params import ParameterError, ScaledParams
+from drillstring.model.params import ParameterError, ScaledParams
 
 __all__ = [
     "DEFAULT_GAINS_PATH",

@@ -50,7 +50,7 @@ from drillstring.controller.averaged import (
     spectral_abscissa_sweep,
 )
 from drillstring.controller.gains import PAPER_F, GainsFile
-from drillstring.params import ScaledParams
+from drillstring.model.params import ScaledParams
 
 __all__ = [
     "ALPHA_GRID",

@@ -1,7 +1,7 @@
 """FMI 2.0 co-simulation unit of the drill-string plant (pythonfmu script of ``DrillStringPlant``).
 
-Wraps :class:`drillstring.engine.Engine`, the scaled axial-torsional model (11)-(14) of Besselink,
-van de Wouw and Nijmeijer (IEEE CCA 2011) with the Filippov contact law (17) and the
+Wraps :class:`drillstring.model.engine.Engine`, the scaled axial-torsional model (11)-(14) of
+Besselink, van de Wouw and Nijmeijer (IEEE CCA 2011) with the Filippov contact law (17) and the
 state-dependent delay (14). No model code lives here: the ``drillstring`` package is bundled into
 the FMU's ``resources/`` by ``build_fmus.py``. ``fmi2DoStep(t, h)`` holds the input ``R_minus_R0``
 over the step and advances the engine to ``t + h``; the engine locates the events inside the
@@ -35,8 +35,8 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
-from drillstring.engine import MODE_NAMES, Engine, EngineOptions
-from drillstring.params import REFERENCE, ScaledParams
+from drillstring.model.engine import MODE_NAMES, Engine, EngineOptions
+from drillstring.model.params import REFERENCE, ScaledParams
 
 MODEL = "DrillStringPlant"
 _ENGINE_DEFAULTS = EngineOptions()

@@ -3,7 +3,7 @@
 
 Output ``R_minus_R0 = R_ff + F x`` with ``x = [phi - phi_ref, dphi, phi - theta - K0 - twist_ref,
 dtheta]``, the state feedback with feed-forward of Section V, eqs. (29)-(31), evaluated by
-:func:`drillstring.control_law.feedback_torque` (the same function the monolithic solver uses; no
+:func:`drillstring.model.control.feedback_torque` (the same function the monolithic solver uses; no
 control code lives here). Before ``t_on`` only ``R_ff`` acts (the paper's Fig. 6). Bumpless
 switch-on (NOTES.md section 7, our reconstruction): at the first communication point at or after
 ``t_on`` the controller takes the measured angle as its reference, ``phi_ref = phi`` (``latch`` =
@@ -35,7 +35,7 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
-from drillstring.control_law import LATCH_MODES, AffineFeedback, feedback_torque
+from drillstring.model.control import LATCH_MODES, AffineFeedback, feedback_torque
 
 MODEL = "TorsionalController"
 INPUTS: tuple[tuple[str, str], ...] = (

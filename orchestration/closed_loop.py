@@ -27,15 +27,14 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.control_law import LATCH_MODES
 from drillstring.controller.gains import GainsFile, read_gains
-from drillstring.engine import Engine, EngineOptions
-from drillstring.params import ScaledParams
-from drillstring.simulate import SimulationResult
-
-from .master import Master, Unit
-from .monolithic import closed_loop_law, run_monolithic
-from .results import CosimResult
+from drillstring.model.control import LATCH_MODES
+from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.params import ScaledParams
+from drillstring.model.simulate import SimulationResult
+from drillstring.orchestration.master import Master, Unit
+from drillstring.orchestration.monolithic import closed_loop_law, run_monolithic
+from drillstring.orchestration.results import CosimResult
 
 __all__ = [
     "PLANT_FMU",

@@ -37,8 +37,7 @@ from typing import Any
 import numpy as np
 
 from drillstring.controller.gains import GainsFile
-
-from .closed_loop import (
+from drillstring.orchestration.closed_loop import (
     LoopSetup,
     build_fmus_into,
     closed_loop_master,
@@ -49,7 +48,7 @@ from .closed_loop import (
     run_cosim,
     run_reference,
 )
-from .master import StepControl
+from drillstring.orchestration.master import StepControl
 
 __all__ = [
     "DEFAULT_STEPS",

@@ -32,10 +32,8 @@ import numpy as np
 
 from drillstring.controller.gains import GainsFile
 from drillstring.fileio import write_csv
-from drillstring.plots import plot_velocities
-from drillstring.simulate import SimulationResult
-
-from .closed_loop import (
+from drillstring.model.simulate import SimulationResult
+from drillstring.orchestration.closed_loop import (
     LoopSetup,
     closed_loop_master,
     grid_indices,
@@ -43,7 +41,8 @@ from .closed_loop import (
     run_cosim,
     run_reference,
 )
-from .results import CosimResult
+from drillstring.orchestration.results import CosimResult
+from drillstring.plotting import plot_velocities
 
 __all__ = ["run_pair", "write_fig5", "write_fig6", "FIG6_RIPPLE"]
 

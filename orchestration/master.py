@@ -93,9 +93,15 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from tqdm import tqdm
 
-from .connections import Connection, System, Unit, build_system
-from .fmi_binding import STATUS_NAMES, VR, Instance, RealBatch, make_callbacks
-from .results import CosimResult, FmuFailure, StepStats
+from drillstring.orchestration.connections import Connection, System, Unit, build_system
+from drillstring.orchestration.fmi_binding import (
+    STATUS_NAMES,
+    VR,
+    Instance,
+    RealBatch,
+    make_callbacks,
+)
+from drillstring.orchestration.results import CosimResult, FmuFailure, StepStats
 
 __all__ = [
     "Master",

@@ -10,11 +10,11 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 
-from drillstring.control_law import AffineFeedback
 from drillstring.controller.gains import GainsFile, read_gains
-from drillstring.engine import EngineOptions
-from drillstring.params import ScaledParams
-from drillstring.simulate import SimulationResult, simulate
+from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import EngineOptions
+from drillstring.model.params import ScaledParams
+from drillstring.model.simulate import SimulationResult, simulate
 
 
 def closed_loop_law(gains: GainsFile, t_on: float = 0.0, latch: str = "none") -> AffineFeedback:

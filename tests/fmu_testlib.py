@@ -37,8 +37,8 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
 )
 
-import drillstring.control_law  # noqa: F401  (import the repository's package before any FMU
-import drillstring.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
+import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
+import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
 
 ROOT = Path(__file__).resolve().parents[1]
 C_HOST = ROOT / "tests" / "c_host" / "host.c"
@@ -104,7 +104,7 @@ def make_gains_file(path: Path) -> dict[str, Any]:
     """
     from drillstring.controller.averaged import averaged_model
     from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
-    from drillstring.params import REFERENCE
+    from drillstring.model.params import REFERENCE
 
     model = averaged_model(REFERENCE, 0.45, 5.0)
     gains = GainsFile(

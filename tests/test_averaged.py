@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from drillstring.axial_stability import critical_delay
+from drillstring.analysis.axial_stability import critical_delay
 from drillstring.controller.averaged import (
     averaged_model,
     averaged_rhs,
@@ -15,11 +15,12 @@ from drillstring.controller.averaged import (
     ode_poles,
     open_loop_roots,
 )
-from drillstring.params import REFERENCE
+from drillstring.model.params import REFERENCE
 
-# Slope A(gammabar, etabar) of (22) at the reference set, as drillstring.axial.design_inputs
-# measures it (0.3855; tests/test_axial.py checks the fit). It is an input here, not a result:
-# the conclusions below are also checked on A_RANGE around it, so they do not hinge on it.
+# Slope A(gammabar, etabar) of (22) at the reference set, as
+# drillstring.analysis.limit_cycles.design_inputs measures it (0.3855; tests/test_axial.py checks
+# the fit). It is an input here, not a result: the conclusions below are also checked on A_RANGE
+# around it, so they do not hinge on it.
 A_REF = 0.3855
 A_RANGE = (0.3, A_REF, 0.6)
 # Critical delay of (21) at the reference set (gammabar = 0.2, etabar^2 = 0.1).

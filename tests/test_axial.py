@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from drillstring.axial import design_inputs, fast_params, fit_slope, limit_cycle
-from drillstring.axial_stability import critical_delay
-from drillstring.params import REFERENCE
+from drillstring.analysis.axial_stability import critical_delay
+from drillstring.analysis.limit_cycles import design_inputs, fast_params, fit_slope, limit_cycle
+from drillstring.model.params import REFERENCE
 
 G, E2 = 0.2, 0.1
 

@@ -1,4 +1,5 @@
-"""Tests of drillstring.axial_stability: eq. (21), tau-decomposition, critical delay, Fig. 2.
+"""Tests of drillstring.analysis.axial_stability: eq. (21), tau-decomposition, critical delay,
+Fig. 2.
 
 The tau-decomposition (closed-form crossing frequencies, delays, directions) and the spectral root
 finder are independent methods; the tests check each against the other.
@@ -12,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from drillstring.axial_stability import (
+from drillstring.analysis.axial_stability import (
     FIG2_GAMMABARS,
     axial_roots,
     axial_spectral_abscissa,
@@ -26,7 +27,7 @@ from drillstring.axial_stability import (
     unstable_root_count,
     write_stability_diagram,
 )
-from drillstring.spectrum import quasi_polynomial_roots
+from drillstring.analysis.spectrum import quasi_polynomial_roots
 
 
 def first_destabilising_delay(g: float, e2: float, step: float = 0.25, tol: float = 1e-11) -> float:
@@ -149,7 +150,7 @@ def test_no_crossing_means_stable_for_all_delays() -> None:
 
 
 def test_reference_set_is_unstable() -> None:
-    from drillstring.params import REFERENCE
+    from drillstring.model.params import REFERENCE
 
     g, e2, tau0 = REFERENCE.gammabar, REFERENCE.etabar2, REFERENCE.taubar_n0
     assert abs(g - 0.2) < 1e-12 and abs(e2 - 0.1) < 1e-12 and abs(tau0 - 9.93) < 0.01

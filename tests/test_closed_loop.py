@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drillstring.axial import design_inputs
-from drillstring.control_law import AffineFeedback
+from drillstring.analysis.limit_cycles import design_inputs
 from drillstring.controller.gains import PAPER_F
 from drillstring.controller.synthesis import design
-from drillstring.params import REFERENCE
-from drillstring.simulate import simulate
+from drillstring.model.control import AffineFeedback
+from drillstring.model.params import REFERENCE
+from drillstring.model.simulate import simulate
 
 DPHI0 = -2.5
 
@@ -49,7 +49,7 @@ def test_open_loop_with_feedforward_only_does_not_converge(lmi_design):
 def test_fig6_switch_on_suppresses_torsional_stick_slip(lmi_design):
     """Fig. 6: torsional stick-slip under way (torsional-stick model on), controller switched on
     bumplessly at tau = 25: no torsional stick afterwards, dphi back to a small ripple."""
-    from drillstring.engine import EngineOptions
+    from drillstring.model.engine import EngineOptions
 
     m = lmi_design.model
     law = AffineFeedback(F=tuple(lmi_design.F), K0=m.K0, R_ff=m.R_ff, t_on=25.0, latch="angle")

@@ -21,8 +21,8 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
-from drillstring.engine import Engine, EngineOptions
-from drillstring.params import REFERENCE
+from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.params import REFERENCE
 
 
 @pytest.fixture(scope="session")
@@ -60,7 +60,10 @@ def test_capabilities_default_experiment_and_module_names(built):
             assert z.read("resources/requirements.txt").decode().split() == ["numpy>=2.0"]
             files = set(z.namelist())
         # the physics is bundled as a package, not written into the FMU script
-        assert {"resources/drillstring/engine.py", "resources/drillstring/control_law.py"} <= files
+        assert {
+            "resources/drillstring/model/engine.py",
+            "resources/drillstring/model/control.py",
+        } <= files
         assert f"binaries/linux64/{unit.model}.so" in files
         assert not [f for f in files if "__pycache__" in f or f.endswith((".pyc", ".nbi"))]
     # both FMUs run in one interpreter: their Python modules need distinct names (pythonfmu #228)

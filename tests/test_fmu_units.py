@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from drillstring.engine import Engine, EngineOptions
-from drillstring.params import REFERENCE
+from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.params import REFERENCE
 
 H_NS = 10_000_000  # macro step 0.01
 REALS = ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n")

@@ -1,4 +1,4 @@
-"""Tests for drillstring.params: derived quantities, eqs. (15)-(16), files and validation.
+"""Tests for drillstring.model.params: derived quantities, eqs. (15)-(16), files and validation.
 
 Expected values are computed by hand from NOTES.md section 5 and the paper's formulas, never taken
 from the code under test.
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drillstring.params import (
+from drillstring.model.params import (
     REFERENCE,
     ParameterError,
     PhysicalParams,
@@ -27,7 +27,7 @@ from drillstring.params import (
     save_params,
 )
 
-DATA = Path(__file__).resolve().parents[1] / "drillstring" / "data"
+DATA = Path(__file__).resolve().parents[1] / "drillstring" / "model" / "data"
 
 SCALED_OK = dict(
     n=4, psi=250.0, gamma=0.0, eta=10.0, lam=0.0, beta=1.0, rho=5.0, v0=1.0, omega0=5.0

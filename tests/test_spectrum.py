@@ -1,4 +1,5 @@
-"""Tests of drillstring.spectrum: roots of linear retarded DDEs against independent references.
+"""Tests of drillstring.analysis.spectrum: roots of linear retarded DDEs against independent
+references.
 
 References: the Lambert-W closed form of the scalar equation x' = a x + b x(t - tau),
 s = W_k(b tau exp(-a tau)) / tau + a (every branch k is a root, and these are all roots);
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.special import lambertw
 
-from drillstring.spectrum import (
+from drillstring.analysis.spectrum import (
     DDESystem,
     chebyshev_generator,
     dde_roots,

@@ -1,4 +1,4 @@
-"""Tests for the parameter sweeps (drillstring.sweep, sweep_spec, sweep_studies).
+"""Tests for the parameter sweeps (drillstring.apps.sweep.runner, sweep_spec, sweep_studies).
 
 The Dask run is checked against the serial run of the same sweep point by point; resume and
 failure handling use cheap stand-in point functions; the metrics are checked against independent
@@ -16,20 +16,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drillstring._jit import numba_available
-from drillstring.controller.averaged import averaged_model, open_loop_roots
-from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
-from drillstring.engine import EngineOptions
-from drillstring.params import REFERENCE, PhysicalParams, save_params
-from drillstring.simulate import simulate
-from drillstring.sweep import SweepError, columns, read_results, run_sweep, sweep_main
-from drillstring.sweep_spec import SweepSpecError, load_spec, spec_from_dict
-from drillstring.sweep_studies import (
+from drillstring.apps.sweep.runner import SweepError, columns, read_results, run_sweep, sweep_main
+from drillstring.apps.sweep.spec import SweepSpecError, load_spec, spec_from_dict
+from drillstring.apps.sweep.studies import (
     axial_design,
     axial_stick_fraction,
     closed_loop_metrics,
     rightmost_nonzero_root,
 )
+from drillstring.controller.averaged import averaged_model, open_loop_roots
+from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.model.engine import EngineOptions
+from drillstring.model.kernel.jit import numba_available
+from drillstring.model.params import REFERENCE, PhysicalParams, save_params
+from drillstring.model.simulate import simulate
 
 # 3 x 3 open-loop plane; omega0 = 25 makes taubar_n0 = 1.99 < taubar_crit = 2.39, where the
 # averaged model (25) does not hold: those three points must fail and be recorded.
@@ -291,7 +291,7 @@ def test_closed_loop_with_the_paper_gain_file(tmp_path):
 
 
 def test_closed_loop_design_at_the_point_converges():
-    from drillstring.sweep_spec import OPTION_DEFAULTS, SweepOptions
+    from drillstring.apps.sweep.spec import OPTION_DEFAULTS, SweepOptions
 
     opts = SweepOptions(values=tuple(OPTION_DEFAULTS["closed-loop"].items()))
     out = closed_loop_metrics(REFERENCE, axial_design(REFERENCE), 20.0, opts)

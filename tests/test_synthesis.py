@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from test_averaged import A_REF, TAUBAR_CRIT_REF, rhp_zero_count
 
+from drillstring.apps.design import design_main
 from drillstring.controller.averaged import averaged_model, closed_loop_roots
-from drillstring.controller.cli import design_main
 from drillstring.controller.gains import (
     PAPER_F,
     GainsFileError,
@@ -28,7 +28,7 @@ from drillstring.controller.synthesis import (
     synthesize,
     to_gains_file,
 )
-from drillstring.params import REFERENCE
+from drillstring.model.params import REFERENCE
 
 
 def block32(Abar, A1, P, alpha):
@@ -177,7 +177,7 @@ def test_design_command_writes_certified_gains(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "certificate PASSED" in text and "Open loop" in text and "alpha" in text
     g = read_gains(out)
-    assert g.taubar_crit == TAUBAR_CRIT_REF  # default from drillstring.axial_stability
+    assert g.taubar_crit == TAUBAR_CRIT_REF  # default from drillstring.analysis.axial_stability
     assert g.certificate["abscissa_sweep_max"] < 0.0
 
 

@@ -1,8 +1,8 @@
 """Parameter sweeps on Dask: ``drillstring sweep SPEC --out DIR``.
 
-One task per point of the sweep (:mod:`drillstring.sweep_spec`); the point functions are in
-:mod:`drillstring.sweep_studies`. The axial design inputs A, taubar_crit of (22), which depend on
-(gammabar, etabar^2) only, are one task per distinct pair; the point tasks depend on it.
+One task per point of the sweep (:mod:`drillstring.apps.sweep.spec`); the point functions are in
+:mod:`drillstring.apps.sweep.studies`. The axial design inputs A, taubar_crit of (22), which
+depend on (gammabar, etabar^2) only, are one task per distinct pair; the point tasks depend on it.
 
 Execution: a ``dask.distributed.LocalCluster`` (processes, one thread each) by default,
 ``--scheduler ADDRESS`` for an existing cluster, or serially in this process (``--workers 0``,
@@ -40,9 +40,15 @@ from typing import Any
 
 from tqdm import tqdm
 
-from .fileio import save_figure, write_csv, write_json
-from .sweep_spec import SweepSpec, SweepSpecError, load_spec
-from .sweep_studies import METRICS, DesignInputs, axial_design, design_key, evaluate_point
+from drillstring.apps.sweep.spec import SweepSpec, SweepSpecError, load_spec
+from drillstring.apps.sweep.studies import (
+    METRICS,
+    DesignInputs,
+    axial_design,
+    design_key,
+    evaluate_point,
+)
+from drillstring.fileio import save_figure, write_csv, write_json
 
 __all__ = [
     "PointFunction",
@@ -172,14 +178,14 @@ def _rewrite(path: Path, header: Sequence[str], rows: dict[int, list[str]]) -> N
 def kernel_warmup() -> dict[str, Any]:
     """Run a tiny simulation so that numba loads the cached kernel (or compiles and caches it);
     return the dispatchers' cache hits and misses in this process (misses: compiled here)."""
-    from . import _jit
+    from drillstring.model.kernel import jit as _jit
 
     info: dict[str, Any] = {"pid": os.getpid(), "jit": _jit.numba_available()}
     if not info["jit"]:
         return info
-    from .kernel import filippov, stepper
-    from .params import REFERENCE
-    from .simulate import simulate
+    from drillstring.model.kernel import filippov, stepper
+    from drillstring.model.params import REFERENCE
+    from drillstring.model.simulate import simulate
 
     t0 = time.perf_counter()
     simulate(REFERENCE, 0.05, dt_out=0.05, initial={"dphi": -0.5}, progress=False)
@@ -450,7 +456,7 @@ def run_sweep(
 
 def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> list[Path]:
     """One PNG per metric of ``spec.metrics`` over the swept plane (or line)."""
-    from .sweep_plots import metric_figure
+    from drillstring.apps.sweep.plots import metric_figure
 
     header = columns(spec)
     kinds = dict(METRICS[spec.study])

@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
-from .axial_stability import critical_delay
-from .engine import Engine, EngineOptions, Event
-from .params import ScaledParams
+from drillstring.analysis.axial_stability import critical_delay
+from drillstring.model.engine import Engine, EngineOptions, Event
+from drillstring.model.params import ScaledParams
 
 DEFAULT_LAM_OVER_VBAR0 = 50.0  # reference set: 1.58*sqrt(1000) = 49.96; bit never moves up
 FIG4_GAMMABARS = (0.2, 0.4, 0.6)
@@ -258,7 +258,7 @@ def average_curve(
     progress: bool = True,
     **kw,
 ) -> list[LimitCycle]:
-    """Limit cycles along a line of delays (serial; see drillstring.sweep for Dask)."""
+    """Limit cycles along a line of delays (serial; see drillstring.apps.sweep.runner for Dask)."""
     out = []
     for tb in tqdm(list(taubars), desc=f"gammabar={gammabar:g}", disable=not progress, leave=False):
         out.append(limit_cycle(gammabar, etabar2, float(tb), n_samples=0, **kw))

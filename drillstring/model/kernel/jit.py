@@ -4,7 +4,7 @@ The kernel functions are plain Python written in the subset numba compiles. ``ji
 returns ``numba.njit`` when numba is importable (and ``DRILLSTRING_JIT`` is not ``0``), and the
 identity otherwise, so the model is written once and runs with or without the accelerator.
 Modules loaded under a name containing ``_pure`` are never compiled: that copy runs a Python
-callable as control law inside the loop (see :mod:`drillstring.kernel.stepper`).
+callable as control law inside the loop (see :mod:`drillstring.model.kernel.stepper`).
 """
 
 from __future__ import annotations

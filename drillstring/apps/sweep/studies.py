@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .sweep_spec import SweepOptions, SweepSpec
+from drillstring.apps.sweep.spec import SweepOptions, SweepSpec
 
 __all__ = [
     "METRICS",
@@ -112,7 +112,8 @@ class DesignInputs:
 
 
 def design_key(params: Any) -> tuple[float, float]:
-    """(gammabar, etabar^2): all that :func:`drillstring.axial.design_inputs` reads."""
+    """(gammabar, etabar^2): all that :func:`~drillstring.analysis.limit_cycles.design_inputs`
+    reads."""
     return (float(params.gammabar), float(params.etabar2))
 
 
@@ -120,11 +121,12 @@ _DESIGN_CACHE: dict[tuple[float, float], DesignInputs] = {}
 
 
 def axial_design(params: Any) -> DesignInputs:
-    """:func:`drillstring.axial.design_inputs` for ``params``, cached by :func:`design_key`
-    (exact floats: the function depends on nothing else). Never raises; errors are recorded."""
+    """:func:`~drillstring.analysis.limit_cycles.design_inputs` for ``params``, cached by
+    :func:`design_key` (exact floats: the function depends on nothing else). Never raises; errors
+    are recorded."""
     key = design_key(params)
     if key not in _DESIGN_CACHE:
-        from .axial import design_inputs
+        from drillstring.analysis.limit_cycles import design_inputs
 
         try:
             d = design_inputs(params)
@@ -158,7 +160,7 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
 
 def axial_stick_fraction(result: Any) -> float:
     """Fraction of the simulated time spent in axial stick (mode 1), exact from the mode events."""
-    from .engine import MODE_NAMES
+    from drillstring.model.engine import MODE_NAMES
 
     t_end = float(result.tau[-1])
     if not t_end > 0.0:
@@ -177,8 +179,8 @@ def axial_stick_fraction(result: Any) -> float:
 
 
 def _run(params: Any, tau_end: float, control: Any, opts: SweepOptions) -> Any:
-    from .engine import EngineOptions
-    from .simulate import simulate
+    from drillstring.model.engine import EngineOptions
+    from drillstring.model.simulate import simulate
 
     return simulate(
         params,
@@ -211,7 +213,7 @@ def open_loop_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
     """Open-loop metrics at one point (see the module docstring)."""
-    from .controller.averaged import averaged_model, open_loop_roots
+    from drillstring.controller.averaged import averaged_model, open_loop_roots
 
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
@@ -245,14 +247,14 @@ def closed_loop_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
     """Closed-loop metrics at one point (see the module docstring)."""
-    from .control_law import AffineFeedback
-    from .controller.averaged import averaged_model, closed_loop_roots
+    from drillstring.controller.averaged import averaged_model, closed_loop_roots
+    from drillstring.model.control import AffineFeedback
 
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
     gains = opts.gains_file
     if gains is None:
-        from .controller.synthesis import synthesize
+        from drillstring.controller.synthesis import synthesize
 
         kw = {} if opts["gain_max"] is None else {"gain_max": opts["gain_max"]}
         syn = synthesize(model, **kw)
@@ -289,7 +291,7 @@ def closed_loop_metrics(
 
 def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
     """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4)."""
-    from .axial import limit_cycle
+    from drillstring.analysis.limit_cycles import limit_cycle
 
     lc = limit_cycle(
         gammabar,

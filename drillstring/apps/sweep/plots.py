@@ -47,7 +47,7 @@ def metric_figure(
     title: str,
 ) -> Any:
     """Figure of one metric; ``values`` in point-index order (row-major over ``axes``; None or ''
-    for a failed point), ``axes`` the spec's :class:`~drillstring.sweep_spec.Axis` objects."""
+    for a failed point), ``axes`` the spec's :class:`~drillstring.apps.sweep.spec.Axis` objects."""
     z, labels = _encode(values, kind)
     fig = _figure((6.4, 4.8))
     ax = fig.add_subplot(1, 1, 1)

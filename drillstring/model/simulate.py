@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .engine import Control, Engine, EngineOptions, Event, InitialState, Status
-from .fileio import write_csv
-from .history import HistoryFunction
-from .params import ScaledParams
+from drillstring.fileio import write_csv
+from drillstring.model.engine import Control, Engine, EngineOptions, Event, InitialState, Status
+from drillstring.model.params import ScaledParams
+from drillstring.model.prehistory import HistoryFunction
 
 COLUMNS = ("tau", "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n", "mode")
 
@@ -88,7 +88,7 @@ def simulate(
     """Simulate the model (11)-(14), (17) from tau = 0 to ``tau_end``.
 
     ``control`` is the torque law R - R0: None (0), a constant, an
-    :class:`~drillstring.control_law.AffineFeedback` (evaluated continuously), or a callable
+    :class:`~drillstring.model.control.AffineFeedback` (evaluated continuously), or a callable
     ``f(tau, y)``. Outputs are sampled every ``dt_out``; the engine lands on each sample time,
     so a run equals an FMU driven with macro step ``dt_out`` and the same input. ``progress``:
     True/False, or None for a bar that appears only when the run takes more than a second.

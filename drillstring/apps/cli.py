@@ -14,15 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .params import ParameterError, params_from_spec
+from drillstring.model.params import ParameterError, params_from_spec
 
 
 def _simulate_main(argv: Sequence[str]) -> int:
-    from .control_law import AffineFeedback
-    from .engine import EngineOptions
-    from .fileio import write_json
-    from .plots import plot_velocities
-    from .simulate import simulate
+    from drillstring.fileio import write_json
+    from drillstring.model.control import AffineFeedback
+    from drillstring.model.engine import EngineOptions
+    from drillstring.model.simulate import simulate
+    from drillstring.plotting import plot_velocities
 
     ap = argparse.ArgumentParser(prog="drillstring simulate", description=simulate.__doc__)
     ap.add_argument("--params", default="reference", help="parameter set name or file")
@@ -46,7 +46,7 @@ def _simulate_main(argv: Sequence[str]) -> int:
         params = params_from_spec(args.params)
         control = None
         if args.control != "none":
-            from .controller.gains import DEFAULT_GAINS_PATH, read_gains
+            from drillstring.controller.gains import DEFAULT_GAINS_PATH, read_gains
 
             g = read_gains(args.gains or DEFAULT_GAINS_PATH)
             if args.control == "feedforward":
@@ -94,8 +94,8 @@ def _axial_main(argv: Sequence[str]) -> int:
     ap.add_argument("--etabar2", type=float, default=0.1, help="limit-cycle etabar^2")
     ap.add_argument("--taubar", type=float, default=10.0, help="limit-cycle delay taubar_n")
     args = ap.parse_args(argv)
-    from .axial_figures import write_average_figure, write_limit_cycle_figure
-    from .axial_stability import write_stability_diagram
+    from drillstring.analysis.axial_stability import write_stability_diagram
+    from drillstring.analysis.figures import write_average_figure, write_limit_cycle_figure
 
     try:
         written = {}
@@ -137,10 +137,10 @@ def _lazy(module: str, func: str):
 COMMANDS = {
     "simulate": _simulate_main,
     "axial": _axial_main,
-    "design": _lazy("drillstring.controller.cli", "design_main"),
+    "design": _lazy("drillstring.apps.design", "design_main"),
     "crosscheck": _lazy("drillstring.orchestration.crosscheck", "crosscheck_main"),
-    "sweep": _lazy("drillstring.sweep", "sweep_main"),
-    "demo": _lazy("drillstring.demo", "demo_main"),
+    "sweep": _lazy("drillstring.apps.sweep.runner", "sweep_main"),
+    "demo": _lazy("drillstring.apps.demo", "demo_main"),
 }
 
 

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .fileio import write_json
+from drillstring.fileio import write_json
 
 
 def _step(title: str) -> float:
@@ -37,9 +37,9 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="fewer Fig. 4 points")
     args = ap.parse_args(argv)
 
-    from .axial_figures import write_average_figure, write_limit_cycle_figure
-    from .axial_stability import write_stability_diagram
-    from .controller.gains import GainsFileError, read_gains
+    from drillstring.analysis.axial_stability import write_stability_diagram
+    from drillstring.analysis.figures import write_average_figure, write_limit_cycle_figure
+    from drillstring.controller.gains import GainsFileError, read_gains
 
     try:
         gains = read_gains(args.gains)
@@ -74,7 +74,7 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
     )
     summary["design"] = {"A": gains.A, "taubar_crit": gains.taubar_crit, "F": list(gains.F)}
 
-    from .orchestration.figures import write_fig5, write_fig6
+    from drillstring.orchestration.figures import write_fig5, write_fig6
 
     t0 = _step(f"Fig. 5 by co-simulation (fmpy master, H = {args.H:g}) vs monolithic solver")
     fig5 = write_fig5(out / "fig5", args.gains, args.fmus, H=args.H)

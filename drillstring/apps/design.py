@@ -34,7 +34,7 @@ from drillstring.controller.synthesis import (
     synthesize,
     to_gains_file,
 )
-from drillstring.params import ParameterError, ScaledParams, params_from_spec
+from drillstring.model.params import ParameterError, ScaledParams, params_from_spec
 
 __all__ = ["build_parser", "design_main"]
 
@@ -54,14 +54,15 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
         default=None,
         dest="A",
         help="slope A(gammabar, etabar) of the averaged contact force (22) (default: computed "
-        "by drillstring.axial.design_inputs from limit cycles at the set's gammabar, etabar^2)",
+        "by drillstring.analysis.limit_cycles.design_inputs from limit cycles at the set's "
+        "gammabar, etabar^2)",
     )
     ap.add_argument(
         "--taubar-crit",
         type=float,
         default=None,
         help="critical delay of (21) in fast time (default: computed by "
-        "drillstring.axial_stability.taubar_crit)",
+        "drillstring.analysis.axial_stability.taubar_crit)",
     )
     ap.add_argument(
         "--out",
@@ -134,14 +135,14 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     try:
         params: ScaledParams = params_from_spec(args.params)
         if args.taubar_crit is None:
-            from drillstring.axial_stability import taubar_crit
+            from drillstring.analysis.axial_stability import taubar_crit
 
             tc = float(taubar_crit(params))
         else:
             tc = args.taubar_crit
         A = args.A
         if A is None:
-            from drillstring.axial import design_inputs
+            from drillstring.analysis.limit_cycles import design_inputs
 
             print("Computing the slope A of (22) from axial limit cycles ...", flush=True)
             inputs = design_inputs(params, progress=True)

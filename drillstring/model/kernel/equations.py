@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import jit_for
-from .layout import (
+from drillstring.model.kernel.jit import jit_for
+from drillstring.model.kernel.layout import (
     MODE_STICK,
     MODE_TSTICK,
     P_BETA,

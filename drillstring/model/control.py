@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._jit import jit_for
+from drillstring.model.kernel.jit import jit_for
 
 jit = jit_for(__name__)
 

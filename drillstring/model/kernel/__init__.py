@@ -1,6 +1,6 @@
 """Array-level numerics of the drill-string model (numba-compilable, plain Python otherwise).
 
-Layout of the arrays shared by the kernel modules and :class:`drillstring.engine.Engine`:
+Layout of the arrays shared by the kernel modules and :class:`drillstring.model.engine.Engine`:
 
 * ``P`` parameters (``P_*`` indices), ``O`` options (``O_*``), ``C`` control law (``C_*``);
 * ``Y`` state ``[U, V, Phi, W, Theta, Wt]`` in total scaled coordinates (NOTES.md section 1);

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .fileio import save_figure
+from drillstring.fileio import save_figure
 
 
 def plot_velocities(

@@ -8,9 +8,10 @@ trial being a genuine RK4 step from the step start, to a time tolerance ``O[O_EV
 then ends at the event (on the far side of the switching surface), the mode changes and the event
 instant becomes a history node. Steps never pass an event, a switch-on time or the target time.
 
-This module is loaded twice: compiled (``drillstring.kernel.stepper``) and, for control laws that
-are Python callables, as a plain-Python copy (``drillstring.kernel._stepper_pure``), see
-:func:`drillstring.engine.load_stepper`. ``ext`` is None in the compiled copy.
+This module is loaded twice: compiled (``drillstring.model.kernel.stepper``) and, for control
+laws that are Python callables, as a plain-Python copy
+(``drillstring.model.kernel._stepper_pure``), see :func:`drillstring.model.engine.load_stepper`.
+``ext`` is None in the compiled copy.
 """
 
 from __future__ import annotations
@@ -19,11 +20,18 @@ import math
 
 import numpy as np
 
-from .._jit import jit_for
-from ..control_law import feedback_torque
-from .filippov import contact, g_star, max_bit_torque, mode_at_zero_velocity, torque_on_bit
-from .history import append_node, compact, delay_lookup, next_discontinuity
-from .layout import (
+from drillstring.model.control import feedback_torque
+from drillstring.model.kernel.equations import rhs
+from drillstring.model.kernel.filippov import (
+    contact,
+    g_star,
+    max_bit_torque,
+    mode_at_zero_velocity,
+    torque_on_bit,
+)
+from drillstring.model.kernel.hermite import append_node, compact, delay_lookup, next_discontinuity
+from drillstring.model.kernel.jit import jit_for
+from drillstring.model.kernel.layout import (
     C_ACTIVE,
     C_F0,
     C_K0,
@@ -104,7 +112,6 @@ from .layout import (
     X_GINT,
     X_TAU,
 )
-from .model import rhs
 
 jit = jit_for(__name__)
 

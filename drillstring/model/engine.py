@@ -1,7 +1,7 @@
 """The stepping engine of the scaled drill-string model (11)-(14) with contact (17).
 
 :class:`Engine` owns the state (current state, mode, history buffer, counters, control law) and
-drives the kernel (:mod:`drillstring.kernel.stepper`) with ``advance(to_tau)``, which is what
+drives the kernel (:mod:`drillstring.model.kernel.stepper`) with ``advance(to_tau)``, which is what
 both the monolithic solver and the plant FMU call. ``get_state``/``set_state`` capture
 everything for rollback; ``serialize_state`` gives bytes (FMI serialized FMU state).
 """
@@ -19,13 +19,18 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import _jit
-from .control_law import LATCH_MODES, AffineFeedback
-from .history import HistoryFunction, HistoryView, build_prehistory, nominal_history
-from .kernel import layout as L
-from .kernel import stepper as _stepper_compiled
-from .kernel.filippov import g_star, mode_at_zero_velocity
-from .params import ScaledParams
+from drillstring.model.control import LATCH_MODES, AffineFeedback
+from drillstring.model.kernel import jit as _jit
+from drillstring.model.kernel import layout as L
+from drillstring.model.kernel import stepper as _stepper_compiled
+from drillstring.model.kernel.filippov import g_star, mode_at_zero_velocity
+from drillstring.model.params import ScaledParams
+from drillstring.model.prehistory import (
+    HistoryFunction,
+    HistoryView,
+    build_prehistory,
+    nominal_history,
+)
 
 MODE_NAMES = {
     L.MODE_SLIP: "slip",
@@ -88,7 +93,9 @@ def load_stepper(pure: bool) -> ModuleType:
         return _stepper_compiled
     if _PURE_STEPPER is None:
         path = Path(_stepper_compiled.__file__)
-        spec = importlib.util.spec_from_file_location("drillstring.kernel._stepper_pure", path)
+        spec = importlib.util.spec_from_file_location(
+            "drillstring.model.kernel._stepper_pure", path
+        )
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)

@@ -8,7 +8,7 @@ Linearising (18) about the equilibrium ubar = 0 (full contact, gbar = 0) gives
 
 written here as the first-order DDE x' = A0 x + A1 x(taubar - taubar_n), x = (ubar, ubar'),
 A0 = [[0, 1], [-(etabar^2 + 1), -gammabar]], A1 = [[0, 0], [1, 0]], whose roots are computed by
-:mod:`drillstring.spectrum` (spectral discretisation + Newton).
+:mod:`drillstring.analysis.spectrum` (spectral discretisation + Newton).
 
 tau-decomposition (the paper's ref. [14])
 -----------------------------------------
@@ -62,11 +62,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from drillstring.analysis.spectrum import DDESystem, dde_roots
 from drillstring.fileio import atomic_write
-from drillstring.spectrum import DDESystem, dde_roots
 
 if TYPE_CHECKING:
-    from drillstring.params import ScaledParams
+    from drillstring.model.params import ScaledParams
 
 __all__ = [
     "FIG2_GAMMABARS",

@@ -61,7 +61,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
 
-from .fileio import load_table, write_text
+from drillstring.fileio import load_table, write_text
 
 __all__ = [
     "KNOWN_PARAMS",
@@ -381,7 +381,7 @@ class PhysicalParams:
 # --------------------------------------------------------------------------------------------
 
 #: NOTES.md section 5, our reconstruction of Table I: gammabar = 0.2, etabar^2 = 0.1,
-#: tau_n0 = pi/10, taubar_n0 = 9.93. Also stored in ``drillstring/data/reference.toml``.
+#: tau_n0 = pi/10, taubar_n0 = 9.93. Also stored in ``drillstring/model/data/reference.toml``.
 REFERENCE = ScaledParams(
     n=4,
     psi=250.0,

@@ -9,9 +9,15 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .axial import FIG4_ETABAR2, FIG4_GAMMABARS, LimitCycle, default_fit_delays, fit_slope
-from .axial import limit_cycle as find_limit_cycle
-from .fileio import save_figure, write_csv, write_json
+from drillstring.analysis.limit_cycles import (
+    FIG4_ETABAR2,
+    FIG4_GAMMABARS,
+    LimitCycle,
+    default_fit_delays,
+    fit_slope,
+)
+from drillstring.analysis.limit_cycles import limit_cycle as find_limit_cycle
+from drillstring.fileio import save_figure, write_csv, write_json
 
 
 def _figure(figsize: tuple[float, float]):

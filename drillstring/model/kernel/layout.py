@@ -1,4 +1,4 @@
-"""Index constants of the kernel arrays (see :mod:`drillstring.kernel`)."""
+"""Index constants of the kernel arrays (see :mod:`drillstring.model.kernel`)."""
 
 # parameters P
 P_N = 0

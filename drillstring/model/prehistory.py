@@ -1,6 +1,6 @@
 """The history buffer of the delay equation (14): past of U, V, Phi, W at integrator nodes.
 
-The arrays are shared with the kernel (:mod:`drillstring.kernel.history` holds the numerics);
+The arrays are shared with the kernel (:mod:`drillstring.model.kernel.hermite` holds the numerics);
 this module builds the prehistory for tau <= 0 and offers a read-only view for inspection.
 Memory is bounded: nodes older than the current delay interval are dropped as the run goes on,
 and a torsional-stick stretch is kept as two nodes.
@@ -12,9 +12,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .kernel.history import interpolate
-from .kernel.layout import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
-from .params import ScaledParams
+from drillstring.model.kernel.hermite import interpolate
+from drillstring.model.kernel.layout import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
+from drillstring.model.params import ScaledParams
 
 HistoryFunction = Callable[[float], tuple[float, float, float, float]]
 """tau <= 0 -> (u, du/dtau, phi, dphi/dtau), perturbations from the nominal motion."""

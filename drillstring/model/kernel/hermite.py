@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import jit_for
-from .layout import H_FLAG, H_PHI, H_TAU, H_U, H_V, H_W
+from drillstring.model.kernel.jit import jit_for
+from drillstring.model.kernel.layout import H_FLAG, H_PHI, H_TAU, H_U, H_V, H_W
 
 jit = jit_for(__name__)
 

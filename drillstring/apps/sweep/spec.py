@@ -19,12 +19,12 @@ TOML (``.toml``) or JSON (``.json``), chosen by suffix. Top-level keys (any othe
     [options]                      # optional, per study (see OPTION_DEFAULTS)
     h = 5e-4
 
-Swept names: with a scaled base, the fields of :class:`~drillstring.params.ScaledParams`
+Swept names: with a scaled base, the fields of :class:`~drillstring.model.params.ScaledParams`
 (``lambda`` for the paper's lambda) or the derived ``gammabar`` (sets gamma = gammabar*sqrt(n*psi))
 and ``etabar2`` (sets eta = sqrt(etabar2*n*psi)), eq. (18); with a physical base, the fields of
-:class:`~drillstring.params.PhysicalParams` (each point is converted by eqs. (15)-(16)). The axial
-study sweeps the fast-model quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18); those not
-swept are the base set's gammabar, etabar^2 and taubar_n0.
+:class:`~drillstring.model.params.PhysicalParams` (each point is converted by eqs. (15)-(16)).
+The axial study sweeps the fast-model quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18);
+those not swept are the base set's gammabar, etabar^2 and taubar_n0.
 
 Validation happens on load: every key, value and grid point is checked and any problem raises
 :class:`SweepSpecError` (a ``ValueError``) naming the key and the value.
@@ -44,8 +44,8 @@ from typing import Any
 
 import numpy as np
 
-from .fileio import load_table
-from .params import (
+from drillstring.fileio import load_table
+from drillstring.model.params import (
     KNOWN_PARAMS,
     ParameterError,
     PhysicalParams,
@@ -90,7 +90,7 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
         "window": 10.0,
         "tol": 0.05,
     },
-    # limit_cycle() of drillstring.axial: step, initial kick, period budget, lambda/vbar0
+    # drillstring.analysis.limit_cycles.limit_cycle: step, kick, period budget, lambda/vbar0
     "axial": {"h": 1e-2, "kick": 0.05, "max_periods": 400, "lam_over_vbar0": 50.0},
 }
 
@@ -100,7 +100,7 @@ class SweepSpecError(ValueError):
 
 
 # --------------------------------------------------------------------------------------------
-# value checks (style of drillstring.params)
+# value checks (style of drillstring.model.params)
 # --------------------------------------------------------------------------------------------
 
 
@@ -387,7 +387,7 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             "relative to the initial deviation), got 0.0"
         )
     if study == "closed-loop" and out["gains"] != "design":
-        from .controller.gains import GainsFileError, read_gains
+        from drillstring.controller.gains import GainsFileError, read_gains
 
         path = Path(out["gains"])
         path = (path if path.is_absolute() else base_dir / path).resolve()
@@ -410,7 +410,7 @@ def spec_from_dict(
 
 
 def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> SweepSpec:
-    from .sweep_studies import METRICS, plottable
+    from drillstring.apps.sweep.studies import METRICS, plottable
 
     data = _table("top level", data, TOP_KEYS)
     for key in ("study", "base", "sweep"):
@@ -477,7 +477,7 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
 
 def _check_points(spec: SweepSpec) -> None:
     """Build every point's parameters so that a bad grid value fails now, not in a worker."""
-    from .axial import fast_params
+    from drillstring.analysis.limit_cycles import fast_params
 
     for index in range(spec.n_points):
         try:
