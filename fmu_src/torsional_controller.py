@@ -35,7 +35,12 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
-from drillstring.model.control import LATCH_MODES, AffineFeedback, feedback_torque
+from drillstring.model.control import (
+    LATCH_MODES,
+    AffineFeedback,
+    feedback_torque,
+    switch_on_references,
+)
 
 MODEL = "TorsionalController"
 INPUTS: tuple[tuple[str, str], ...] = (
@@ -154,11 +159,13 @@ class TorsionalController(support.GuardedAccessors, Fmi2Slave):
         )
 
     def _candidate_references(self) -> tuple[float, float]:
-        latch = self._par["latch"]
-        phi = self._in["phi"]
-        phi_ref = phi if latch in ("angle", "angle+twist") else 0.0
-        twist_ref = phi - self._in["theta"] - self._par["K0"] if latch == "angle+twist" else 0.0
-        return phi_ref, twist_ref
+        phi_ref, twist_ref = switch_on_references(
+            LATCH_MODES.index(self._par["latch"]),
+            float(self._in["phi"]),
+            float(self._in["theta"]),
+            float(self._par["K0"]),
+        )
+        return float(phi_ref), float(twist_ref)
 
     def _active(self) -> bool:
         return bool(self._par["enabled"]) and self._time >= self._par["t_on"]

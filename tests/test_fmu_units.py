@@ -336,7 +336,7 @@ def test_bad_plant_parameter_is_refused(built, values, message):
 @pytest.mark.parametrize(
     ("values", "message"),
     [
-        ({"F[2]": math.inf}, r"gains must be finite"),
+        ({"F[2]": math.inf}, r"F\[1\] must be finite, got inf"),
         ({"t_on": math.nan}, r"t_on must be finite, got nan"),
         ({"latch": "twist"}, r"latch must be one of .*got 'twist'"),
     ],

@@ -2,21 +2,48 @@
 
 x = [phi - phi_ref, dphi/dtau, phi - theta - K0 - twist_ref, dtheta/dtau]; R_ff = -K0 (31).
 Before the switch-on time only the feed-forward acts. ``phi_ref`` and ``twist_ref`` are 0 for the
-paper's law; a bumpless switch-on latches them at t_on (NOTES.md section 7, our reconstruction).
-Both the controller FMU and the monolithic solver call this one function.
+paper's law; a bumpless switch-on latches them at t_on (``docs/model.md``, "Bumpless switch-on",
+our reconstruction). The kernel of the monolithic solver and the controller FMU both call
+:func:`feedback_torque` and :func:`switch_on_references`: the law is written once.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from drillstring.model.kernel.jit import jit_for
+from drillstring.validation import check_choice, check_real
 
 jit = jit_for(__name__)
 
+__all__ = [
+    "LATCH_MODES",
+    "LATCH_NONE",
+    "LATCH_ANGLE",
+    "LATCH_ANGLE_TWIST",
+    "AffineFeedback",
+    "feedback_torque",
+    "switch_on_references",
+]
+
+#: Bumpless switch-on modes; their index is the code the kernel and the FMUs use.
 LATCH_MODES = ("none", "angle", "angle+twist")
+LATCH_NONE = 0
+LATCH_ANGLE = 1
+LATCH_ANGLE_TWIST = 2
+
+
+@jit
+def switch_on_references(latch: int, phi: float, theta: float, K0: float) -> tuple[float, float]:
+    """References (phi_ref, twist_ref) latched at switch-on from the measured phi and theta.
+
+    ``latch`` is an index into :data:`LATCH_MODES`: "none" keeps both 0 (the paper's law),
+    "angle" takes phi_ref = phi, so that x1 = 0 at switch-on, "angle+twist" also takes
+    twist_ref = phi - theta - K0, so that x3 = 0 too. Only the velocities act at first.
+    """
+    phi_ref = phi if latch != LATCH_NONE else 0.0
+    twist_ref = (phi - theta) - K0 if latch == LATCH_ANGLE_TWIST else 0.0
+    return phi_ref, twist_ref
 
 
 @jit
@@ -43,10 +70,20 @@ def feedback_torque(
 
 @dataclass(frozen=True)
 class AffineFeedback:
-    """State feedback with feed-forward, evaluated continuously by the monolithic solver.
+    """State feedback with feed-forward (29)-(31), evaluated continuously by the monolithic solver.
 
-    ``latch`` selects the bumpless switch-on: "none" (paper's law, references 0), "angle"
-    (phi_ref = phi(t_on)) or "angle+twist" (also twist_ref = phi - theta - K0 at t_on).
+    Parameters
+    ----------
+    F : tuple of 4 float
+        Gain of R_fb = F x, x = [phi - phi_ref, dphi, phi - theta - K0 - twist_ref, dtheta].
+    K0 : float
+        Nominal twist offset of x3 (eq. (30)).
+    R_ff : float
+        Feed-forward torque (31), -K0 for the paper's design.
+    t_on : float
+        Switch-on time of the feedback (only R_ff acts before it).
+    latch : str
+        Bumpless switch-on, one of :data:`LATCH_MODES` (see :func:`switch_on_references`).
     """
 
     F: tuple[float, float, float, float]
@@ -58,16 +95,14 @@ class AffineFeedback:
     def __post_init__(self) -> None:
         if len(self.F) != 4:
             raise ValueError(f"AffineFeedback.F must have 4 entries, got {len(self.F)}: {self.F!r}")
-        vals = [*self.F, self.K0, self.R_ff]
-        if not all(np.isfinite(v) for v in vals):
-            raise ValueError(
-                f"AffineFeedback gains must be finite, got F={self.F}, K0={self.K0}, "
-                f"R_ff={self.R_ff}"
-            )
-        if not np.isfinite(self.t_on):
-            raise ValueError(f"AffineFeedback.t_on must be finite, got {self.t_on!r}")
-        if self.latch not in LATCH_MODES:
-            raise ValueError(
-                f"AffineFeedback.latch must be one of {LATCH_MODES}, got {self.latch!r}"
-            )
-        object.__setattr__(self, "F", tuple(float(f) for f in self.F))
+        F = tuple(check_real(f"AffineFeedback.F[{i}]", f) for i, f in enumerate(self.F))
+        object.__setattr__(self, "F", F)
+        object.__setattr__(self, "K0", check_real("AffineFeedback.K0", self.K0))
+        object.__setattr__(self, "R_ff", check_real("AffineFeedback.R_ff", self.R_ff))
+        object.__setattr__(self, "t_on", check_real("AffineFeedback.t_on", self.t_on))
+        check_choice("AffineFeedback.latch", self.latch, LATCH_MODES)
+
+    @property
+    def latch_code(self) -> int:
+        """Index of ``latch`` in :data:`LATCH_MODES` (the kernel's and FMUs' code)."""
+        return LATCH_MODES.index(self.latch)

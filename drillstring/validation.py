@@ -1,0 +1,106 @@
+"""Input checking shared by every layer: one place that says what a valid number is.
+
+Every public function of the project that takes numbers from a user (parameters, options, gains,
+file contents, FMU variables) checks them with these helpers, so a bad value always gets the same
+kind of message: the name of the value, the rule it breaks and the value itself, e.g.
+``EngineOptions.h must be > 0, got -0.001``. ``error`` selects the exception class (a
+``ValueError`` subclass of the caller's, such as ``ParameterError``).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Sequence
+from typing import Any, TypeVar
+
+__all__ = ["is_finite_real", "check_int", "check_real", "check_choice"]
+
+E = TypeVar("E", bound=ValueError)
+
+
+def is_finite_real(value: Any) -> bool:
+    """True for a finite real number (``bool`` and strings excluded)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    return math.isfinite(float(value))
+
+
+def check_real(
+    name: str,
+    value: Any,
+    *,
+    lower: float | None = None,
+    upper: float | None = None,
+    strict: bool = True,
+    error: type[E] = ValueError,  # type: ignore[assignment]
+) -> float:
+    """Return ``value`` as a finite float within the bounds, or raise ``error`` naming it.
+
+    Parameters
+    ----------
+    name : str
+        What the value is, as the message should call it (``"EngineOptions.h"``).
+    value : object
+        The value to check; ``bool`` and non-numbers are rejected.
+    lower, upper : float, optional
+        Bounds; ``strict`` makes the lower bound exclusive (the upper bound is inclusive).
+    error : type
+        Exception class raised (a ``ValueError`` subclass).
+
+    Returns
+    -------
+    float
+        The checked value.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise error(f"{name} must be a real number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise error(f"{name} must be finite, got {value!r}")
+    if lower is not None and ((strict and not x > lower) or (not strict and not x >= lower)):
+        raise error(f"{name} must be {'>' if strict else '>='} {lower:g}, got {value!r}")
+    if upper is not None and not x <= upper:
+        raise error(f"{name} must be <= {upper:g}, got {value!r}")
+    return x
+
+
+def check_int(
+    name: str,
+    value: Any,
+    *,
+    lower: int | None = None,
+    integral_floats: bool = False,
+    error: type[E] = ValueError,  # type: ignore[assignment]
+) -> int:
+    """Return ``value`` as an int (>= ``lower``), or raise ``error`` naming it.
+
+    ``integral_floats`` accepts a float with an integral value (``4.0``), as FMI hosts and JSON
+    writers deliver integers as reals; ``bool`` is always rejected.
+    """
+    bound = "" if lower is None else f" >= {lower}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise error(f"{name} must be an integer{bound}, got {value!r}")
+    if isinstance(value, numbers.Integral):
+        out = int(value)
+    else:
+        x = float(value)
+        if not (integral_floats and math.isfinite(x) and x == math.floor(x)):
+            raise error(f"{name} must be an integer{bound}, got {value!r}")
+        out = int(x)
+    if lower is not None and out < lower:
+        raise error(f"{name} must be an integer{bound}, got {value!r}")
+    return out
+
+
+def check_choice(
+    name: str,
+    value: Any,
+    choices: Sequence[str],
+    *,
+    error: type[E] = ValueError,  # type: ignore[assignment]
+) -> str:
+    """Return ``value`` if it is one of ``choices``, else raise ``error`` listing them."""
+    if not isinstance(value, str) or value not in choices:
+        raise error(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
