@@ -58,9 +58,14 @@ def check_real(
     x = float(value)
     if not math.isfinite(x):
         raise error(f"{name} must be finite, got {value!r}")
-    if lower is not None and ((strict and not x > lower) or (not strict and not x >= lower)):
+    below = lower is not None and ((strict and not x > lower) or (not strict and not x >= lower))
+    above = upper is not None and not x <= upper
+    if (below or above) and lower is not None and upper is not None:
+        interval = f"{'(' if strict else '['}{lower:g}, {upper:g}]"
+        raise error(f"{name} must be in {interval}, got {value!r}")
+    if below:
         raise error(f"{name} must be {'>' if strict else '>='} {lower:g}, got {value!r}")
-    if upper is not None and not x <= upper:
+    if above:
         raise error(f"{name} must be <= {upper:g}, got {value!r}")
     return x
 

@@ -201,7 +201,7 @@ def test_history_memory_is_bounded():
         sizes.append(len(e.history()))
     tau_n_max = 2 * math.pi / P.n / (P.omega0 - 4.0)
     assert max(sizes) < 1.5 * tau_n_max / e.options.h + 50
-    assert e._H.shape[1] <= 4 * 2048
+    assert e.history_capacity <= 4 * 2048
 
 
 @pytest.mark.parametrize(

@@ -314,9 +314,9 @@ BAD_PARAMETERS = [
     ({"psi": -1.0}, r"psi must be > 0, got -1.0"),
     ({"beta": 1.5}, r"beta must be in \(0, 1\], got 1.5"),
     ({"n": 0}, r"n must be a positive integer, got 0"),
-    ({"h": 0.0}, r"h must be a positive finite step, got 0.0"),
+    ({"h": 0.0}, r"EngineOptions.h must be > 0, got 0.0"),
     ({"event_tol": 1e-3}, r"event_tol must be in \(0, 1e-10\], got 0.001"),
-    ({"on_invalid": "ignore"}, r"on_invalid must be 'stop' or 'continue', got 'ignore'"),
+    ({"on_invalid": "ignore"}, r"on_invalid must be one of 'stop', 'continue', got 'ignore'"),
     ({"u0": math.inf}, r"u must be a finite number, got inf"),
     ({"dphi0": -6.0}, r"initial dphi = -6.0 gives dPhi/dtau = -1.0 <= 0"),
 ]

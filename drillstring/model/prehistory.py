@@ -1,20 +1,23 @@
-"""The history buffer of the delay equation (14): past of U, V, Phi, W at integrator nodes.
+"""The history buffer of the delay equation (14): the prehistory for tau <= 0, and a view of it.
 
-The arrays are shared with the kernel (:mod:`drillstring.model.kernel.hermite` holds the numerics);
-this module builds the prehistory for tau <= 0 and offers a read-only view for inspection.
+The buffer stores U, V, Phi, W at the integrator's nodes (``drillstring.model.kernel.hermite``
+holds its numerics); this module fills it for tau <= 0 and offers a read-only view for inspection.
 Memory is bounded: nodes older than the current delay interval are dropped as the run goes on,
 and a torsional-stick stretch is kept as two nodes.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 
 from drillstring.model.kernel.hermite import interpolate
-from drillstring.model.kernel.layout import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
+from drillstring.model.kernel.state import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
 from drillstring.model.params import ScaledParams
+
+__all__ = ["HistoryFunction", "HistoryView", "build_prehistory", "nominal_history"]
 
 HistoryFunction = Callable[[float], tuple[float, float, float, float]]
 """tau <= 0 -> (u, du/dtau, phi, dphi/dtau), perturbations from the nominal motion."""
@@ -23,23 +26,46 @@ MAX_PREHISTORY_NODES = 1_000_000
 
 
 def nominal_history(tau: float) -> tuple[float, float, float, float]:
-    """The nominal motion u = phi = 0 (NOTES.md section 1): the default prehistory."""
+    """The nominal motion u = phi = 0 (``docs/model.md``, "Coordinates"): the default."""
     return 0.0, 0.0, 0.0, 0.0
 
 
-def build_prehistory(
-    params: ScaledParams, history: HistoryFunction, h: float, capacity: int
-) -> tuple[np.ndarray, int]:
-    """Sample the prehistory on nodes spaced h back from tau = 0 until it spans one blade angle.
+def _nominal_nodes(params: ScaledParams, h: float) -> np.ndarray:
+    """Nodes of the nominal prehistory, in decreasing time (vectorised :func:`_sampled_nodes`)."""
+    w0, v0 = params.omega0, params.v0
+    blade = 2.0 * math.pi / params.n
+    n = math.ceil(blade / (w0 * h)) + 4
+    if n > MAX_PREHISTORY_NODES:
+        _too_long(h)
+    tau = -np.arange(n + 1, dtype=float) * h
+    tau[0] = 0.0  # not -0.0
+    phi = w0 * tau + 0.0
+    behind = phi[0] - phi  # angle rotated since each node
+    k = np.arange(n + 1)
+    stop = (behind > blade) & (k >= 2) & (np.roll(behind, 2) > blade)
+    last = int(np.argmax(stop))
+    nodes = np.zeros((last + 1, H_ROWS))
+    nodes[:, H_TAU] = tau[: last + 1]
+    nodes[:, H_U] = v0 * tau[: last + 1] + 0.0
+    nodes[:, H_V] = v0 + 0.0
+    nodes[:, H_PHI] = phi[: last + 1]
+    nodes[:, H_W] = w0 + 0.0
+    return nodes
 
-    Returns the history array (``H_ROWS x capacity``, grown if needed) and the number of nodes,
-    in increasing time. Raises ValueError if the history is not finite or Phi decreases (the bit
-    would rotate backwards, outside the model).
-    """
+
+def _too_long(h: float) -> None:
+    raise ValueError(
+        "history does not span one blade angle 2*pi/n within "
+        f"{MAX_PREHISTORY_NODES} steps of {h}: the bit hardly rotates before tau = 0"
+    )
+
+
+def _sampled_nodes(params: ScaledParams, history: HistoryFunction, h: float) -> np.ndarray:
+    """Sample ``history`` on nodes spaced h back from tau = 0 until it spans one blade angle
+    (two nodes beyond it, so the delay is always bracketed); in decreasing time."""
     w0, v0 = params.omega0, params.v0
     blade = 2.0 * np.pi / params.n
     nodes: list[tuple[float, ...]] = []
-    phi_end = None
     k = 0
     while True:
         tau = -k * h
@@ -47,28 +73,40 @@ def build_prehistory(
         vals = (tau, v0 * tau + u, v0 + du, w0 * tau + phi, w0 + dphi, 0.0)
         if not all(np.isfinite(vals)):
             raise ValueError(f"history({tau!r}) returned a non-finite value: {(u, du, phi, dphi)}")
-        if vals[4] < 0.0:
+        if vals[H_W] < 0.0:
             raise ValueError(
-                f"history({tau!r}) has dPhi/dtau = {vals[4]!r} < 0: the bit rotates backwards"
+                f"history({tau!r}) has dPhi/dtau = {vals[H_W]!r} < 0: the bit rotates backwards"
             )
-        if nodes and vals[3] > nodes[-1][3]:
+        if nodes and vals[H_PHI] > nodes[-1][H_PHI]:
             raise ValueError(f"history: Phi decreases in time at tau = {tau!r}")
         nodes.append(vals)
-        if phi_end is None:
-            phi_end = vals[3]
-        # two nodes beyond the blade angle so the delay is always bracketed
-        if phi_end - vals[3] > blade and k >= 2 and phi_end - nodes[-3][3] > blade:
+        phi_end = nodes[0][H_PHI]
+        if phi_end - vals[H_PHI] > blade and k >= 2 and phi_end - nodes[-3][H_PHI] > blade:
             break
         k += 1
         if k > MAX_PREHISTORY_NODES:
-            raise ValueError(
-                "history does not span one blade angle 2*pi/n within "
-                f"{MAX_PREHISTORY_NODES} steps of {h}: the bit hardly rotates before tau = 0"
-            )
-    nodes.reverse()
+            _too_long(h)
+    return np.array(nodes)
+
+
+def build_prehistory(
+    params: ScaledParams, history: HistoryFunction, h: float, capacity: int
+) -> tuple[np.ndarray, int]:
+    """The history buffer filled for tau <= 0, and the number of nodes.
+
+    Nodes are spaced h back from tau = 0 until they span one blade angle 2*pi/n (eq. (6)).
+    Returns the buffer (``H_ROWS x capacity``, larger if needed) with the nodes in increasing
+    time. Raises ValueError if the history is not finite or Phi decreases (the bit would rotate
+    backwards, outside the model).
+    """
+    if history is nominal_history:
+        nodes = _nominal_nodes(params, h)
+    else:
+        nodes = _sampled_nodes(params, history, h)
+    nodes = nodes[::-1]
     cap = max(capacity, 2 * len(nodes) + 16)
     H = np.zeros((H_ROWS, cap))
-    H[:, : len(nodes)] = np.array(nodes).T
+    H[:, : len(nodes)] = nodes.T
     return H, len(nodes)
 
 
@@ -86,7 +124,7 @@ class HistoryView:
         return self._H.shape[1]
 
     def nodes(self) -> dict[str, np.ndarray]:
-        """Node arrays tau, U, V, Phi, W (total coordinates)."""
+        """Node arrays tau, U, V, Phi, W (total coordinates) and the discontinuity flags."""
         return {
             "tau": self._H[H_TAU],
             "U": self._H[H_U],

@@ -1,6 +1,7 @@
 """Right-hand side of the scaled axial-torsional model, eqs. (11)-(13), in total coordinates.
 
-With U = v0*tau + u, Phi = omega0*tau + phi, Theta = omega0*tau + theta (NOTES.md section 1):
+With U = v0*tau + u, Phi = omega0*tau + phi, Theta = omega0*tau + theta (``docs/model.md``,
+"Coordinates"):
 
     dU/dtau = V
     dV/dtau = -gamma*(V - v0) - eta^2*(U - v0*tau) + n*psi*(d0 - d + lambda*g)      (11)
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from drillstring.model.kernel.jit import jit_for
-from drillstring.model.kernel.layout import (
+from drillstring.model.kernel.state import (
     MODE_STICK,
     MODE_TSTICK,
     P_BETA,
@@ -41,45 +42,42 @@ def rhs(
     freeze: bool,
     mode: int,
     tau: float,
-    Y: np.ndarray,
+    U: float,
+    V: float,
+    Phi: float,
+    W: float,
+    Theta: float,
+    Wt: float,
     d: float,
     g: float,
     r: float,
-    out: np.ndarray,
-) -> None:
-    """Write dY/dtau into ``out`` for depth of cut d, contact g and torque r = R - R0.
+) -> tuple[float, float, float, float, float, float]:
+    """dY/dtau for depth of cut d, contact g and torque r = R - R0.
 
     In axial stick V is held at 0 (dV/dtau = 0 by the choice g = g*); in torsional stick U, V,
     Phi, W are frozen and only the rotary table moves. ``freeze`` holds the torsion at the
     nominal speed (constant delay tau_n0), which turns (11) into the fast axial model (18).
     """
-    U = Y[0]
-    V = Y[1]
     eta = P[P_ETA]
     lam = P[P_LAM]
     d0 = P[P_D0]
     if mode == MODE_STICK or mode == MODE_TSTICK:
-        out[0] = 0.0
-        out[1] = 0.0
+        dU = 0.0
+        dV = 0.0
     else:
-        out[0] = V
-        out[1] = (
+        dU = V
+        dV = (
             -P[P_GAMMA] * (V - P[P_V0])
             - eta * eta * (U - P[P_V0] * tau)
             + P[P_NPSI] * (d0 - d + lam * g)
         )
     if freeze:
-        out[2] = P[P_OMEGA0]
-        out[3] = 0.0
-        out[4] = P[P_OMEGA0]
-        out[5] = 0.0
-        return
-    twist = Y[2] - Y[4]
+        return dU, dV, P[P_OMEGA0], 0.0, P[P_OMEGA0], 0.0
+    twist = Phi - Theta
     if mode == MODE_TSTICK:
-        out[2] = 0.0
-        out[3] = 0.0
+        dPhi = 0.0
+        dW = 0.0
     else:
-        out[2] = Y[3]
-        out[3] = -twist + P[P_N] * (d0 - d + P[P_BETA] * lam * g)
-    out[4] = Y[5]
-    out[5] = (twist + r) / P[P_RHO]
+        dPhi = W
+        dW = -twist + P[P_N] * (d0 - d + P[P_BETA] * lam * g)
+    return dU, dV, dPhi, dW, Wt, (twist + r) / P[P_RHO]

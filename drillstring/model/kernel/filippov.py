@@ -1,4 +1,6 @@
-"""Set-valued wearflat contact (17) as a Filippov system, and torsional stick (NOTES.md 2, 6).
+"""Set-valued wearflat contact (17) as a Filippov system, and torsional stick.
+
+See ``docs/model.md``, "Wearflat contact as a Filippov system" and "Torsional stick".
 
 Modes: slip down (V > 0, g = 0), axial stick (V = 0, g = g* in [0, 1]), moving up (V < 0, g = 1),
 and torsional stick (W = 0, V = 0, Phi and U frozen; only with the torsional-stick option).
@@ -9,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from drillstring.model.kernel.jit import jit_for
-from drillstring.model.kernel.layout import (
+from drillstring.model.kernel.state import (
     MODE_SLIP,
     MODE_STICK,
     MODE_TSTICK,
@@ -21,6 +23,7 @@ from drillstring.model.kernel.layout import (
     P_LAM,
     P_N,
     P_NPSI,
+    P_R0,
     P_V0,
 )
 
@@ -29,7 +32,7 @@ jit = jit_for(__name__)
 
 @jit
 def g_star(P: np.ndarray, tau: float, U: float, d: float) -> float:
-    """The contact multiplier that keeps dV/dtau = 0 at V = 0 (NOTES.md section 2).
+    """The contact multiplier that keeps dV/dtau = 0 at V = 0.
 
     g* = [(d - d0) - (gamma*v0 - eta^2*(U - v0*tau)) / (n*psi)] / lambda; +inf or -inf for a
     sharp bit (lambda = 0), where stick is impossible.
@@ -66,8 +69,14 @@ def mode_at_zero_velocity(gstar: float) -> int:
 
 @jit
 def max_bit_torque(P: np.ndarray, d: float) -> float:
-    """T_max = n*d + n*beta*lambda, the largest torque on bit while stuck (NOTES.md section 6)."""
+    """T_max = n*d + n*beta*lambda, the largest torque on bit while stuck."""
     return P[P_N] * (d + P[P_BETA] * P[P_LAM])
+
+
+@jit
+def twist_torque(P: np.ndarray, Phi: float, Theta: float) -> float:
+    """Scaled twist torque of the string S = R0 + Theta - Phi (R0 the nominal twist, eq. (8))."""
+    return P[P_R0] + Theta - Phi
 
 
 @jit

@@ -5,7 +5,7 @@ W, so a cubic Hermite interpolant reproduces it to O(h^4), the order of the RK4 
 tau_n solves Phi(tau) - Phi(tau - tau_n) = 2*pi/n (eq. (6)/(14)); Phi is non-decreasing while the
 model is valid (W >= 0), so the past instant is bracketed by a monotone search over nodes and
 refined by Newton's method with a bisection safeguard. On a flat (stuck) stretch of Phi the most
-recent matching instant is taken (NOTES.md section 6).
+recent matching instant is taken (``docs/model.md``, "Torsional stick").
 """
 
 from __future__ import annotations
@@ -13,7 +13,23 @@ from __future__ import annotations
 import numpy as np
 
 from drillstring.model.kernel.jit import jit_for
-from drillstring.model.kernel.layout import H_FLAG, H_PHI, H_TAU, H_U, H_V, H_W
+from drillstring.model.kernel.state import (
+    H_FLAG,
+    H_PHI,
+    H_TAU,
+    H_U,
+    H_V,
+    H_W,
+    I_HEND,
+    I_HSTART,
+    I_KHINT,
+    I_MODE,
+    MODE_TSTICK,
+    Y_PHI,
+    Y_U,
+    Y_V,
+    Y_W,
+)
 
 jit = jit_for(__name__)
 
@@ -127,6 +143,38 @@ def append_node(
     H[H_W, end] = W
     H[H_FLAG, end] = flag
     return end + 1
+
+
+@jit
+def push_node(H: np.ndarray, I: np.ndarray, tau: float, Y: np.ndarray, flag: float) -> None:
+    """Append the accepted state as a history node; a torsional-stick stretch keeps two nodes.
+
+    Nodes before the current delay interval are dropped (they can never be reached again, Phi
+    being non-decreasing), so the live window stays about one delay long.
+    """
+    start = I[I_HSTART]
+    end = I[I_HEND]
+    if I[I_MODE] == MODE_TSTICK and end - start >= 2:
+        a = end - 1
+        b = end - 2
+        if (
+            H[H_U, a] == Y[Y_U]
+            and H[H_U, b] == Y[Y_U]
+            and H[H_PHI, a] == Y[Y_PHI]
+            and H[H_PHI, b] == Y[Y_PHI]
+            and H[H_V, a] == 0.0
+            and H[H_W, a] == 0.0
+            and H[H_V, b] == 0.0
+            and H[H_W, b] == 0.0
+            and Y[Y_V] == 0.0
+            and Y[Y_W] == 0.0
+        ):
+            H[H_TAU, a] = tau
+            return
+    I[I_HEND] = append_node(H, end, tau, Y[Y_U], Y[Y_V], Y[Y_PHI], Y[Y_W], flag)
+    keep = I[I_KHINT] - 2
+    if keep > start:
+        I[I_HSTART] = keep
 
 
 @jit
