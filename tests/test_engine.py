@@ -106,8 +106,27 @@ def test_convergence_order_rk4():
         errs.append(max(np.max(np.abs(r.du - ref.du)), np.max(np.abs(r.dphi - ref.dphi))))
     orders = [math.log2(errs[i] / errs[i + 1]) for i in range(len(errs) - 1)]
     print("errors", errs, "measured orders", orders)
-    assert min(orders) >= 1.8
+    # 3.92 and 3.95 measured; without the tracking of delayed discontinuities 2.95 and 2.18
+    assert min(orders) >= 3.5
     assert errs[-1] < 1e-6
+
+
+def test_no_precision_floor_below_quarter_millistep():
+    """Halving h below 2.5e-4 still reduces the error over tau in [0, 60] (Fig. 5 open loop).
+
+    Each step's end is computed from the interval's end and the step is the difference of the
+    two times; with tau + h accumulated instead, the error stalled at about 1e-7 from here on.
+    """
+
+    def run(h):
+        opts = EngineOptions(h=h)
+        return simulate(P, 60.0, initial={"dphi": -2.5}, options=opts, progress=False)
+
+    ref = run(1.5625e-5)
+    errs = [float(np.max(np.abs(run(h).du - ref.du))) for h in (2.5e-4, 1.25e-4, 6.25e-5)]
+    print("errors in du/dtau", errs)
+    assert errs[1] < errs[0] / 4
+    assert errs[2] < errs[1] / 2
 
 
 @pytest.fixture(scope="module")

@@ -130,7 +130,7 @@ class EngineOptions:
     torsional_stick: bool = False
     on_invalid: str = "stop"
     freeze_torsion: bool = False
-    event_tol: float = 1e-12
+    event_tol: float = 1e-13
     history_capacity: int = 2048
     event_capacity: int = 256
     keep_events: bool = True
@@ -477,7 +477,8 @@ class Engine:
 
     @property
     def counters(self) -> dict[str, int]:
-        """Steps, events, entries into axial stick, bit bouncing, torsional stick, RK4 trials."""
+        """Steps, events, entries into axial stick, bit bouncing and torsional stick, and the RK4
+        trials spent on event locations (mode events and delayed discontinuities)."""
         I = self._s.ints  # noqa: E741
         return {
             "steps": int(I[S.I_NSTEPS]),
@@ -486,6 +487,7 @@ class Engine:
             "bit_bounce_events": int(I[S.I_NBOUNCE]),
             "torsional_stick_events": int(I[S.I_NTSTICK]),
             "event_trials": int(I[S.I_NTRIALS]),
+            "event_locations": int(I[S.I_NLOCATE]),
         }
 
     def history(self) -> HistoryView:

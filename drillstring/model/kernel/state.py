@@ -97,7 +97,8 @@ I_BOUNCING = 9  # 1 while d < 0 (on_invalid = continue)
 I_ENUM = 10  # rows used in the event log
 I_STATUS = 11
 I_NTRIALS = 12  # RK4 trials spent locating events
-I_SIZE = 13
+I_NLOCATE = 13  # event locations (mode events and delayed discontinuities)
+I_SIZE = 14
 
 # --- diagnostics D (at the current time) -----------------------------------------------------
 D_D = 0  # depth of cut d, eq. (5)

@@ -77,6 +77,7 @@ from drillstring.model.kernel.state import (
     I_HSTART,
     I_KHINT,
     I_MODE,
+    I_NLOCATE,
     I_NSTEPS,
     I_NTRIALS,
     I_STATUS,
@@ -124,6 +125,8 @@ RK_C = (0.5, 0.5, 1.0)
 RK_A = (0.5, 0.5, 1.0)
 RK_B6 = (1.0, 2.0, 2.0, 1.0)
 
+#: Trials allowed to locate one event (a few are needed; the bound only guards a stalled search).
+MAX_TRIALS = 100
 #: Steps in a row that do not advance time before the run is stopped as Zeno behaviour.
 ZENO_LIMIT = 64
 
@@ -227,10 +230,16 @@ def rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, h, yrow, drow, ext):
 
 @jit
 def locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext):
-    """Step fraction of the event of function ``ev`` in (0, 1] (Illinois regula falsi).
+    """Step fraction of the event of function ``ev`` in (0, 1]; -1 on a failed trial.
 
-    Returns -1 on a failed trial. The far-side state, its diagnostics and end derivative are
-    left in ``Wk[W_YEV]``, ``Wk[W_DEV]``, ``Wk[W_KEV]``.
+    Regula falsi with the Illinois modification on the bracket [lo, hi] (f(lo) > 0 >= f(hi)),
+    each trial a genuine RK4 step of size theta*h from the step start. When the estimate comes
+    within half the tolerance of an end of the bracket, the trial is put half a tolerance past
+    that end, which closes the bracket from the other side; so the far side is reached in a few
+    trials instead of by bisection. Returns the far-side fraction ``hi``, whose time lies within
+    ``O[O_EVTOL]`` after the root; its state, diagnostics and end derivative are left in
+    ``Wk[W_YEV]``, ``Wk[W_DEV]``, ``Wk[W_KEV]``. Trial steps are ``(tau + theta*h) - tau``, so
+    the state of a trial belongs exactly to the time ``tau + theta*h`` it is labelled with.
     """
     lo = 0.0
     hi = 1.0
@@ -238,22 +247,28 @@ def locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext):
     fhi = f1
     side = 0
     tol = O[O_EVTOL]
-    for _ in range(200):
+    half = 0.5 * tol / h
+    I[I_NLOCATE] += 1
+    for _ in range(MAX_TRIALS):
         if (hi - lo) * h <= tol:
             break
         if fhi != flo:
             th = hi - fhi * (hi - lo) / (fhi - flo)
         else:
             th = 0.5 * (lo + hi)
-        margin = 1e-3 * (hi - lo)
-        if not (th > lo + margin and th < hi - margin):
+        if not (lo < th < hi):
             th = 0.5 * (lo + hi)
-        st = rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, th * h, W_YTRY, W_DTRY, ext)
+        if th - lo < half:
+            th = lo + half
+        elif hi - th < half:
+            th = hi - half
+        t = tau + th * h
+        st = rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, t - tau, W_YTRY, W_DTRY, ext)
         I[I_NTRIALS] += 1
         if st != ST_OK:
             return -1.0
         if ev == EVF_DELAY:
-            f = tdisc - (tau + th * h - Wk[W_DTRY, D_TAUN])
+            f = tdisc - (t - Wk[W_DTRY, D_TAUN])
         else:
             f = event_value(ev, Wk[W_YTRY], Wk[W_DTRY])
         if f <= 0.0:
@@ -426,8 +441,11 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
         n = int(math.ceil(remaining / h_nom - 1e-9))
         if n < 1:
             n = 1
-        h = remaining / n
-        t_end = to_tau if n == 1 else tau + h
+        # each step's end from the interval's end, and the step as the difference of the two
+        # times, so that the state after the step belongs exactly to the time it is labelled
+        # with (otherwise the rounding of tau + h accumulates over long runs: a precision floor)
+        t_end = to_tau if n == 1 else to_tau - (n - 1) * (remaining / n)
+        h = t_end - tau
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau < C[C_TON] < t_end:
             t_end = C[C_TON]
             h = t_end - tau
