@@ -1,7 +1,8 @@
 """Tests for drillstring.model.params: derived quantities, eqs. (15)-(16), files and validation.
 
-Expected values are computed by hand from NOTES.md section 5 and the paper's formulas, never taken
-from the code under test.
+Expected values are computed by hand from the reference set (docs/model.md, "Reference parameter
+set"), the reference rig (docs/reference_rig.md) and the paper's formulas, never taken from the
+code under test.
 """
 
 from __future__ import annotations
@@ -16,11 +17,16 @@ import numpy as np
 import pytest
 
 from drillstring.model.params import (
+    KNOWN_PARAMS,
+    KNOWN_PHYSICAL,
     REFERENCE,
+    REFERENCE_RIG,
+    REFERENCE_RIG_CHOICES,
     ParameterError,
     PhysicalParams,
     ScaledParams,
     get_params,
+    get_physical,
     load_params,
     params_from_spec,
     read_params,
@@ -109,7 +115,7 @@ def test_reference_derived_quantities() -> None:
     assert r.etabar == pytest.approx(1.0 / math.sqrt(10.0), rel=1e-14)
     assert r.etabar2 == pytest.approx(0.1, rel=1e-14)
     assert r.vbar0 == pytest.approx(1.0 / math.sqrt(1000.0), rel=1e-14)
-    # tau_n0 * sqrt(n psi) = (pi/10) * sqrt(1000) = pi * sqrt(10); NOTES.md rounds it to 9.93
+    # tau_n0 * sqrt(n psi) = (pi/10) * sqrt(1000) = pi * sqrt(10); docs/model.md rounds it to 9.93
     assert r.taubar_n0 == pytest.approx(math.pi * math.sqrt(10.0), rel=1e-14)
     assert abs(r.taubar_n0 - 9.93) < 5e-3
     # R0 = n d0 + n beta lambda = 4 pi/10 + 4 * 0.5 * 1.58
@@ -333,6 +339,177 @@ def test_file_format_errors(tmp_path: Path) -> None:
         load_params(tmp_path / "absent.json")
     with pytest.raises(ParameterError, match="psi"):
         load_params(_write(tmp_path / "s.json", {"kind": "scaled", **SCALED_OK, "psi": "250"}))
+
+
+# ---------------------------------------------------------------------------------------------
+# the reference rig (docs/reference_rig.md)
+# ---------------------------------------------------------------------------------------------
+
+SCALED_FIELDS = [f.name for f in dataclasses.fields(ScaledParams)]
+
+
+def _assert_maps_onto(phys: PhysicalParams, target: ScaledParams, rel: float = 1e-12) -> None:
+    s = phys.to_scaled()
+    assert s.n == target.n and isinstance(s.n, int)
+    for name in SCALED_FIELDS[1:]:
+        assert getattr(s, name) == pytest.approx(getattr(target, name), rel=rel, abs=0.0), name
+
+
+def test_reference_rig_maps_onto_reference() -> None:
+    _assert_maps_onto(REFERENCE_RIG, REFERENCE)
+
+
+def test_reference_rig_keeps_its_choices_and_scales() -> None:
+    r = REFERENCE_RIG
+    assert {k: getattr(r, k) for k in REFERENCE_RIG_CHOICES} == {
+        "C": 235.0,
+        "I1": 200.0,
+        "a": 0.10795,  # 8 1/2-in bit
+        "eps": 60e6,
+        "zeta": 0.6,
+        "xi": 4.0 / 3.0,
+        "sigma_bar": 60e6,
+    }
+    assert r.n == 4
+    # t* = sqrt(200/235); L* = 2*235/(60e6*0.10795^2) (Section II: t* ~ 1 s, L* ~ 1 mm)
+    assert r.t_star == pytest.approx(0.9225312080288851, rel=1e-14)
+    assert r.L_star == pytest.approx(6.722043432552839e-4, rel=1e-14)
+    assert 0.5 < r.t_star < 2.0 and 0.3e-3 < r.L_star < 3e-3
+
+
+def test_reference_rig_solved_values_by_hand() -> None:
+    """The eight solved values, each from (15)-(16) by hand with t*^2 = 200/235."""
+    r = REFERENCE_RIG
+    t2 = 200.0 / 235.0
+    zea = 0.6 * 60e6 * 0.10795  # zeta*eps*a = 3.8862e6 N/m
+    assert r.M == pytest.approx(zea * t2 / 250.0, rel=1e-14)  # psi = zeta eps a t*^2 / M
+    assert r.K == pytest.approx(0.1 * 4 * zea, rel=1e-14)  # eta^2/psi = K/(zeta eps a) = 0.4
+    assert r.D == pytest.approx(2 * math.sqrt(10) * r.M / math.sqrt(t2), rel=1e-14)
+    assert r.I2 == 1000.0
+    assert r.mu == pytest.approx(0.625, rel=1e-15)  # 0.5/(0.6*4/3)
+    assert r.l == pytest.approx(2 * 0.6 * 235 * 1.58 / (0.10795**2 * 60e6), rel=1e-14)
+    assert r.Omega0 == pytest.approx(5.0 / math.sqrt(t2), rel=1e-14)
+    assert r.V0 == pytest.approx(r.L_star / math.sqrt(t2), rel=1e-14)
+    # and the numbers quoted in docs/reference_rig.md
+    assert (r.M, r.K, r.D) == pytest.approx((13229.617, 1.55448e6, 90697.685), rel=1e-7)
+    assert (r.l, r.V0, r.Omega0) == pytest.approx((6.3725e-4, 7.28652e-4, 5.419871), rel=1e-5)
+
+
+def test_reference_rig_nominal_loads_from_the_paper() -> None:
+    """W0, T0 = R0 from (4), (7), (8) in SI units, and again in closed form from the scaled set."""
+    r = REFERENCE_RIG
+    d0 = 2 * math.pi / r.n * r.V0 / r.Omega0  # (8): d0 = (2 pi/n) V0/Omega0 = V0 t_n0
+    Wc = r.n * r.a * r.zeta * r.eps * d0  # (4)
+    Wf = r.n * r.a * r.l * r.sigma_bar  # (7), dU/dt > 0
+    Tc = 0.5 * r.n * r.a**2 * r.eps * d0  # (4)
+    Tf = 0.5 * r.a * r.xi * r.mu * Wf  # (7)
+    assert r.d0 == pytest.approx(d0, rel=1e-14)
+    assert r.W0 == pytest.approx(Wc + Wf, rel=1e-14)
+    assert r.T0 == pytest.approx(Tc + Tf, rel=1e-14)
+    # (8) solved for R0
+    R0 = 0.5 * r.n * r.a**2 * r.eps * d0 + 0.5 * r.n * r.a**2 * r.xi * r.mu * r.l * r.sigma_bar
+    assert r.R0 == pytest.approx(R0, rel=1e-14)
+    # closed forms through (16): T^c = C n d0/L*, T^f = C n beta lambda,
+    # W^c = (2 n zeta C/a) d0/L*, W^f = (2 n zeta C/a) lambda; d0/L* = v0 tau_n0 = pi/10
+    C, a, n = 235.0, 0.10795, 4
+    assert Tc == pytest.approx(C * n * math.pi / 10, rel=1e-13)
+    assert Tf == pytest.approx(C * n * 0.5 * 1.58, rel=1e-13)
+    assert Wc == pytest.approx(2 * n * 0.6 * C / a * math.pi / 10, rel=1e-13)
+    assert Wf == pytest.approx(2 * n * 0.6 * C / a * 1.58, rel=1e-13)
+    assert r.R0 == pytest.approx(C * REFERENCE.R0, rel=1e-13)
+    # the numbers quoted in docs/reference_rig.md: WOB 19.79 kN, TOB 1.038 kN m
+    assert (r.W0, r.T0) == pytest.approx((19792.604, 1037.9097), rel=1e-7)
+
+
+def test_reference_rig_operating_point() -> None:
+    r = REFERENCE_RIG
+    t_star = math.sqrt(200.0 / 235.0)
+    # Omega0 = omega0/t* rad/s -> rpm; V0 = v0 L*/t* m/s -> m/h; n d0 = 2 pi V0/Omega0 per turn
+    assert r.surface_speed_rpm == pytest.approx(5.0 / t_star * 60 / (2 * math.pi), rel=1e-14)
+    assert r.rop_m_per_h == pytest.approx(r.L_star / t_star * 3600, rel=1e-14)
+    assert r.depth_of_cut_per_rev_mm == pytest.approx(2 * math.pi * r.L_star / 5.0 * 1e3, rel=1e-13)
+    assert (r.surface_speed_rpm, r.rop_m_per_h, r.depth_of_cut_per_rev_mm) == pytest.approx(
+        (51.75595, 2.623148, 0.8447169), rel=1e-6
+    )
+
+
+@pytest.mark.parametrize("q", [PHYS_ROUND, PHYS_FIELD], ids=["round", "field"])
+def test_operating_point_other_sets(q: dict) -> None:
+    p = PhysicalParams(**q)
+    assert p.surface_speed_rpm == pytest.approx(q["Omega0"] * 30 / math.pi, rel=1e-14)
+    assert p.rop_m_per_h == pytest.approx(q["V0"] * 3600, rel=1e-14)
+    per_rev = 2 * math.pi * q["V0"] / q["Omega0"]
+    assert p.depth_of_cut_per_rev_mm == pytest.approx(per_rev * 1e3, rel=1e-14)
+    d0 = per_rev / q["n"]
+    W0 = q["n"] * q["a"] * (q["zeta"] * q["eps"] * d0 + q["l"] * q["sigma_bar"])
+    assert p.W0 == pytest.approx(W0, rel=1e-14)
+    assert p.T0 == p.R0
+
+
+def test_from_scaled_inverts_to_scaled() -> None:
+    choices = dict(C=1.0, I1=4.0, a=1.0, eps=2.0, zeta=0.5, xi=0.5, sigma_bar=10.0)
+    phys = PhysicalParams.from_scaled(ScaledParams(**SCALED_ROUND), **choices)
+    # PHYS_ROUND was built by hand to give SCALED_ROUND with exactly these seven values
+    for name, value in PHYS_ROUND.items():
+        assert getattr(phys, name) == pytest.approx(value, rel=1e-14), name
+    _assert_maps_onto(phys, ScaledParams(**SCALED_ROUND))
+    sharp = REFERENCE.replace(lam=0.0, gamma=0.0)
+    p = PhysicalParams.from_scaled(sharp, **REFERENCE_RIG_CHOICES)
+    assert p.l == 0.0 and p.D == 0.0
+    _assert_maps_onto(p, sharp)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("C", 0.0), ("I1", -1.0), ("a", float("nan")), ("xi", "1"), ("eps", True)]
+)
+def test_from_scaled_rejects_bad_choices(name: str, value: object) -> None:
+    with pytest.raises(ParameterError) as exc:
+        PhysicalParams.from_scaled(REFERENCE, **{**REFERENCE_RIG_CHOICES, name: value})
+    assert f"from_scaled: {name} " in str(exc.value) and repr(value) in str(exc.value)
+    with pytest.raises(ParameterError, match="expected ScaledParams"):
+        PhysicalParams.from_scaled(REFERENCE_RIG, **REFERENCE_RIG_CHOICES)  # type: ignore[arg-type]
+
+
+def test_from_scaled_result_out_of_range_is_reported() -> None:
+    # valid choices whose product overflows: the solved M = zeta*eps*a*t*^2/psi is not finite
+    huge = {**REFERENCE_RIG_CHOICES, "zeta": 1e200, "eps": 1e200}
+    with pytest.raises(ParameterError, match=r"PhysicalParams\.M must be finite, got inf"):
+        PhysicalParams.from_scaled(REFERENCE, **huge)
+
+
+def test_reference_rig_by_name() -> None:
+    assert set(KNOWN_PARAMS) == {"reference", "reference-rig"}
+    assert KNOWN_PHYSICAL == {"reference-rig": REFERENCE_RIG}
+    assert get_physical("reference-rig") is REFERENCE_RIG
+    for s in (get_params("reference-rig"), params_from_spec("reference-rig")):
+        assert isinstance(s, ScaledParams)
+        for name in SCALED_FIELDS:
+            assert getattr(s, name) == pytest.approx(getattr(REFERENCE, name), rel=1e-12), name
+    assert get_params("reference") is REFERENCE  # scaled names unchanged
+    with pytest.raises(ParameterError, match="'reference' is a scaled set.*reference-rig"):
+        get_physical("reference")
+    with pytest.raises(ParameterError, match="'nope' is unknown.*reference-rig"):
+        get_physical("nope")
+    with pytest.raises(ParameterError, match="unknown"):
+        get_physical(["reference-rig"])  # type: ignore[arg-type]
+
+
+def test_reference_rig_file() -> None:
+    path = DATA / "reference_rig.toml"
+    assert tomllib.loads(path.read_text())["kind"] == "physical"
+    assert read_params(path) == REFERENCE_RIG  # the shipped file is the set, bit for bit
+    s = load_params(path)
+    for name in SCALED_FIELDS:
+        assert getattr(s, name) == pytest.approx(getattr(REFERENCE, name), rel=1e-12), name
+    assert params_from_spec(str(path)) == s
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_reference_rig_file_round_trip(tmp_path: Path, suffix: str) -> None:
+    path = save_params(REFERENCE_RIG, tmp_path / f"rig{suffix}")
+    back = read_params(path)
+    assert isinstance(back, PhysicalParams) and back == REFERENCE_RIG
+    _assert_maps_onto(back, REFERENCE)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -23,6 +23,15 @@ whose message names the field and the value. Rules:
   (no axial damping, no contact stress, a sharp cutter are all meaningful limits). ``mu, xi > 0``
   because ``beta = zeta*mu*xi`` must be positive; ``beta <= 1`` is checked by :meth:`to_scaled`.
 
+Named sets
+----------
+``"reference"`` is :data:`REFERENCE`, our reconstruction of the paper's Table I (``docs/model.md``,
+"Reference parameter set"). ``"reference-rig"`` is :data:`REFERENCE_RIG`, a physical rig in SI
+units that maps onto it by (15)-(16) (``docs/reference_rig.md``). :func:`get_params`,
+:data:`KNOWN_PARAMS` and :func:`params_from_spec` always give :class:`ScaledParams` (a physical
+set converted by :meth:`PhysicalParams.to_scaled`, like :func:`load_params` does for files);
+:func:`get_physical` and :data:`KNOWN_PHYSICAL` give the physical sets as :class:`PhysicalParams`.
+
 Parameter files
 ---------------
 TOML (``.toml``) or JSON (``.json``), chosen by suffix. One flat table: a ``kind`` key, either
@@ -62,14 +71,19 @@ from pathlib import Path
 from typing import Any, Self
 
 from drillstring.fileio import load_table, write_text
+from drillstring.validation import check_real
 
 __all__ = [
     "KNOWN_PARAMS",
+    "KNOWN_PHYSICAL",
     "REFERENCE",
+    "REFERENCE_RIG",
+    "REFERENCE_RIG_CHOICES",
     "ParameterError",
     "PhysicalParams",
     "ScaledParams",
     "get_params",
+    "get_physical",
     "load_params",
     "params_from_spec",
     "read_params",
@@ -324,11 +338,37 @@ class PhysicalParams:
         return 2.0 * math.pi / self.n * self.V0 / self.Omega0
 
     @property
-    def R0(self) -> float:
-        """Nominal rotary-table torque [N m] solving eq. (8) for R0."""
+    def W0(self) -> float:
+        """Nominal weight on bit W^c + W^f [N]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
+        return self.n * self.a * (self.zeta * self.eps * self.d0 + self.l * self.sigma_bar)
+
+    @property
+    def T0(self) -> float:
+        """Nominal torque on bit T^c + T^f [N m]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
         cutting = 0.5 * self.n * self.a**2 * self.eps * self.d0
-        contact = 0.5 * self.n * self.a**2 * self.xi * self.mu * self.l * self.sigma_bar
+        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
         return cutting + contact
+
+    @property
+    def R0(self) -> float:
+        """Nominal rotary-table torque [N m], eq. (8): it balances the torque on bit :attr:`T0`
+        (eqs. (2)-(3) in the nominal motion)."""
+        return self.T0
+
+    @property
+    def surface_speed_rpm(self) -> float:
+        """Nominal rotary speed Omega0 of table and bit in revolutions per minute."""
+        return self.Omega0 * 60.0 / (2.0 * math.pi)
+
+    @property
+    def rop_m_per_h(self) -> float:
+        """Nominal rate of penetration V0 in metres per hour."""
+        return self.V0 * 3600.0
+
+    @property
+    def depth_of_cut_per_rev_mm(self) -> float:
+        """Nominal depth of cut per revolution n*d0 = 2*pi*V0/Omega0, eq. (8), in millimetres."""
+        return self.n * self.d0 * 1e3
 
     def scaled_torque(self, R: float) -> float:
         """Scaled torque script-R = R/C, eq. (16)."""
@@ -357,6 +397,81 @@ class PhysicalParams:
         except ParameterError as exc:
             raise ParameterError(f"{exc} (computed from PhysicalParams by eqs. (15)-(16))") from exc
 
+    @classmethod
+    def from_scaled(
+        cls,
+        scaled: ScaledParams,
+        *,
+        C: float,
+        I1: float,
+        a: float,
+        eps: float,
+        zeta: float,
+        xi: float,
+        sigma_bar: float,
+    ) -> PhysicalParams:
+        """The physical set that :meth:`to_scaled` maps onto ``scaled``, given seven choices.
+
+        Eqs. (15)-(16) give nine scaled values from sixteen physical ones (``n`` is shared), so
+        seven are free. With the torsional stiffness ``C`` and the bit-end inertia ``I1`` (hence
+        t* = sqrt(I1/C)) and the bit-rock values ``a, eps, zeta, xi, sigma_bar`` chosen, (15)-(16)
+        solve uniquely for the rest::
+
+            M = zeta*eps*a*t*^2/psi    D = gamma*M/t*    K = eta^2*M/t*^2    I2 = rho*I1
+            l = 2*zeta*C*lambda/(a^2*sigma_bar)          mu = beta/(zeta*xi)
+            Omega0 = omega0/t*         V0 = v0*L*/t*,  L* = 2*C/(eps*a^2)
+
+        Derivation and the reference rig: ``docs/reference_rig.md``.
+
+        Raises
+        ------
+        ParameterError
+            A choice that is not a finite number > 0 (named), or a result that is not a valid
+            :class:`PhysicalParams`.
+        """
+        if not isinstance(scaled, ScaledParams):
+            raise ParameterError(
+                f"PhysicalParams.from_scaled: expected ScaledParams, got {type(scaled).__name__}"
+            )
+        chosen = {
+            name: check_real(
+                f"PhysicalParams.from_scaled: {name}", value, lower=0.0, error=ParameterError
+            )
+            for name, value in (
+                ("C", C),
+                ("I1", I1),
+                ("a", a),
+                ("eps", eps),
+                ("zeta", zeta),
+                ("xi", xi),
+                ("sigma_bar", sigma_bar),
+            )
+        }
+        C, I1, a, eps = chosen["C"], chosen["I1"], chosen["a"], chosen["eps"]
+        zeta, xi, sigma_bar = chosen["zeta"], chosen["xi"], chosen["sigma_bar"]
+        s = scaled
+        t_star = math.sqrt(I1 / C)
+        L_star = 2.0 * C / (eps * a**2)
+        M = zeta * eps * a * I1 / (s.psi * C)
+        return cls(
+            M=M,
+            I1=I1,
+            I2=s.rho * I1,
+            C=C,
+            K=s.eta**2 * M * C / I1,
+            D=s.gamma * M / t_star,
+            n=s.n,
+            a=a,
+            eps=eps,
+            zeta=zeta,
+            sigma_bar=sigma_bar,
+            l=2.0 * zeta * C * s.lam / (a**2 * sigma_bar),
+            mu=s.beta / (zeta * xi),
+            xi=xi,
+            V0=s.v0 * L_star / t_star,
+            Omega0=s.omega0 / t_star,
+        )
+
     def replace(self, **changes: Any) -> PhysicalParams:
         """Return a validated copy with ``changes`` applied."""
         names = {f.name for f in dataclasses.fields(self)}
@@ -380,8 +495,9 @@ class PhysicalParams:
 # named sets
 # --------------------------------------------------------------------------------------------
 
-#: NOTES.md section 5, our reconstruction of Table I: gammabar = 0.2, etabar^2 = 0.1,
-#: tau_n0 = pi/10, taubar_n0 = 9.93. Also stored in ``drillstring/model/data/reference.toml``.
+#: Our reconstruction of Table I (``docs/model.md``, "Reference parameter set"): gammabar = 0.2,
+#: etabar^2 = 0.1, tau_n0 = pi/10, taubar_n0 = 9.93. Also stored in
+#: ``drillstring/model/data/reference.toml``.
 REFERENCE = ScaledParams(
     n=4,
     psi=250.0,
@@ -394,11 +510,42 @@ REFERENCE = ScaledParams(
     omega0=5.0,
 )
 
-KNOWN_PARAMS: dict[str, ScaledParams] = {"reference": REFERENCE}
+#: The seven free physical choices of the reference rig (``docs/reference_rig.md``): a 4 km
+#: string of 5-in drill pipe (C) over a 59 m collar section (I1 with a third of the pipe's polar
+#: inertia), an 8 1/2-in four-bladed PDC bit (a) in a 60 MPa rock (eps, sigma_bar), cutting-face
+#: constant zeta = 0.6 and a uniform wearflat contact over the bit face (xi = 4/3).
+REFERENCE_RIG_CHOICES: dict[str, float] = {
+    "C": 235.0,
+    "I1": 200.0,
+    "a": 0.10795,
+    "eps": 60e6,
+    "zeta": 0.6,
+    "xi": 4.0 / 3.0,
+    "sigma_bar": 60e6,
+}
+
+#: A physical (SI) rig that maps onto :data:`REFERENCE` by eqs. (15)-(16) (to rounding, about
+#: 1e-16 relative): t* = 0.92 s, L* = 0.67 mm. Also stored in
+#: ``drillstring/model/data/reference_rig.toml``.
+REFERENCE_RIG = PhysicalParams.from_scaled(REFERENCE, **REFERENCE_RIG_CHOICES)
+
+#: Physical named sets, as :class:`PhysicalParams` (see :func:`get_physical`).
+KNOWN_PHYSICAL: dict[str, PhysicalParams] = {"reference-rig": REFERENCE_RIG}
+
+#: Every named set as :class:`ScaledParams`; a physical set appears converted by (15)-(16).
+KNOWN_PARAMS: dict[str, ScaledParams] = {
+    "reference": REFERENCE,
+    **{name: phys.to_scaled() for name, phys in KNOWN_PHYSICAL.items()},
+}
 
 
 def get_params(name: str) -> ScaledParams:
-    """Return a named parameter set (currently only ``"reference"``, NOTES.md section 5)."""
+    """Return a named parameter set as :class:`ScaledParams`.
+
+    ``"reference"`` is the scaled reference set; ``"reference-rig"`` is the physical reference
+    rig converted by (15)-(16) (equal to ``"reference"`` to rounding). :func:`get_physical`
+    returns a physical set in SI units.
+    """
     try:
         return KNOWN_PARAMS[name]
     except (KeyError, TypeError):
@@ -408,8 +555,23 @@ def get_params(name: str) -> ScaledParams:
         ) from None
 
 
+def get_physical(name: str) -> PhysicalParams:
+    """Return a physical named set (SI units), e.g. ``"reference-rig"``."""
+    try:
+        return KNOWN_PHYSICAL[name]
+    except (KeyError, TypeError):
+        known = ", ".join(sorted(KNOWN_PHYSICAL))
+        scaled = isinstance(name, str) and name in KNOWN_PARAMS
+        hint = " is a scaled set (use get_params)" if scaled else " is unknown"
+        raise ParameterError(
+            f"parameter set {name!r}{hint}; physical sets: {known} "
+            "(use read_params(path) for a file)"
+        ) from None
+
+
 def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:
-    """A known set name (see :func:`get_params`) or else the path of a parameter file."""
+    """A known set name (see :func:`get_params`) or else the path of a parameter file, as
+    :class:`ScaledParams` (physical sets and files are converted by (15)-(16))."""
     if isinstance(spec, str) and spec in KNOWN_PARAMS:
         return KNOWN_PARAMS[spec]
     path = Path(spec)
