@@ -22,12 +22,13 @@ test: venv
 	$(BIN)/ruff format --check .
 	$(BIN)/pytest -q
 
-# The main job: LMI design (with A from the axial analysis), both FMUs, then the figures and the
-# co-simulation / monolithic agreement (drillstring/demo.py). Everything lands in out/ and build/.
+# The main job, a chain of artifacts each computed once (drillstring/apps/demo.py): the LMI design
+# with A from the axial analysis, both FMUs built with its gains, then the figures and the
+# co-simulation / monolithic agreement. Everything lands in out/ and build/.
 demo: venv
-	$(BIN)/drillstring design --out out/gains.json
-	$(BIN)/python build_fmus.py --gains out/gains.json --out build
-	$(BIN)/drillstring demo --gains out/gains.json --fmus build --out out
+	$(BIN)/drillstring design --out out/design
+	$(BIN)/python build_fmus.py --gains out/design/gains.json --out build
+	$(BIN)/drillstring demo --design out/design --fmus build --out out
 
 lint: venv
 	$(BIN)/ruff check .

@@ -85,24 +85,19 @@ CONTROLLER = FmuSpec(FMU_SRC / "torsional_controller.py", "TorsionalController")
 
 
 def synthesize_gains(path: Path) -> Path:
-    """Run the controller synthesis for the reference set and write its gains file to ``path``.
+    """Design the controller for the reference set and write its gains file to ``path``.
 
-    >>> SYNTHESIS CALL SITE (issue 5) <<<  The synthesis has no fixed programmatic API yet, so
-    this calls the ``drillstring design`` command (its ``design_main(argv)``: axial analysis for
-    A, LMI synthesis, certificate, gains file); its printout goes to stdout. Replace this call
-    when ``drillstring.controller.synthesis`` offers one.
+    :func:`drillstring.controller.design_controller`: the slope A from the axial limit cycles,
+    the LMI synthesis (33) and its certificate.
     """
-    from drillstring.apps.design import design_main
+    from drillstring.controller import design_controller, write_gains
+    from drillstring.model.params import REFERENCE
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    print(f"build_fmus: no gains file at {path}: running `drillstring design`", file=sys.stderr)
-    status = design_main(["--params", "reference", "--out", str(path)])
-    if status != 0 or not path.is_file():
-        raise BuildError(
-            f"the controller synthesis failed (drillstring design exit status {status}); no "
-            f"gains file at {path}"
-        )
-    return path
+    print(f"build_fmus: no gains file at {path}: designing the controller", file=sys.stderr)
+    design = design_controller(REFERENCE, evaluate_paper=False)
+    if not design.synthesis.certificate.passed:
+        raise BuildError(f"the controller design failed its certificate; no gains file at {path}")
+    return write_gains(design.gains, path)
 
 
 def load_gains(path: Path) -> dict[str, Any]:

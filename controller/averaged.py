@@ -23,6 +23,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.params import ScaledParams
 
 __all__ = [
@@ -201,8 +202,6 @@ def delay_roots(
     root within ``min(1, 2/tau)`` of the rightmost one), applied to a balanced similar system,
     sorted by real part, descending; at most ``n_roots`` are returned.
     """
-    from drillstring.analysis.spectrum import dde_roots
-
     tau = model.tau_n0 if tau is None else _finite("tau", tau)
     if tau <= 0.0:
         raise ValueError(f"delay tau must be > 0, got {tau!r}")

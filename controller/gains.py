@@ -29,6 +29,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from drillstring.controller.averaged import averaged_model
 from drillstring.fileio import write_text
 from drillstring.model.params import ParameterError, ScaledParams
 
@@ -134,8 +135,6 @@ class GainsFile:
             raise GainsFileError(f"gains file: alpha must be > 0, got {self.alpha!r}")
         if not math.isclose(self.R_ff, -self.K0, rel_tol=1e-12, abs_tol=1e-15):
             raise GainsFileError(f"gains file: R_ff = {self.R_ff!r} is not -K0 = {-self.K0!r} (31)")
-        from drillstring.controller.averaged import averaged_model
-
         try:
             K0 = averaged_model(self.params, self.A, self.taubar_crit).K0
         except ValueError as exc:

@@ -1,4 +1,9 @@
-"""Time-series figures in the style of the paper's Figs. 5 and 6 (du/dtau and dphi/dtau)."""
+"""Figures: one helper that makes a figure without pyplot state, and the Fig. 5/6 style plot.
+
+Every PNG of the project is drawn on :func:`new_figure` (an Agg canvas, no global pyplot state,
+safe in worker processes and FMUs) and written with :func:`drillstring.fileio.save_figure`
+(atomically).
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
 from drillstring.fileio import save_figure
+
+__all__ = ["new_figure", "plot_velocities"]
+
+
+def new_figure(figsize: tuple[float, float] = (7.0, 4.6), dpi: int = 150) -> Figure:
+    """A matplotlib figure on its own Agg canvas (no pyplot)."""
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def plot_velocities(
@@ -17,12 +34,25 @@ def plot_velocities(
     title: str = "",
     t_on: float | None = None,
 ) -> Path:
-    """du/dtau and dphi/dtau against tau for one or more runs (objects with tau, du, dphi)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    """du/dtau and dphi/dtau against tau for one or more runs, in the style of Figs. 5 and 6.
 
-    fig = Figure(figsize=(8.0, 5.0), dpi=150)
-    FigureCanvasAgg(fig)
+    Parameters
+    ----------
+    path : path-like
+        The PNG to write (atomically).
+    runs : sequence of (label, run)
+        Each run has arrays ``tau``, ``du`` and ``dphi``.
+    title : str
+        Figure title.
+    t_on : float, optional
+        Switch-on time of the controller, drawn as a dotted line.
+
+    Returns
+    -------
+    Path
+        The written PNG.
+    """
+    fig = new_figure((8.0, 5.0))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     styles = ["-", "--", ":", "-."]
     for i, (label, r) in enumerate(runs):

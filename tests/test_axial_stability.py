@@ -25,8 +25,8 @@ from drillstring.analysis.axial_stability import (
     stability_intervals,
     taubar_crit,
     unstable_root_count,
-    write_stability_diagram,
 )
+from drillstring.analysis.figures import write_stability_diagram
 from drillstring.analysis.spectrum import quasi_polynomial_roots
 
 

@@ -1,4 +1,4 @@
-"""Tests for the parameter sweeps (drillstring.apps.sweep.runner, sweep_spec, sweep_studies).
+"""Tests for the parameter sweeps (drillstring.apps.sweep: runner, spec, studies).
 
 The Dask run is checked against the serial run of the same sweep point by point; resume and
 failure handling use cheap stand-in point functions; the metrics are checked against independent
@@ -20,7 +20,6 @@ from drillstring.apps.sweep.runner import SweepError, columns, read_results, run
 from drillstring.apps.sweep.spec import SweepSpecError, load_spec, spec_from_dict
 from drillstring.apps.sweep.studies import (
     axial_design,
-    axial_stick_fraction,
     closed_loop_metrics,
     rightmost_nonzero_root,
 )
@@ -233,7 +232,7 @@ def test_axial_stick_fraction_matches_sampled_modes():
     r = simulate(
         REFERENCE, 4.0, initial={"dphi": -2.5}, dt_out=1e-3, options=EngineOptions(), progress=False
     )
-    exact = axial_stick_fraction(r)
+    exact = r.axial_stick_fraction()
     sampled = float(np.mean(r.mode[:-1] == 1.0))
     n_changes = sum(1 for e in r.events if e.kind == "mode")
     assert n_changes > 10 and 0.05 < exact < 0.95

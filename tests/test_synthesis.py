@@ -171,18 +171,19 @@ def test_closed_loop_roots_reject_bad_gain():
 
 
 def test_design_command_writes_certified_gains(tmp_path, capsys):
-    out = tmp_path / "g.json"
+    out = tmp_path / "design"
     argv = ["--params", "reference", "--A", str(A_REF), "--out", str(out)]
     assert design_main([*argv, "--no-paper"]) == 0
     text = capsys.readouterr().out
     assert "certificate PASSED" in text and "Open loop" in text and "alpha" in text
-    g = read_gains(out)
+    assert not (out / "axial_fit.csv").exists()  # A was given: no fit computed
+    g = read_gains(out / "gains.json")
     assert g.taubar_crit == TAUBAR_CRIT_REF  # default from drillstring.analysis.axial_stability
     assert g.certificate["abscissa_sweep_max"] < 0.0
 
 
 def test_design_command_rejects_bad_input(tmp_path, capsys):
-    out = tmp_path / "g.json"
+    out = tmp_path / "design"
     assert design_main(["--A", "-0.2", "--out", str(out)]) == 2
     assert "A (slope of (22)) must be > 0" in capsys.readouterr().err
     assert not out.exists()

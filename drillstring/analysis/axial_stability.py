@@ -53,17 +53,14 @@ Special cases (documented choices):
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from drillstring.analysis.spectrum import DDESystem, dde_roots
-from drillstring.fileio import atomic_write
 
 if TYPE_CHECKING:
     from drillstring.model.params import ScaledParams
@@ -83,7 +80,6 @@ __all__ = [
     "stability_intervals",
     "taubar_crit",
     "unstable_root_count",
-    "write_stability_diagram",
 ]
 
 FIG2_GAMMABARS: tuple[float, ...] = (0.0, 0.2, 0.4, 0.6)
@@ -435,64 +431,3 @@ def stability_diagram(
     if sg == 0.0:
         stable[:, tg == 0.0] = False  # marginal at taubar = 0
     return StabilityDiagram(gs, (t0, t1), (e0, e1), boundaries, sg, tg, eg, stable)
-
-
-def write_stability_diagram(
-    out_dir: str | os.PathLike[str],
-    gammabars: Sequence[float] = FIG2_GAMMABARS,
-    taubar_range: tuple[float, float] = (0.0, 20.0),
-    etabar2_range: tuple[float, float] = (0.0, 4.0),
-    *,
-    diagram: StabilityDiagram | None = None,
-) -> dict[str, Path]:
-    """Write Fig. 2 (``fig2_stability.png``, ``fig2_boundaries.csv``) atomically into ``out_dir``.
-
-    CSV columns: gammabar, segment (polyline id per gammabar), taubar_n, etabar2. Returns
-    ``{"png": path, "csv": path}``.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Patch
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    d = diagram or stability_diagram(gammabars, taubar_range, etabar2_range)
-
-    rows = ["gammabar,segment,taubar_n,etabar2"]
-    for g in d.gammabars:
-        for i, seg in enumerate(d.boundaries[g]):
-            rows.extend(f"{g:.17g},{i},{t:.17g},{e:.17g}" for t, e in seg)
-    csv_path = out / "fig2_boundaries.csv"
-    atomic_write(csv_path, lambda fh: fh.write(("\n".join(rows) + "\n").encode()))
-
-    fig = Figure(figsize=(7.0, 4.6), dpi=150)
-    FigureCanvasAgg(fig)  # Agg canvas, no pyplot state
-    ax = fig.add_subplot()
-    ax.contourf(
-        d.taubar_grid, d.etabar2_grid, d.stable.astype(float), levels=[0.5, 1.5], colors=["0.82"]
-    )
-    styles = ["-", "--", "-.", ":"]
-    colors = ["k", "tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
-    handles = [
-        Patch(
-            facecolor="0.82",
-            edgecolor="none",
-            label=rf"stable, $\bar\gamma$ = {d.shade_gammabar:g}",
-        )
-    ]
-    for i, g in enumerate(d.gammabars):
-        style = dict(color=colors[i % len(colors)], ls=styles[i % len(styles)], lw=1.3)
-        for seg in d.boundaries[g]:
-            ax.plot(seg[:, 0], seg[:, 1], **style)
-        (h,) = ax.plot([], [], label=rf"boundary, $\bar\gamma$ = {g:g}", **style)
-        handles.append(h)
-    ax.set_xlim(*d.taubar_range)
-    ax.set_ylim(*d.etabar2_range)
-    ax.set_xlabel(r"delay $\bar\tau_n$")
-    ax.set_ylabel(r"stiffness $\bar\eta^2$")
-    ax.set_title(r"Axial stability, eq. (21): $s^2+\bar\gamma s+\bar\eta^2+1-e^{-s\bar\tau_n}=0$")
-    ax.legend(handles=handles, loc="lower right", fontsize=8, framealpha=0.9)
-    fig.tight_layout()
-    png_path = out / "fig2_stability.png"
-    atomic_write(png_path, lambda fh: fig.savefig(fh, format="png"))
-    return {"png": png_path, "csv": csv_path}

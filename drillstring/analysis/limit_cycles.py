@@ -16,14 +16,25 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
 from drillstring.analysis.axial_stability import critical_delay
-from drillstring.model.engine import Engine, EngineOptions, Event
+from drillstring.model.engine import (
+    OUTPUT_COLUMNS,
+    Engine,
+    EngineOptions,
+    Event,
+    stick_entries,
+    time_in_mode,
+)
 from drillstring.model.params import ScaledParams
+from drillstring.validation import check_real
 
+#: Columns of the engine's sample rows used here.
+_U, _DU, _G = (OUTPUT_COLUMNS.index(c) for c in ("u", "du", "g"))
 DEFAULT_LAM_OVER_VBAR0 = 50.0  # reference set: 1.58*sqrt(1000) = 49.96; bit never moves up
 FIG4_GAMMABARS = (0.2, 0.4, 0.6)
 FIG4_ETABAR2 = 0.1
@@ -33,13 +44,9 @@ def fast_params(
     gammabar: float, etabar2: float, taubar_n: float, lam_over_vbar0: float = DEFAULT_LAM_OVER_VBAR0
 ) -> ScaledParams:
     """Parameters that make the engine integrate (18): n*psi = 1, v0 = 1, omega0 = 2*pi/taubar_n."""
-    for name, v in (("gammabar", gammabar), ("etabar2", etabar2), ("taubar_n", taubar_n)):
-        if not (isinstance(v, int | float) and math.isfinite(v)):
-            raise ValueError(f"{name} must be a finite number, got {v!r}")
-    if etabar2 <= 0:
-        raise ValueError(f"etabar2 must be > 0 for the fast axial model, got {etabar2!r}")
-    if taubar_n <= 0:
-        raise ValueError(f"taubar_n must be > 0, got {taubar_n!r}")
+    gammabar = check_real("gammabar", gammabar, lower=0.0, strict=False)
+    etabar2 = check_real("etabar2", etabar2, lower=0.0)
+    taubar_n = check_real("taubar_n", taubar_n, lower=0.0)
     return ScaledParams(
         n=1,
         psi=1.0,
@@ -74,10 +81,6 @@ class LimitCycle:
     period_drift: float = math.nan
     time_simulated: float = 0.0
     samples: dict[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
-
-
-def _stick_entries(events: list[Event]) -> list[Event]:
-    return [e for e in events if e.kind == "mode" and e.to_mode == "stick"]
 
 
 def _periodicity(entries: list[Event], max_phases: int, tol: float) -> tuple[int, float, float]:
@@ -123,13 +126,10 @@ def limit_cycle(
     while eng.tau < t_max:
         t0 = eng.tau
         n_events_before = len(eng.events)
-        grid = np.linspace(t0, t0 + chunk, 201)[1:]
-        amp = 0.0
-        for t in grid:
-            st = eng.advance(t)
-            if not st.ok:
-                return LimitCycle(**base, kind="invalid", time_simulated=eng.tau)
-            amp = max(amp, abs(eng.outputs()["du"]))
+        rows, st = eng.sample(np.linspace(t0, t0 + chunk, 201)[1:])
+        if not st.ok:
+            return LimitCycle(**base, kind="invalid", time_simulated=eng.tau)
+        amp = float(np.max(np.abs(rows[:, _DU])))
         events = eng.events
         if any(e.to_mode == "up" for e in events):
             return LimitCycle(**base, kind="invalid", time_simulated=eng.tau)
@@ -145,7 +145,7 @@ def limit_cycle(
                     time_simulated=eng.tau,
                 )
             continue
-        entries = _stick_entries(events)
+        entries = stick_entries(events)
         k, period, drift = _periodicity(entries, max_phases, tol)
         if k:
             break
@@ -156,30 +156,15 @@ def limit_cycle(
     first, last = entries[-1 - k], entries[-1]
     g_int = last.g_integral - first.g_integral
     average = lam_over_vbar0 * g_int / period
-    # stick time inside the period, from the mode events between the two entries
-    in_period = [e for e in eng.events if first.tau <= e.tau <= last.tau and e.kind == "mode"]
-    stick_time = 0.0
-    t_in = None
-    for e in in_period:
-        if e.to_mode == "stick":
-            t_in = e.tau
-        elif e.from_mode == "stick" and t_in is not None:
-            stick_time += e.tau - t_in
-            t_in = None
+    stick_time = time_in_mode(eng.events, "stick", first.tau, last.tau, first.from_mode)
     # sample one further period (same orbit) for the figure and the second estimate
     samples: dict[str, np.ndarray] = {}
     check = math.nan
     if n_samples > 0:
         t0 = eng.tau
         ts = t0 + period * np.arange(n_samples + 1) / n_samples
-        ub = np.empty(ts.size)
-        dub = np.empty(ts.size)
-        gb = np.empty(ts.size)
-        for i, t in enumerate(ts):
-            if i > 0:
-                eng.advance(t)
-            o = eng.outputs()
-            ub[i], dub[i], gb[i] = o["u"], o["du"], o["g"]
+        rows, _ = eng.sample(ts)
+        ub, dub, gb = rows[:, _U].copy(), rows[:, _DU].copy(), rows[:, _G].copy()
         check = etabar2 * float(np.trapezoid(ub, ts) / period)
         samples = {"taubar": ts - t0, "ubar": ub, "dubar": dub, "gbar": gb}
     return LimitCycle(
@@ -194,14 +179,6 @@ def limit_cycle(
         time_simulated=eng.tau,
         samples=samples,
     )
-
-
-def averaged_contact_force(gammabar: float, etabar2: float, taubar_n: float, **kw) -> float:
-    """(lambda/vbar0)<gbar>_a at one delay (0 at a stable equilibrium); NaN if not periodic."""
-    lc = limit_cycle(gammabar, etabar2, taubar_n, n_samples=0, **kw)
-    if lc.kind in ("periodic", "equilibrium"):
-        return lc.average
-    return math.nan
 
 
 @dataclass(frozen=True)
@@ -244,8 +221,12 @@ def fit_slope(
     )
 
 
-def default_fit_delays(gammabar: float, etabar2: float, n: int = 25) -> np.ndarray:
-    """Delays for Fig. 4 / the slope A: from 1.5 taubar_crit to taubar_crit + 30."""
+#: Limit cycles per line of Fig. 4, which is also the fit that gives the design its slope A.
+FIT_POINTS = 25
+
+
+def default_fit_delays(gammabar: float, etabar2: float, n: int = FIT_POINTS) -> np.ndarray:
+    """Delays of a line of Fig. 4 (and of the slope A): from 1.5 taubar_crit to taubar_crit + 30."""
     tc = critical_delay(gammabar, etabar2)
     return np.linspace(1.5 * tc, tc + 30.0, n)
 
@@ -267,7 +248,11 @@ def average_curve(
 
 @dataclass(frozen=True)
 class AxialDesignInputs:
-    """A and taubar_crit of (22) for a parameter set: the input of the controller design."""
+    """A and taubar_crit of (22) for a parameter set: the input of the controller design.
+
+    ``curve`` holds the limit cycles of the fit, the line of Fig. 4 at the set's (gammabar,
+    etabar^2), so that the figure shows the very fit the controller was designed with.
+    """
 
     A: float
     taubar_crit: float
@@ -275,15 +260,37 @@ class AxialDesignInputs:
     gammabar: float
     etabar2: float
     fit: SlopeFit = field(repr=False, compare=False)
+    curve: tuple[LimitCycle, ...] = field(default=(), repr=False, compare=False)
 
 
 def design_inputs(
-    params: ScaledParams, taubars: Sequence[float] | None = None, *, progress: bool = False, **kw
+    params: ScaledParams,
+    taubars: Sequence[float] | None = None,
+    *,
+    progress: bool = False,
+    **kw: Any,
 ) -> AxialDesignInputs:
-    """Slope A from the averaged contact force at the parameter set's (gammabar, etabar^2), and
-    taubar_crit from the crossing formula of (21)."""
+    """The slope A of (22) and taubar_crit at the parameter set's (gammabar, etabar^2).
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The set; only its gammabar and etabar^2 matter.
+    taubars : sequence of float, optional
+        Delays of the fit (default: :func:`default_fit_delays`, the Fig. 4 line).
+    progress : bool
+        Show a progress bar.
+    **kw
+        Passed to :func:`limit_cycle`.
+
+    Returns
+    -------
+    AxialDesignInputs
+        A from the least-squares line through the periodic points, taubar_crit from the
+        crossing formula of (21), and the limit cycles of the line.
+    """
     g, e2 = params.gammabar, params.etabar2
-    tb = default_fit_delays(g, e2, n=9) if taubars is None else np.asarray(taubars, dtype=float)
+    tb = default_fit_delays(g, e2) if taubars is None else np.asarray(taubars, dtype=float)
     curve = average_curve(g, e2, tb, progress=progress, **kw)
     fit = fit_slope(g, e2, tb, [lc.average for lc in curve])
     return AxialDesignInputs(
@@ -293,4 +300,5 @@ def design_inputs(
         gammabar=g,
         etabar2=e2,
         fit=fit,
+        curve=tuple(curve),
     )

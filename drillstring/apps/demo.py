@@ -1,14 +1,16 @@
-"""``drillstring demo``: the main job.
+"""``drillstring demo``: the main job, a chain of artifacts each computed once.
 
-1. Section III: Fig. 2 (stability diagram of (21)), Fig. 3 (axial limit cycle), Fig. 4
-   (averaged contact force, slope A).
-2. The gains file (LMI synthesis (33) with A from step 1) is read from ``--gains``.
-3. Figs. 5 and 6 by co-simulation of the plant and controller FMUs (``--fmus``) on the fmpy
-   master, each with the monolithic solver of the same closed loop overlaid, and the measured
-   agreement printed.
+``make demo`` runs, in this order (each step reads only what the one before wrote):
 
-``make demo`` runs the design and ``build_fmus.py`` first, then this command; all results go
-into ``--out`` (CSV/JSON data, PNG figures) and ``summary.json`` lists them with the key numbers.
+1. ``drillstring design --out out/design``: the slope A of (22) from the axial limit cycles (the
+   Fig. 4 line at the reference set's gammabar, etabar^2: ``axial_fit.csv``), the LMI design (33)
+   and its certificate (``gains.json``);
+2. ``python build_fmus.py --gains out/design/gains.json --out build``: the plant and controller
+   FMUs, the gains baked into the controller FMU;
+3. ``drillstring demo --design out/design --fmus build --out out`` (:func:`run_demo`):
+   Section III (Fig. 2, Fig. 3, Fig. 4 with the design's own line reused), then Figs. 5 and 6
+   by co-simulation of the FMUs on the fmpy master with the monolithic solver of the same loop
+   overlaid, and their measured agreement. ``summary.json`` lists every file and number.
 """
 
 from __future__ import annotations
@@ -16,81 +18,119 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from drillstring.analysis.figures import (
+    read_average_points,
+    write_average_figure,
+    write_limit_cycle_figure,
+    write_stability_diagram,
+)
+from drillstring.controller.design import FIT_FILE, GAINS_FILE
+from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import write_json
+from drillstring.orchestration.figures import write_fig5, write_fig6
+
+__all__ = ["DemoSummary", "demo_main", "run_demo"]
 
 
-def _step(title: str) -> float:
-    print(f"\n== {title}", flush=True)
-    return time.perf_counter()
+@dataclass
+class DemoSummary:
+    """What the demo wrote and measured.
+
+    ``figures`` maps each figure to its files; ``design`` holds A, taubar_crit and F of the gains
+    the FMUs were built with; ``fig5``/``fig6`` the co-simulation's agreement with the monolithic
+    solver and the checks of the paper's claims; ``seconds`` the wall time of each step.
+    """
+
+    design: dict[str, Any]
+    figures: dict[str, dict[str, str]] = field(default_factory=dict)
+    fig5: dict[str, Any] = field(default_factory=dict)
+    fig6: dict[str, Any] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return _jsonable(asdict(self))
 
 
-def demo_main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drillstring demo", description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("out"))
-    ap.add_argument("--gains", type=Path, default=Path("out/gains.json"), help="gains file")
-    ap.add_argument("--fmus", type=Path, default=Path("build"), help="folder with the two FMUs")
-    ap.add_argument("--H", type=float, default=1e-3, help="macro step of the co-simulation")
-    ap.add_argument("--quick", action="store_true", help="fewer Fig. 4 points")
-    args = ap.parse_args(argv)
+def run_demo(
+    design_dir: str | Path,
+    fmus_dir: str | Path,
+    out_dir: str | Path,
+    *,
+    H: float = 1e-3,
+    log: Any = print,
+) -> DemoSummary:
+    """Run the demo (module docstring) and write ``summary.json`` into ``out_dir``.
 
-    from drillstring.analysis.axial_stability import write_stability_diagram
-    from drillstring.analysis.figures import write_average_figure, write_limit_cycle_figure
-    from drillstring.controller.gains import GainsFileError, read_gains
+    Parameters
+    ----------
+    design_dir : path
+        Folder written by ``drillstring design`` (``gains.json``, ``axial_fit.csv``).
+    fmus_dir : path
+        Folder with the FMUs built from that gains file.
+    out_dir : path
+        Where the figures, data and ``summary.json`` go.
+    H : float
+        Macro step of the co-simulations.
+    log : callable
+        Receives one line of progress text per step.
 
-    try:
-        gains = read_gains(args.gains)
-    except (GainsFileError, OSError) as exc:
-        print(
-            f"drillstring demo: {exc} (run `drillstring design --out {args.gains}`)",
-            file=sys.stderr,
-        )
-        return 2
-    fmus = sorted(args.fmus.glob("*.fmu")) if args.fmus.is_dir() else []
-    if len(fmus) < 2:
-        print(
-            f"drillstring demo: no FMUs in {args.fmus} (run `python build_fmus.py --gains "
-            f"{args.gains} --out {args.fmus}`)",
-            file=sys.stderr,
-        )
-        return 2
-    out: Path = args.out
-    summary: dict[str, Any] = {"gains": str(args.gains), "fmus": [str(f) for f in fmus]}
+    Returns
+    -------
+    DemoSummary
+        The files written and the numbers measured.
 
-    t0 = _step("Section III: axial stability (Fig. 2), limit cycle (Fig. 3), averaging (Fig. 4)")
-    ax = out / "axial"
-    summary["fig2"] = {k: str(v) for k, v in write_stability_diagram(ax).items()}
-    summary["fig3"] = {k: str(v) for k, v in write_limit_cycle_figure(ax).items()}
-    summary["fig4"] = {
-        k: str(v) for k, v in write_average_figure(ax, n_points=8 if args.quick else 25).items()
+    Raises
+    ------
+    drillstring.controller.gains.GainsFileError, ValueError
+        When the design folder or the FMUs are missing or do not match.
+    """
+    design_dir, out = Path(design_dir), Path(out_dir)
+    gains = read_gains(design_dir / GAINS_FILE)
+    fit = read_average_points(design_dir / FIT_FILE)
+    summary = DemoSummary(design=_design_numbers(gains))
+
+    t0 = time.perf_counter()
+    log("Section III: axial stability (Fig. 2), limit cycle (Fig. 3), averaging (Fig. 4)")
+    axial = out / "axial"
+    summary.figures["fig2"] = _paths(write_stability_diagram(axial))
+    summary.figures["fig3"] = _paths(write_limit_cycle_figure(axial))
+    summary.figures["fig4"] = _paths(write_average_figure(axial, known=fit))
+    summary.seconds["section_3"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    log(f"Fig. 5 by co-simulation (fmpy master, H = {H:g}) vs monolithic solver")
+    summary.fig5 = dict(write_fig5(out / "fig5", gains, fmus_dir, H=H))
+    summary.figures["fig5"] = {k: str(summary.fig5.pop(k)) for k in ("png", "csv")}
+    summary.seconds["fig5"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    log("Fig. 6: torsional stick-slip, controller switched on at tau = 25")
+    summary.fig6 = dict(write_fig6(out / "fig6", gains, fmus_dir, H=H))
+    summary.figures["fig6"] = {k: str(summary.fig6.pop(k)) for k in ("png", "csv")}
+    summary.seconds["fig6"] = time.perf_counter() - t0
+
+    write_json(out / "summary.json", summary.to_json())
+    return summary
+
+
+def _design_numbers(gains: GainsFile) -> dict[str, Any]:
+    return {
+        "A": gains.A,
+        "taubar_crit": gains.taubar_crit,
+        "F": list(gains.F),
+        "K0": gains.K0,
+        "alpha": gains.alpha,
+        "spectral_abscissa": gains.spectral_abscissa,
     }
-    print(f"   written to {ax} ({time.perf_counter() - t0:.1f} s)")
-    print(
-        f"   gains: A = {gains.A:.5f}, taubar_crit = {gains.taubar_crit:.5f}, "
-        f"F = [{', '.join(f'{v:.2f}' for v in gains.F)}], K0 = {gains.K0:.5f}"
-    )
-    summary["design"] = {"A": gains.A, "taubar_crit": gains.taubar_crit, "F": list(gains.F)}
 
-    from drillstring.orchestration.figures import write_fig5, write_fig6
 
-    t0 = _step(f"Fig. 5 by co-simulation (fmpy master, H = {args.H:g}) vs monolithic solver")
-    fig5 = write_fig5(out / "fig5", args.gains, args.fmus, H=args.H)
-    _report(fig5)
-    summary["fig5"] = _jsonable(fig5)
-    print(f"   ({time.perf_counter() - t0:.1f} s)")
-
-    t0 = _step("Fig. 6: torsional stick-slip, controller switched on at tau = 25")
-    fig6 = write_fig6(out / "fig6", args.gains, args.fmus, H=args.H)
-    _report(fig6)
-    summary["fig6"] = _jsonable(fig6)
-    print(f"   ({time.perf_counter() - t0:.1f} s)")
-
-    path = write_json(out / "summary.json", summary)
-    print(f"\nSummary: {path}")
-    return 0
+def _paths(paths: Mapping[str, Path]) -> dict[str, str]:
+    return {k: str(v) for k, v in paths.items()}
 
 
 def _jsonable(obj: Any) -> Any:
@@ -105,9 +145,53 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
-def _report(result: Any) -> None:
-    if isinstance(result, dict):
-        for k, v in result.items():
-            if isinstance(v, dict):
-                continue
-            print(f"   {k}: {v}")
+def print_summary(summary: DemoSummary) -> None:
+    """Print the design, the agreement of co-simulation and monolithic solver, the checks."""
+    d = summary.design
+    print(
+        f"   design: A = {d['A']:.5f}, taubar_crit = {d['taubar_crit']:.5f}, "
+        f"F = [{', '.join(f'{v:.2f}' for v in d['F'])}], K0 = {d['K0']:.5f}"
+    )
+    for name in ("fig5", "fig6"):
+        r = getattr(summary, name)
+        print(
+            f"   {name}: co-simulation vs monolithic, max |diff| du/dtau "
+            f"{r['max_abs_diff_du']:.3g}, dphi/dtau {r['max_abs_diff_dphi']:.3g} "
+            f"({r['max_abs_diff_dphi_rel']:.3g} of "
+            f"|dphi/dtau(0)|); late max |dphi/dtau| {r['late_max_abs_dphi_cosim']:.4g}"
+        )
+    r = summary.fig6
+    print(
+        f"   fig6: torsional stick entries before/after t_on "
+        f"{r['torsional_stick_before_t_on_cosim']}/{r['torsional_stick_after_t_on_cosim']}, "
+        f"suppressed: {r['suppressed']}"
+    )
+    for name, paths in summary.figures.items():
+        print(f"   {name}: {', '.join(paths.values())}")
+
+
+def demo_main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``demo`` subcommand; exit code 0 (ok) or 2 (missing design or FMUs)."""
+    ap = argparse.ArgumentParser(prog="drillstring demo", description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("out"))
+    ap.add_argument(
+        "--design", type=Path, default=Path("out/design"), help="folder of drillstring design"
+    )
+    ap.add_argument("--fmus", type=Path, default=Path("build"), help="folder with the two FMUs")
+    ap.add_argument("--H", type=float, default=1e-3, help="macro step of the co-simulation")
+    args = ap.parse_args(argv)
+    try:
+        summary = run_demo(
+            args.design, args.fmus, args.out, H=args.H, log=lambda s: print(f"\n== {s}", flush=True)
+        )
+    except (GainsFileError, ValueError, OSError) as exc:
+        print(
+            f"drillstring demo: {exc} (run `drillstring design --out {args.design}` and "
+            f"`python build_fmus.py --gains {args.design / GAINS_FILE} --out {args.fmus}`)",
+            file=sys.stderr,
+        )
+        return 2
+    print("\n== Summary")
+    print_summary(summary)
+    print(f"   wrote {args.out / 'summary.json'}")
+    return 0

@@ -1,13 +1,14 @@
 """``drillstring design``: open-loop analysis, LMI synthesis (33), certificate, gains file.
 
-Implementation of the subcommand only (:func:`design_main`); the global ``drillstring`` CLI
-dispatches to it. Example::
+The command line of :func:`drillstring.controller.design_controller`. Example::
 
-    drillstring design --params reference --out gains.json   # A from the axial analysis
+    drillstring design --params reference --out out/design   # A from the axial analysis
 
 prints the open-loop characteristic roots of (29) and the poles of the ODE (13), (27), the alpha
 line search, the gain F (and the paper's gain for comparison), the certificate (32) with its
-margins and the closed-loop spectral abscissa over the delay sweep, then writes the gains file.
+margins and the closed-loop spectral abscissa over the delay sweep, then writes
+``out/design/gains.json`` and the points of the axial fit ``out/design/axial_fit.csv`` (the
+Fig. 4 line the slope A comes from).
 """
 
 from __future__ import annotations
@@ -19,24 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
-from drillstring.controller.averaged import (
-    AveragedModel,
-    averaged_model,
-    ode_poles,
-    open_loop_roots,
-)
-from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F, write_gains
-from drillstring.controller.synthesis import (
-    GAIN_MAX,
-    SynthesisInfeasible,
-    SynthesisResult,
-    evaluate_gain,
-    synthesize,
-    to_gains_file,
-)
+from drillstring.controller.averaged import AveragedModel, ode_poles, open_loop_roots
+from drillstring.controller.design import Design, design_controller, write_design
+from drillstring.controller.gains import PAPER_F
+from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
 from drillstring.model.params import ParameterError, ScaledParams, params_from_spec
 
-__all__ = ["build_parser", "design_main"]
+__all__ = ["build_parser", "design_main", "print_design"]
+
+DEFAULT_OUT = Path("out/design")
 
 
 def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
@@ -54,21 +46,19 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
         default=None,
         dest="A",
         help="slope A(gammabar, etabar) of the averaged contact force (22) (default: computed "
-        "by drillstring.analysis.limit_cycles.design_inputs from limit cycles at the set's "
-        "gammabar, etabar^2)",
+        "from the axial limit cycles at the set's gammabar, etabar^2)",
     )
     ap.add_argument(
         "--taubar-crit",
         type=float,
         default=None,
-        help="critical delay of (21) in fast time (default: computed by "
-        "drillstring.analysis.axial_stability.taubar_crit)",
+        help="critical delay of (21) in fast time (default: the crossing formula)",
     )
     ap.add_argument(
         "--out",
         type=Path,
-        default=DEFAULT_GAINS_PATH,
-        help=f"gains file to write (default: {DEFAULT_GAINS_PATH})",
+        default=DEFAULT_OUT,
+        help=f"folder of gains.json and axial_fit.csv (default: {DEFAULT_OUT})",
     )
     ap.add_argument(
         "--gain-max",
@@ -129,33 +119,15 @@ def _print_certificate(result: SynthesisResult) -> None:
     print(f"  certificate {'PASSED' if cert.passed else 'FAILED'}")
 
 
-def design_main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``design`` subcommand; returns the process exit code (0 ok, 2 error)."""
-    args = build_parser().parse_args(argv)
-    try:
-        params: ScaledParams = params_from_spec(args.params)
-        if args.taubar_crit is None:
-            from drillstring.analysis.axial_stability import taubar_crit
-
-            tc = float(taubar_crit(params))
-        else:
-            tc = args.taubar_crit
-        A = args.A
-        if A is None:
-            from drillstring.analysis.limit_cycles import design_inputs
-
-            print("Computing the slope A of (22) from axial limit cycles ...", flush=True)
-            inputs = design_inputs(params, progress=True)
-            A = inputs.A
-            print(
-                f"  A = {A:.6f} (fit zero at taubar = {inputs.taubar_zero:.4f}, "
-                f"taubar_crit = {inputs.taubar_crit:.4f})"
-            )
-        model = averaged_model(params, A, tc)
-    except (ParameterError, ValueError, OSError) as exc:
-        print(f"drillstring design: {exc}", file=sys.stderr)
-        return 2
-
+def print_design(design: Design) -> None:
+    """Print the analysis, the alpha search, the gain, the certificate and the paper's gain."""
+    params, model = design.params, design.model
+    if design.axial is not None:
+        a = design.axial
+        print(
+            f"Slope A of (22) from {len(a.curve)} axial limit cycles: A = {a.A:.6f} "
+            f"(fit zero at taubar = {a.taubar_zero:.4f}, taubar_crit = {a.taubar_crit:.4f})"
+        )
     print(f"Parameters: {params.to_dict()}")
     print(
         f"  tau_n0 = {model.tau_n0:.6f}, taubar_n0 = {params.taubar_n0:.5f}, A = {model.A:.6g}, "
@@ -163,15 +135,7 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     )
     print(f"  c = {model.c:.6f}, K0 = {model.K0:.6f}, R_ff = {model.R_ff:.6f}")
     _print_open_loop(model)
-
-    try:
-        result = synthesize(model, gain_max=args.gain_max)
-    except SynthesisInfeasible as exc:
-        print(f"drillstring design: {exc}", file=sys.stderr)
-        return 2
-    except ValueError as exc:
-        print(f"drillstring design: {exc}", file=sys.stderr)
-        return 2
+    result = design.synthesis
     _print_search(result)
     print(f"Chosen alpha = {result.alpha:.6g} ({result.solver}: {result.status})")
     print(
@@ -183,9 +147,8 @@ def design_main(argv: Sequence[str] | None = None) -> int:
         f"{np.linalg.norm(PAPER_F):.4g}"
     )
     _print_certificate(result)
-
-    if not args.no_paper:
-        ev = evaluate_gain(PAPER_F, params, model.A, model.taubar_crit)
+    ev = design.paper
+    if ev is not None:
         cert_txt = (
             f"yes (alpha = {ev.certificate.alpha:.4g}, decay margin "
             f"{ev.certificate.lmi_decay_margin:.3e})"
@@ -199,13 +162,33 @@ def design_main(argv: Sequence[str] | None = None) -> int:
             f"{float(np.max(ev.abscissa)):.5f}; Razumikhin certificate: {cert_txt}"
         )
 
-    if not result.certificate.passed:
-        print(
-            "drillstring design: certificate check failed; gains file not written", file=sys.stderr
+
+def design_main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``design`` subcommand; returns the process exit code (0 ok, 2 error)."""
+    args = build_parser().parse_args(argv)
+    try:
+        params: ScaledParams = params_from_spec(args.params)
+        if args.A is None:
+            print("Computing the slope A of (22) from axial limit cycles ...", flush=True)
+        design = design_controller(
+            params,
+            A=args.A,
+            taubar_crit=args.taubar_crit,
+            gain_max=args.gain_max,
+            evaluate_paper=not args.no_paper,
+            progress=args.A is None,
         )
+    except (ParameterError, ValueError, OSError, SynthesisInfeasible) as exc:
+        print(f"drillstring design: {exc}", file=sys.stderr)
         return 2
-    path = write_gains(to_gains_file(result, params), args.out)
-    print(f"Wrote {path}")
+    print_design(design)
+    try:
+        paths = write_design(design, args.out)
+    except ValueError as exc:
+        print(f"drillstring design: {exc}", file=sys.stderr)
+        return 2
+    for path in paths.values():
+        print(f"Wrote {path}")
     return 0
 
 

@@ -13,7 +13,7 @@ import importlib.util
 import io
 import math
 import numbers
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from types import ModuleType
@@ -45,7 +45,10 @@ __all__ = [
     "Event",
     "InitialState",
     "MODE_NAMES",
+    "OUTPUT_COLUMNS",
     "Status",
+    "stick_entries",
+    "time_in_mode",
 ]
 
 MODE_NAMES = {
@@ -80,6 +83,8 @@ STATUS_TEXT = {
     S.ST_ZENO: "events accumulate without progress in time (Zeno behaviour)",
 }
 _STATUS_LIST = tuple(STATUS_CODES.values())
+#: Columns of :meth:`Engine.sample` rows (time, perturbations, d, g, tau_n, applied R - R0, mode).
+OUTPUT_COLUMNS = S.OUTPUT_COLUMNS
 
 _PURE_STEPPER: ModuleType | None = None
 
@@ -389,6 +394,58 @@ class Engine:
             "ok", or why the run stopped (it then stays stopped: every later call returns the
             same status).
         """
+        to_tau = self._check_target(to_tau)
+        if self._failed is not None:
+            return self._failed
+        while True:
+            st = int(self._stepper.advance(self._s, to_tau, self._ext))
+            if not self._service(st):
+                break
+        return self._status(st)
+
+    def sample(
+        self, times: np.ndarray, rows: np.ndarray | None = None
+    ) -> tuple[np.ndarray, Status]:
+        """Advance through the increasing ``times``, recording the outputs at each.
+
+        The kernel fills the rows itself (no Python per sample).
+
+        Parameters
+        ----------
+        times : array of float
+            Increasing times, none before the current time.
+        rows : array, optional
+            Output buffer of shape (len(times), len(OUTPUT_COLUMNS)).
+
+        Returns
+        -------
+        rows : array
+            One row per time reached, columns :data:`OUTPUT_COLUMNS`; when the run stops early,
+            only the rows up to the stop (the last one holding the state at the stop time).
+        status : Status
+            As :meth:`advance`.
+        """
+        times = np.ascontiguousarray(times, dtype=float)
+        if times.ndim != 1 or times.size == 0:
+            raise ValueError(
+                f"sample: times must be a non-empty 1-D array, got shape {times.shape}"
+            )
+        if not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0.0):
+            raise ValueError("sample: times must be finite and increasing")
+        self._check_target(times[0])
+        if rows is None:
+            rows = np.empty((times.size, S.OUT_SIZE))
+        if self._failed is not None:
+            return rows[:0], self._failed
+        i = 0
+        while True:
+            st, i = self._stepper.advance_sampled(self._s, times, rows, i, times.size, self._ext)
+            st = int(st)
+            if not self._service(st):
+                break
+        return rows[:i], self._status(st)
+
+    def _check_target(self, to_tau: Any) -> float:
         try:
             to_tau = float(to_tau)
         except (TypeError, ValueError):
@@ -398,17 +455,19 @@ class Engine:
             raise ValueError(
                 f"advance: target time {to_tau!r} is before the current time {self.tau!r}"
             )
-        if self._failed is not None:
-            return self._failed
-        while True:
-            st = int(self._stepper.advance(self._s, to_tau, self._ext))
-            self._drain_events()
-            if st == S.ST_EVLOG_FULL:
-                continue
-            if st == S.ST_HIST_FULL:
-                self._grow_history()
-                continue
-            break
+        return to_tau
+
+    def _service(self, st: int) -> bool:
+        """Drain the event log, grow the history if asked; True when the kernel must resume."""
+        self._drain_events()
+        if st == S.ST_EVLOG_FULL:
+            return True
+        if st == S.ST_HIST_FULL:
+            self._grow_history()
+            return True
+        return False
+
+    def _status(self, st: int) -> Status:
         if st == S.ST_OK:
             return Status("ok", "", self.tau)
         code = STATUS_CODES.get(st, f"status_{st}")
@@ -518,27 +577,16 @@ class Engine:
         }
 
     def outputs(self) -> dict[str, float]:
-        """The plant's outputs: perturbation states, d, g, tau_n, the applied R - R0, mode and
-        the validity counters."""
-        s = self._s
-        u, du, phi, dphi, theta, dtheta = to_perturbation(s.params, self.tau, *s.y)
-        D, I = s.diag, s.ints  # noqa: E741
-        return {
-            "u": float(u),
-            "du": float(du),
-            "phi": float(phi),
-            "dphi": float(dphi),
-            "theta": float(theta),
-            "dtheta": float(dtheta),
-            "d": float(D[S.D_D]),
-            "g": float(D[S.D_G]),
-            "tau_n": float(D[S.D_TAUN]),
-            "R_minus_R0": float(D[S.D_R]),
-            "mode": float(I[S.I_MODE]),
-            "stick_events": float(I[S.I_NSTICK]),
-            "bit_bounce": float(I[S.I_NBOUNCE]),
-            "torsional_stick": float(I[S.I_NTSTICK]),
-        }
+        """The outputs at the current time (:data:`OUTPUT_COLUMNS` without ``tau``) and the
+        validity counters ``stick_events``, ``bit_bounce``, ``torsional_stick``."""
+        row = np.empty(S.OUT_SIZE)
+        self._stepper.write_sample(self._s, row)
+        out = {name: float(v) for name, v in zip(OUTPUT_COLUMNS[1:], row[1:], strict=True)}
+        I = self._s.ints  # noqa: E741
+        out["stick_events"] = float(I[S.I_NSTICK])
+        out["bit_bounce"] = float(I[S.I_NBOUNCE])
+        out["torsional_stick"] = float(I[S.I_NTSTICK])
+        return out
 
     # ----------------------------------------------------------------- state
     def get_state(self) -> EngineState:
@@ -590,6 +638,46 @@ class Engine:
             raise ValueError(f"deserialize_state: missing arrays {missing}")
         n_events = int(arrays.pop("n_events")[0])
         self.set_state(EngineState(arrays=arrays, n_events=n_events))
+
+
+def stick_entries(events: Iterable[Event]) -> list[Event]:
+    """The entries into axial stick among ``events`` (slip or moving up -> stick)."""
+    return [e for e in events if e.kind == "mode" and e.to_mode == "stick"]
+
+
+def time_in_mode(
+    events: Iterable[Event], mode: str, t0: float, t1: float, mode_at_t0: str
+) -> float:
+    """Time spent in contact ``mode`` over [t0, t1], exact from the mode events.
+
+    Parameters
+    ----------
+    events : iterable of Event
+        Events in time order (other kinds than "mode" are ignored).
+    mode : str
+        A name of :data:`MODE_NAMES`.
+    t0, t1 : float
+        The window.
+    mode_at_t0 : str
+        The mode just before t0 (an event at t0 itself is applied).
+
+    Returns
+    -------
+    float
+        The total time in ``mode`` inside the window.
+    """
+    current, t_prev, total = mode_at_t0, t0, 0.0
+    for e in events:
+        if e.kind != "mode" or e.tau < t0:
+            continue
+        if e.tau > t1:
+            break
+        if current == mode:
+            total += e.tau - t_prev
+        current, t_prev = e.to_mode, e.tau
+    if current == mode:
+        total += t1 - t_prev
+    return total
 
 
 def _parameter_array(p: ScaledParams) -> np.ndarray:

@@ -4,27 +4,56 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
 from drillstring.fileio import write_csv
-from drillstring.model.engine import Control, Engine, EngineOptions, Event, InitialState, Status
-from drillstring.model.params import ScaledParams
+from drillstring.model.engine import (
+    MODE_NAMES,
+    OUTPUT_COLUMNS,
+    Control,
+    Engine,
+    EngineOptions,
+    Event,
+    InitialState,
+    Status,
+    stick_entries,
+    time_in_mode,
+)
+from drillstring.model.experiments import DEFAULT_DT_OUT
+from drillstring.model.kernel import (
+    coordinates,
+    equations,
+    events,
+    filippov,
+    hermite,
+    jit,
+    stepper,
+)
+from drillstring.model.params import REFERENCE, ScaledParams
 from drillstring.model.prehistory import HistoryFunction
+from drillstring.validation import check_real
 
-COLUMNS = ("tau", "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n", "mode")
+__all__ = ["COLUMNS", "SimulationResult", "output_grid", "simulate", "warm_up"]
+
+#: Columns of a simulation result (and of its CSV file).
+COLUMNS = OUTPUT_COLUMNS
 
 
 @dataclass
 class SimulationResult:
     """Sampled trajectories (perturbation coordinates), events and the run's outcome.
 
-    ``status.ok`` is False when the run stopped early (bit bouncing, torsional stick outside the
-    model, ...); the arrays then end at the stop time, which is the last sample.
+    The columns (:data:`COLUMNS`) are attributes: ``r.tau``, ``r.du``, ``r.dphi``, ...,
+    ``r.R_minus_R0`` (the torque the kernel applied), ``r.mode``. ``status.ok`` is False when
+    the run stopped early (bit bouncing, torsional stick outside the model, ...); the arrays then
+    end at the stop time, which is the last sample.
     """
 
     params: ScaledParams
@@ -52,7 +81,15 @@ class SimulationResult:
 
     def stick_events(self) -> list[Event]:
         """Entries into axial stick (slip or up -> stick)."""
-        return [e for e in self.events if e.kind == "mode" and e.to_mode == "stick"]
+        return stick_entries(self.events)
+
+    def axial_stick_fraction(self) -> float:
+        """Fraction of the simulated time spent in axial stick, exact from the mode events."""
+        t_end = float(self.tau[-1])
+        if not t_end > 0.0:
+            return math.nan
+        first = MODE_NAMES[int(self.mode[0])]
+        return time_in_mode(self.events, "stick", 0.0, t_end, first) / t_end
 
     def to_csv(self, path: str | os.PathLike[str]) -> Path:
         """Write the sampled columns to CSV atomically (temp file + rename)."""
@@ -62,10 +99,8 @@ class SimulationResult:
 
 def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
     """0, dt, 2 dt, ..., with tau_end as the last point (each point k*dt, no accumulation)."""
-    if not (math.isfinite(tau_end) and tau_end > 0):
-        raise ValueError(f"tau_end must be a positive finite time, got {tau_end!r}")
-    if not (math.isfinite(dt_out) and dt_out > 0):
-        raise ValueError(f"dt_out must be a positive finite step, got {dt_out!r}")
+    tau_end = check_real("tau_end", tau_end, lower=0.0)
+    dt_out = check_real("dt_out", dt_out, lower=0.0)
     n = int(math.floor(tau_end / dt_out + 1e-9))
     grid = np.arange(n + 1) * dt_out
     if tau_end - grid[-1] > 1e-9 * dt_out:
@@ -75,29 +110,54 @@ def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
     return grid
 
 
+#: Wall time between two updates of the progress bar.
+_PROGRESS_INTERVAL = 0.25
+
+
 def simulate(
     params: ScaledParams,
     tau_end: float,
     control: Control = None,
     initial: InitialState | Mapping[str, float] | None = None,
     history: HistoryFunction | None = None,
-    dt_out: float = 1e-2,
+    dt_out: float = DEFAULT_DT_OUT,
     options: EngineOptions | None = None,
     progress: bool | None = None,
 ) -> SimulationResult:
     """Simulate the model (11)-(14), (17) from tau = 0 to ``tau_end``.
 
-    ``control`` is the torque law R - R0: None (0), a constant, an
-    :class:`~drillstring.model.control.AffineFeedback` (evaluated continuously), or a callable
-    ``f(tau, y)``. Outputs are sampled every ``dt_out``; the engine lands on each sample time,
-    so a run equals an FMU driven with macro step ``dt_out`` and the same input. ``progress``:
-    True/False, or None for a bar that appears only when the run takes more than a second.
+    Parameters
+    ----------
+    params : ScaledParams
+        The scaled parameter set.
+    tau_end : float
+        End of the run (scaled time).
+    control : optional
+        The torque law R - R0: None (0), a constant, an
+        :class:`~drillstring.model.control.AffineFeedback` (evaluated continuously), or a
+        callable ``f(tau, y)`` of the perturbation state.
+    initial : InitialState or mapping, optional
+        Perturbation at tau = 0, e.g. ``{"dphi": -2.5}`` (Fig. 5).
+    history : callable, optional
+        Prehistory for tau <= 0 (default: the nominal motion).
+    dt_out : float
+        Output sampling step; the engine lands on each sample time, so a run equals an FMU
+        driven with macro step ``dt_out`` and the same input.
+    options : EngineOptions, optional
+        Integration options.
+    progress : bool, optional
+        True/False, or None for a bar that appears only when the run takes more than a second.
+
+    Returns
+    -------
+    SimulationResult
+        The sampled columns, events, counters and the outcome (partial on an early stop).
     """
     engine = Engine(params, options=options, initial=initial, history=history, control=control)
-    grid = output_grid(float(tau_end), float(dt_out))
-    rows = np.full((grid.size, len(COLUMNS)), np.nan)
-    status = Status("ok", "", 0.0)
+    grid = output_grid(tau_end, dt_out)
+    rows = np.empty((grid.size, len(COLUMNS)))
     n_done = 0
+    status = Status("ok", "", 0.0)
     bar = tqdm(
         total=grid.size,
         desc="simulate",
@@ -106,18 +166,18 @@ def simulate(
         delay=0.0 if progress else 1.0,
         leave=False,
     )
+    chunk = 256
     try:
-        for i, t in enumerate(grid):
-            if i > 0:
-                status = engine.advance(t)
-            out = engine.outputs()
-            rows[i, 0] = engine.tau
-            for j, c in enumerate(COLUMNS[1:], start=1):
-                rows[i, j] = out[c]
-            n_done = i + 1
-            bar.update(1)
-            if not status.ok:
-                break
+        while n_done < grid.size and status.ok:
+            t0 = time.perf_counter()
+            stop = min(grid.size, n_done + chunk)
+            got, status = engine.sample(grid[n_done:stop], rows[n_done:stop])
+            n_done += len(got)
+            bar.update(len(got))
+            # chunks of about a progress interval: the bar moves, the overhead stays negligible
+            elapsed = time.perf_counter() - t0
+            if elapsed < 0.5 * _PROGRESS_INTERVAL:
+                chunk *= 2
     finally:
         bar.close()
     rows = rows[:n_done]
@@ -130,3 +190,29 @@ def simulate(
         status=status,
         counters=engine.counters,
     )
+
+
+def warm_up() -> dict[str, Any]:
+    """Load the compiled kernel from numba's cache (or compile and cache it) with a tiny run.
+
+    Returns
+    -------
+    dict
+        ``jit`` (whether the compiled kernel is used), and with it the dispatchers' cache
+        ``cache_hits`` and ``cache_misses`` in this process (misses: compiled here) and the
+        ``seconds`` it took.
+    """
+    info: dict[str, Any] = {"jit": jit.numba_available()}
+    if not info["jit"]:
+        return info
+    t0 = time.perf_counter()
+    simulate(REFERENCE, 0.05, dt_out=0.05, initial={"dphi": -0.5}, progress=False)
+    hits = misses = 0
+    for module in (stepper, filippov, hermite, events, equations, coordinates):
+        for obj in vars(module).values():
+            stats = getattr(obj, "stats", None)
+            if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
+                hits += sum(stats.cache_hits.values())
+                misses += sum(stats.cache_misses.values())
+    info.update(cache_hits=hits, cache_misses=misses, seconds=time.perf_counter() - t0)
+    return info

@@ -40,15 +40,17 @@ from typing import Any
 
 from tqdm import tqdm
 
+from drillstring.apps.sweep.metrics import METRICS
+from drillstring.apps.sweep.plots import metric_figure
 from drillstring.apps.sweep.spec import SweepSpec, SweepSpecError, load_spec
 from drillstring.apps.sweep.studies import (
-    METRICS,
     DesignInputs,
     axial_design,
     design_key,
     evaluate_point,
 )
 from drillstring.fileio import save_figure, write_csv, write_json
+from drillstring.model.simulate import warm_up
 
 __all__ = [
     "PointFunction",
@@ -176,28 +178,8 @@ def _rewrite(path: Path, header: Sequence[str], rows: dict[int, list[str]]) -> N
 
 
 def kernel_warmup() -> dict[str, Any]:
-    """Run a tiny simulation so that numba loads the cached kernel (or compiles and caches it);
-    return the dispatchers' cache hits and misses in this process (misses: compiled here)."""
-    from drillstring.model.kernel import jit as _jit
-
-    info: dict[str, Any] = {"pid": os.getpid(), "jit": _jit.numba_available()}
-    if not info["jit"]:
-        return info
-    from drillstring.model.kernel import filippov, stepper
-    from drillstring.model.params import REFERENCE
-    from drillstring.model.simulate import simulate
-
-    t0 = time.perf_counter()
-    simulate(REFERENCE, 0.05, dt_out=0.05, initial={"dphi": -0.5}, progress=False)
-    hits = misses = 0
-    for module in (stepper, filippov):
-        for obj in vars(module).values():
-            stats = getattr(obj, "stats", None)
-            if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
-                hits += sum(stats.cache_hits.values())
-                misses += sum(stats.cache_misses.values())
-    info.update(cache_hits=hits, cache_misses=misses, seconds=time.perf_counter() - t0)
-    return info
+    """:func:`drillstring.model.simulate.warm_up` with this process's id (for the summary)."""
+    return {"pid": os.getpid(), **warm_up()}
 
 
 def _design_params(spec: SweepSpec, todo: Sequence[int]) -> dict[int, Any]:
@@ -456,8 +438,6 @@ def run_sweep(
 
 def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> list[Path]:
     """One PNG per metric of ``spec.metrics`` over the swept plane (or line)."""
-    from drillstring.apps.sweep.plots import metric_figure
-
     header = columns(spec)
     kinds = dict(METRICS[spec.study])
     reference = spec.reference_values()

@@ -44,6 +44,9 @@ from typing import Any
 
 import numpy as np
 
+from drillstring.analysis.limit_cycles import fast_params
+from drillstring.apps.sweep.metrics import METRICS, plottable
+from drillstring.controller.gains import GainsFileError, read_gains
 from drillstring.fileio import load_table
 from drillstring.model.params import (
     KNOWN_PARAMS,
@@ -387,8 +390,6 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             "relative to the initial deviation), got 0.0"
         )
     if study == "closed-loop" and out["gains"] != "design":
-        from drillstring.controller.gains import GainsFileError, read_gains
-
         path = Path(out["gains"])
         path = (path if path.is_absolute() else base_dir / path).resolve()
         try:
@@ -410,7 +411,6 @@ def spec_from_dict(
 
 
 def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> SweepSpec:
-    from drillstring.apps.sweep.studies import METRICS, plottable
 
     data = _table("top level", data, TOP_KEYS)
     for key in ("study", "base", "sweep"):
@@ -477,8 +477,6 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
 
 def _check_points(spec: SweepSpec) -> None:
     """Build every point's parameters so that a bad grid value fails now, not in a worker."""
-    from drillstring.analysis.limit_cycles import fast_params
-
     for index in range(spec.n_points):
         try:
             if spec.study == "axial":

@@ -26,67 +26,24 @@ from typing import Any
 
 import numpy as np
 
+from drillstring.analysis.limit_cycles import design_inputs, limit_cycle
 from drillstring.apps.sweep.spec import SweepOptions, SweepSpec
+from drillstring.controller.averaged import averaged_model, closed_loop_roots, open_loop_roots
+from drillstring.controller.synthesis import synthesize
+from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import EngineOptions
+from drillstring.model.simulate import SimulationResult, simulate
 
 __all__ = [
-    "METRICS",
     "DesignInputs",
     "axial_design",
     "axial_metrics",
-    "axial_stick_fraction",
     "closed_loop_metrics",
     "design_key",
     "evaluate_point",
     "open_loop_metrics",
-    "plottable",
     "rightmost_nonzero_root",
 ]
-
-#: Metric columns per study: (name, type) with type "float", "flag" (0/1), "int" or "str".
-METRICS: dict[str, tuple[tuple[str, str], ...]] = {
-    "open-loop": (
-        ("A", "float"),
-        ("taubar_crit", "float"),
-        ("R_ff", "float"),
-        ("root_real", "float"),
-        ("root_imag", "float"),
-        ("torsional_stick", "flag"),
-        ("time_to_stick", "float"),
-        ("axial_stick_fraction", "float"),
-        ("bit_bounce", "flag"),
-        ("status", "str"),
-        ("tau_reached", "float"),
-    ),
-    "closed-loop": (
-        ("A", "float"),
-        ("taubar_crit", "float"),
-        ("gain_norm", "float"),
-        ("abscissa_closed", "float"),
-        ("converged", "flag"),
-        ("dphi_amplitude", "float"),
-        ("ripple", "float"),
-        ("max_dR", "float"),
-        ("axial_stick_fraction", "float"),
-        ("torsional_stick", "flag"),
-        ("bit_bounce", "flag"),
-        ("status", "str"),
-        ("tau_reached", "float"),
-    ),
-    "axial": (
-        ("average", "float"),
-        ("period", "float"),
-        ("stick_fraction", "float"),
-        ("stick_phases", "int"),
-        ("kind", "str"),
-        ("time_simulated", "float"),
-    ),
-}
-
-
-def plottable(study: str) -> tuple[str, ...]:
-    """Metric names that get a heat map (all of them; strings as categorical maps)."""
-    return tuple(name for name, _ in METRICS[study])
-
 
 # --------------------------------------------------------------------------------------------
 # axial design inputs, once per (gammabar, etabar^2)
@@ -126,8 +83,6 @@ def axial_design(params: Any) -> DesignInputs:
     are recorded."""
     key = design_key(params)
     if key not in _DESIGN_CACHE:
-        from drillstring.analysis.limit_cycles import design_inputs
-
         try:
             d = design_inputs(params)
             out = DesignInputs(*key, A=float(d.A), taubar_crit=float(d.taubar_crit))
@@ -158,30 +113,7 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
     return complex(r[k].real, abs(r[k].imag))
 
 
-def axial_stick_fraction(result: Any) -> float:
-    """Fraction of the simulated time spent in axial stick (mode 1), exact from the mode events."""
-    from drillstring.model.engine import MODE_NAMES
-
-    t_end = float(result.tau[-1])
-    if not t_end > 0.0:
-        return math.nan
-    mode = MODE_NAMES[int(result.mode[0])]
-    t_prev, stuck = 0.0, 0.0
-    for e in result.events:
-        if e.kind != "mode" or e.tau > t_end:
-            continue
-        if mode == "stick":
-            stuck += e.tau - t_prev
-        mode, t_prev = e.to_mode, e.tau
-    if mode == "stick":
-        stuck += t_end - t_prev
-    return stuck / t_end
-
-
-def _run(params: Any, tau_end: float, control: Any, opts: SweepOptions) -> Any:
-    from drillstring.model.engine import EngineOptions
-    from drillstring.model.simulate import simulate
-
+def _run(params: Any, tau_end: float, control: Any, opts: SweepOptions) -> SimulationResult:
     return simulate(
         params,
         tau_end,
@@ -193,12 +125,12 @@ def _run(params: Any, tau_end: float, control: Any, opts: SweepOptions) -> Any:
     )
 
 
-def _outcome(result: Any) -> dict[str, Any]:
+def _outcome(result: SimulationResult) -> dict[str, Any]:
     code = result.status.code
     return {
         "torsional_stick": int(code == "torsional_stick"),
         "bit_bounce": int(code == "bit_bounce"),
-        "axial_stick_fraction": axial_stick_fraction(result),
+        "axial_stick_fraction": result.axial_stick_fraction(),
         "status": code,
         "tau_reached": float(result.tau[-1]),
     }
@@ -213,8 +145,6 @@ def open_loop_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
     """Open-loop metrics at one point (see the module docstring)."""
-    from drillstring.controller.averaged import averaged_model, open_loop_roots
-
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
     root = rightmost_nonzero_root(open_loop_roots(model))
@@ -231,31 +161,14 @@ def open_loop_metrics(
     return out
 
 
-def applied_torque(result: Any, F: Any, K0: float, R_ff: float) -> np.ndarray:
-    """R - R0 of the law (29)-(31) (switched on at 0, no latch) along the sampled trajectory."""
-    F = np.asarray(F, dtype=float)
-    return (
-        R_ff
-        + F[0] * result.phi
-        + F[1] * result.dphi
-        + F[2] * (result.phi - result.theta - K0)
-        + F[3] * result.dtheta
-    )
-
-
 def closed_loop_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
     """Closed-loop metrics at one point (see the module docstring)."""
-    from drillstring.controller.averaged import averaged_model, closed_loop_roots
-    from drillstring.model.control import AffineFeedback
-
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
     gains = opts.gains_file
     if gains is None:
-        from drillstring.controller.synthesis import synthesize
-
         kw = {} if opts["gain_max"] is None else {"gain_max": opts["gain_max"]}
         syn = synthesize(model, **kw)
         F = np.asarray(syn.F, dtype=float).reshape(4)
@@ -275,7 +188,7 @@ def closed_loop_metrics(
         "taubar_crit": design.taubar_crit,
         "gain_norm": float(np.linalg.norm(F)),
         "abscissa_closed": abscissa,
-        "max_dR": float(np.max(np.abs(applied_torque(res, F, K0, R_ff)))),
+        "max_dR": float(np.max(np.abs(res.R_minus_R0))),
         **_outcome(res),
     }
     if res.status.ok:
@@ -291,8 +204,6 @@ def closed_loop_metrics(
 
 def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
     """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4)."""
-    from drillstring.analysis.limit_cycles import limit_cycle
-
     lc = limit_cycle(
         gammabar,
         etabar2,

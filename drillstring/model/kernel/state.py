@@ -151,6 +151,36 @@ W_YSTAGE = 11  # stage input state
 W_ROWS = 12
 W_COLS = max(Y_SIZE, D_SIZE)
 
+# --- output columns OUT (one sample of a run: time, perturbations, diagnostics, mode) ---------
+OUT_TAU = 0
+OUT_U = 1
+OUT_DU = 2
+OUT_PHI = 3
+OUT_DPHI = 4
+OUT_THETA = 5
+OUT_DTHETA = 6
+OUT_D = 7
+OUT_G = 8
+OUT_TAUN = 9
+OUT_R = 10  # the torque R - R0 the kernel applied
+OUT_MODE = 11
+OUT_SIZE = 12
+#: Names of the output columns, in order (``drillstring.model.simulate`` columns).
+OUTPUT_COLUMNS = (
+    "tau",
+    "u",
+    "du",
+    "phi",
+    "dphi",
+    "theta",
+    "dtheta",
+    "d",
+    "g",
+    "tau_n",
+    "R_minus_R0",
+    "mode",
+)
+
 # --- contact modes ---------------------------------------------------------------------------
 MODE_SLIP = 0  # moving down, full wearflat contact, g = 0
 MODE_STICK = 1  # axial stick, V = 0, g = g*

@@ -86,6 +86,18 @@ from drillstring.model.kernel.state import (
     O_EVTOL,
     O_FREEZE,
     O_H,
+    OUT_D,
+    OUT_DPHI,
+    OUT_DTHETA,
+    OUT_DU,
+    OUT_G,
+    OUT_MODE,
+    OUT_PHI,
+    OUT_R,
+    OUT_TAU,
+    OUT_TAUN,
+    OUT_THETA,
+    OUT_U,
     P_BLADE,
     P_OMEGA0,
     ST_DELAY,
@@ -417,9 +429,7 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
     zeno = 0
     while True:
         tau = X[X_TAU]
-        if tau >= to_tau:
-            I[I_STATUS] = ST_OK
-            return ST_OK
+        # the feedback acts from the first instant at or after t_on (also a run's first sample)
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau >= C[C_TON]:
             if I[I_ENUM] >= E.shape[0]:
                 return ST_EVLOG_FULL
@@ -428,6 +438,9 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
             if st != ST_OK:
                 I[I_STATUS] = st
                 return st
+        if tau >= to_tau:
+            I[I_STATUS] = ST_OK
+            return ST_OK
         if I[I_ENUM] + 4 >= E.shape[0]:
             return ST_EVLOG_FULL
         if I[I_HEND] >= H.shape[1]:
@@ -462,4 +475,44 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
             zeno = 0
 
 
-__all__ = ["advance", "refresh", "step", "stage", "rk4", "locate", "switch_on", "D_SIZE"]
+@jit
+def write_sample(s: KernelState, row: np.ndarray) -> None:
+    """The outputs at the current time into ``row`` (columns ``OUT_*``)."""
+    P, Y, D = s.params, s.y, s.diag
+    tau = s.clock[X_TAU]
+    u, du, phi, dphi, theta, dtheta = to_perturbation(
+        P, tau, Y[Y_U], Y[Y_V], Y[Y_PHI], Y[Y_W], Y[Y_THETA], Y[Y_WT]
+    )
+    row[OUT_TAU] = tau
+    row[OUT_U] = u
+    row[OUT_DU] = du
+    row[OUT_PHI] = phi
+    row[OUT_DPHI] = dphi
+    row[OUT_THETA] = theta
+    row[OUT_DTHETA] = dtheta
+    row[OUT_D] = D[D_D]
+    row[OUT_G] = D[D_G]
+    row[OUT_TAUN] = D[D_TAUN]
+    row[OUT_R] = D[D_R]
+    row[OUT_MODE] = s.ints[I_MODE]
+
+
+@jit
+def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int, i1: int, ext):
+    """Advance through ``times[i0:i1]`` writing the outputs at each into ``rows``.
+
+    Returns (status, i): the index of the next row to fill. A buffer status (ST_EVLOG_FULL,
+    ST_HIST_FULL) asks the caller to act and call again from i; any other status stops the
+    run, its row ``i - 1`` holding the state where it stopped.
+    """
+    for i in range(i0, i1):
+        st = advance(s, times[i], ext)
+        if st == ST_EVLOG_FULL or st == ST_HIST_FULL:
+            return st, i
+        write_sample(s, rows[i])
+        if st != ST_OK:
+            return st, i + 1
+    return ST_OK, i1
+
+
+__all__ = ["advance", "advance_sampled", "locate", "refresh", "rk4", "stage", "step", "switch_on"]
