@@ -1,4 +1,4 @@
-"""Benchmark of the axial analysis (issue: axial analysis, Section III).
+"""Benchmark of the axial analysis (Section III, Fig. 4).
 
 Wall time of one averaged-force point at taubar_n = 10 and of the whole Fig. 4 sweep
 (3 gammabar x 25 delays, serial). Target: the whole sweep under 30 s on this machine.

@@ -1,4 +1,4 @@
-"""Benchmark of the stepping engine (issue: core engine).
+"""Benchmark of the stepping engine.
 
 Reference set, open loop from dphi/dtau(0) = -2.5 over tau in [0, 60]: wall time, steps, events
 and the max error of du/dtau and dphi/dtau (sampled every 0.01) against a run with a 16x finer

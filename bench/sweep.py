@@ -1,4 +1,4 @@
-"""Benchmark of the Dask sweep (issue: parameter studies on Dask).
+"""Benchmark of the Dask sweep.
 
 The same 64-point open-loop sweep (8 x 8 over omega0 in [8, 20], v0 in [0.5, 1], reference set,
 tau_end = 100, h = 1e-4: about 1.5 s per point) on a LocalCluster with 1 and with 2 worker

@@ -5,7 +5,7 @@ then become (25) with the state-dependent delay (14). Two linear models follow f
 
 * the delay form (28)-(30): ``x' = A0 x(tau) + A1 x(tau - tau_n) + B R_fb`` with
   ``x = [phi, dphi/dtau, phi - theta - K0, dtheta/dtau]`` and ``R - R0 = R_ff + R_fb``,
-  ``R_ff = -K0`` (31); the matrices are those of NOTES.md section 4;
+  ``R_ff = -K0`` (31); the matrices are derived in ``docs/model.md``, "Equation (30)";
 * the ODE (13), (27), obtained with the Taylor approximation (26) of the delay, in the same state.
 
 Everything here is a pure function of a :class:`~drillstring.model.params.ScaledParams` and
@@ -48,7 +48,7 @@ class AveragedModel:
     """Matrices and constants of the averaged torsional model (29)-(31).
 
     Attributes:
-        A0, A1: 4x4 matrices of (30) (NOTES.md section 4).
+        A0, A1: 4x4 matrices of (30) (``docs/model.md``, "Equation (30)").
         B: input matrix of (30), shape (4, 1).
         c: ``n*v0/omega0*(beta*A - 1)`` of (28)-(30); negative means velocity weakening.
         K0: ``n*v0*beta*A*(tau_n0 - tau_n_crit)``, the constant of (27)-(28).

@@ -89,8 +89,8 @@ def test_dask_local_cluster_equals_serial(serial_3x3, tmp_path):
 
 
 def test_open_loop_root_is_a_characteristic_root(serial_3x3):
-    """root_real/root_imag solve det(sI - A0 - A1 exp(-s tau_n0)) = 0 (NOTES.md section 4) and
-    are not the rigid-body root s = 0."""
+    """root_real/root_imag solve det(sI - A0 - A1 exp(-s tau_n0)) = 0 (docs/model.md, "Equation
+    (30)") and are not the rigid-body root s = 0."""
     spec, report = serial_3x3
     row = rows_of(report.results)[1]  # omega0 = 4, v0 = 1
     p = spec.point_params(1)

@@ -1,10 +1,7 @@
-"""Array-level numerics of the drill-string model (numba-compilable, plain Python otherwise).
+"""The compiled kernel of the model: array-level numerics in the subset numba compiles.
 
-Layout of the arrays shared by the kernel modules and :class:`drillstring.model.engine.Engine`:
-
-* ``P`` parameters (``P_*`` indices), ``O`` options (``O_*``), ``C`` control law (``C_*``);
-* ``Y`` state ``[U, V, Phi, W, Theta, Wt]`` in total scaled coordinates (NOTES.md section 1);
-* ``X`` float scalars (``X_*``), ``I`` integer scalars (``I_*``), ``D`` diagnostics (``D_*``);
-* ``H`` history nodes, rows ``tau, U, V, Phi, W``, valid columns ``I[I_HSTART]:I[I_HEND]``;
-* ``E`` event log rows ``tau, kind, from_mode, to_mode, V, gstar``.
+``state`` names every array and entry (:class:`~drillstring.model.kernel.state.KernelState`);
+``equations`` is the right-hand side (11)-(13), ``filippov`` the contact law (17), ``hermite``
+the history and the delay (14), ``events`` the event tables, ``stepper`` the RK4 step with
+located events. ``docs/model.md`` describes the model they compute.
 """
