@@ -65,7 +65,6 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "DDESystem",
-    "characteristic_matrix",
     "chebyshev_generator",
     "dde_roots",
     "quasi_polynomial_roots",
@@ -188,13 +187,6 @@ def _system(A0: ArrayLike | DDESystem, delayed: Sequence[tuple[float, ArrayLike]
             raise ValueError("pass either a DDESystem or (A0, delayed), not both")
         return A0
     return DDESystem(A0, delayed)
-
-
-def characteristic_matrix(
-    s: complex, A0: ArrayLike | DDESystem, delayed: Sequence[tuple[float, ArrayLike]] = ()
-) -> NDArray:
-    """Delta(s) = s I - A0 - sum_k A_k exp(-s tau_k) for the system (A0, delayed)."""
-    return _system(A0, delayed).delta(complex(s))
 
 
 def root_residual(
