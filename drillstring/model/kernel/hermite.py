@@ -33,6 +33,12 @@ from drillstring.model.kernel.state import (
 
 jit = jit_for(__name__)
 
+#: Newton on the cubic is quadratic: after a Newton step shorter than this (in the interval's
+#: unit) the next one would be below rounding, so the iteration stops there (iterating further
+#: only chases the rounding noise of Phi, which grows with Phi).
+NEWTON_STEP_TOL = 1e-9
+NEWTON_MAX = 60
+
 
 @jit
 def hermite(y0: float, y1: float, m0: float, m1: float, dt: float, s: float) -> float:
@@ -111,7 +117,7 @@ def delay_lookup(
     lo = 0.0
     hi = 1.0
     s = (target - p0) / (p1 - p0)
-    for _ in range(60):
+    for _ in range(NEWTON_MAX):
         f = hermite(p0, p1, w0, w1, dt, s) - target
         if f == 0.0:
             break
@@ -120,13 +126,15 @@ def delay_lookup(
         else:
             hi = s
         fp = hermite_slope(p0, p1, w0, w1, dt, s) * dt
-        s_new = s - f / fp if fp > 0.0 else 0.5 * (lo + hi)
+        newton = fp > 0.0
+        s_new = s - f / fp if newton else 0.5 * (lo + hi)
         if s_new <= lo or s_new >= hi:
             s_new = 0.5 * (lo + hi)
-        if abs(s_new - s) < 1e-15:
-            s = s_new
-            break
+            newton = False
+        converged = newton and abs(s_new - s) <= NEWTON_STEP_TOL
         s = s_new
+        if converged:
+            break
     u_past = hermite(H[H_U, k], H[H_U, k + 1], H[H_V, k], H[H_V, k + 1], dt, s)
     return k, t0 + s * dt, u_past
 

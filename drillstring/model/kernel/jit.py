@@ -5,13 +5,26 @@ returns ``numba.njit`` when numba is importable (and ``DRILLSTRING_JIT`` is not 
 identity otherwise, so the model is written once and runs with or without the accelerator.
 Modules loaded under a name containing ``_pure`` are never compiled: that copy runs a Python
 callable as control law inside the loop (see :mod:`drillstring.model.kernel.stepper`).
+
+numba caches compiled code per function, keyed by the function's own source file; a function
+compiled together with callees from other files (the stepper inlines the history look-up, the
+contact law, the equations) keeps stale callees when only those files change. The cache of the
+whole kernel is therefore dropped when any of its sources changes (:func:`refresh_cache`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import tempfile
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
+
+_KERNEL = Path(__file__).resolve().parent
+#: The source files of everything numba compiles for the kernel.
+COMPILED_SOURCES = (*sorted(_KERNEL.glob("*.py")), _KERNEL.parent / "control.py")
+_STAMP = "drillstring-kernel-sources.sha256"
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -31,10 +44,63 @@ def numba_available() -> bool:
     return True
 
 
-def jit_for(module_name: str) -> Callable[[F], F]:
-    """Decorator compiling kernel functions of ``module_name`` when numba is available."""
+def _sources_digest() -> str:
+    h = hashlib.sha256()
+    for path in COMPILED_SOURCES:
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
+
+
+def refresh_cache() -> bool:
+    """Drop numba's cached kernel when any kernel source changed since it was compiled.
+
+    Works on numba's default cache location (``__pycache__`` next to the sources; with
+    ``NUMBA_CACHE_DIR`` set, numba keys the cache by the same source paths, so a changed source
+    there is the caller's business). Returns True when stale entries were removed. Safe with
+    concurrent processes (missing files are ignored, the stamp is replaced atomically).
+    """
+    cache = _KERNEL / "__pycache__"
+    stamp = cache / _STAMP
+    digest = _sources_digest()
+    try:
+        if stamp.read_text().strip() == digest:
+            return False
+    except OSError:
+        pass
+    removed = False
+    for path in COMPILED_SOURCES:
+        folder = path.parent / "__pycache__"
+        for entry in folder.glob(f"{path.stem}.*.nb[ic]"):
+            try:
+                entry.unlink()
+                removed = True
+            except FileNotFoundError:
+                pass
+    try:
+        cache.mkdir(exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=cache, prefix=".stamp.")
+        with os.fdopen(fd, "w") as fh:
+            fh.write(digest + "\n")
+        os.replace(tmp, stamp)
+    except OSError:
+        pass  # a read-only installation: numba caches elsewhere or not at all
+    return removed
+
+
+def jit_for(module_name: str, *, inline: bool = False) -> Callable[[F], F]:
+    """Decorator compiling kernel functions of ``module_name`` when numba is available.
+
+    ``inline``: the function is inlined into its callers at numba's IR level (for the small
+    functions of the hot path: a call with array arguments costs more than their work).
+    """
     if "_pure" in module_name or not numba_available():
         return _identity
     import numba
 
+    if inline:
+        return numba.njit(cache=True, nogil=True, inline="always")  # type: ignore[return-value]
     return numba.njit(cache=True, nogil=True)  # type: ignore[return-value]
+
+
+if numba_available():
+    refresh_cache()

@@ -116,7 +116,6 @@ from drillstring.model.kernel.state import (
     W_YBEST,
     W_YEV,
     W_YNEW,
-    W_YSTAGE,
     W_YTRY,
     X_GINT,
     X_TAU,
@@ -131,6 +130,7 @@ from drillstring.model.kernel.state import (
 )
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 #: RK4 tableau: stage nodes c, stage coefficients a (stage i+1 from stage i) and weights b*6.
 RK_C = (0.5, 0.5, 1.0)
@@ -162,51 +162,56 @@ def control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext):
     )
 
 
-@jit
-def stage(P, O, C, H, I, mode, tau, Y, K, krow, Drow, ext):
-    """One evaluation of the vector field at (tau, Y): delay, depth of cut, contact, torque.
+#: A zero derivative, returned with a failed stage.
+_ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
-    Writes dY/dtau into ``K[krow]`` and the diagnostics into ``Drow`` (all but ``D_QG``);
-    returns a status.
+
+@inline
+def axpy6(y, a, k):
+    """y + a*k for 6-tuples (the RK stage update, written once)."""
+    return (
+        y[0] + a * k[0],
+        y[1] + a * k[1],
+        y[2] + a * k[2],
+        y[3] + a * k[3],
+        y[4] + a * k[4],
+        y[5] + a * k[5],
+    )
+
+
+@inline
+def stage(P, O, C, H, hs, he, hint, mode, tau, y, ext):
+    """One evaluation of the vector field at (tau, y): delay, depth of cut, contact, torque.
+
+    ``y`` is the state as a 6-tuple; ``hs``, ``he``, ``hint`` the history window and the
+    look-up hint. Returns (status, hint, dy/dtau, d, tau_n, g, g*, R - R0).
     """
-    k, s, u_past = delay_lookup(H, I[I_HSTART], I[I_HEND], I[I_KHINT], Y[Y_PHI], P[P_BLADE])
+    U, V, Phi, W, Theta, Wt = y
+    k, s, u_past = delay_lookup(H, hs, he, hint, Phi, P[P_BLADE])
     if k < 0:
-        return ST_DELAY
-    I[I_KHINT] = k
-    U = Y[Y_U]
+        return ST_DELAY, hint, _ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0
     d = U - u_past
     gs = g_star(P, tau, U, d)
     g = contact(mode, gs)
-    r = control_torque(P, C, tau, U, Y[Y_V], Y[Y_PHI], Y[Y_W], Y[Y_THETA], Y[Y_WT], ext)
+    r = control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext)
     if not math.isfinite(r):
-        return ST_NONFINITE
-    dY = rhs(
-        P,
-        O[O_FREEZE] > 0.0,
-        mode,
-        tau,
-        U,
-        Y[Y_V],
-        Y[Y_PHI],
-        Y[Y_W],
-        Y[Y_THETA],
-        Y[Y_WT],
-        d,
-        g,
-        r,
-    )
-    for i in range(Y_SIZE):
-        K[krow, i] = dY[i]
-    S = twist_torque(P, Y[Y_PHI], Y[Y_THETA])
+        return ST_NONFINITE, k, _ZERO6, d, tau - s, g, gs, r
+    dy = rhs(P, O[O_FREEZE] > 0.0, mode, tau, U, V, Phi, W, Theta, Wt, d, g, r)
+    return ST_OK, k, dy, d, tau - s, g, gs, r
+
+
+@jit
+def write_diagnostics(P, mode, y, d, taun, g, gs, r, Drow):
+    """The diagnostics of a state into ``Drow`` (all but ``D_QG``)."""
+    S = twist_torque(P, y[Y_PHI], y[Y_THETA])
     Drow[D_D] = d
-    Drow[D_TAUN] = tau - s
+    Drow[D_TAUN] = taun
     Drow[D_G] = g
     Drow[D_GSTAR] = gs
     Drow[D_S] = S
     Drow[D_TOB] = torque_on_bit(P, mode, d, g, S)
     Drow[D_R] = r
     Drow[D_RELEASE] = max_bit_torque(P, d) - S
-    return ST_OK
 
 
 @jit
@@ -214,30 +219,44 @@ def rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, h, yrow, drow, ext):
     """Classical RK4 step of size h from (tau, Y) into ``Wk[yrow]``, diagnostics ``Wk[drow]``.
 
     ``K[K_NOW]`` and ``D`` must hold the derivative and diagnostics at (tau, Y); the end state's
-    derivative lands in ``K[K_END]``. ``Wk[drow, D_QG]`` is the RK4 quadrature of g.
+    derivative lands in ``K[K_END]``. ``Wk[drow, D_QG]`` is the RK4 quadrature of g. The stages
+    run on scalars; only the end state is written.
     """
-    Ys = Wk[W_YSTAGE]
-    Yn = Wk[yrow]
-    Dn = Wk[drow]
+    y0 = (Y[0], Y[1], Y[2], Y[3], Y[4], Y[5])
+    k = (K[K_NOW, 0], K[K_NOW, 1], K[K_NOW, 2], K[K_NOW, 3], K[K_NOW, 4], K[K_NOW, 5])
+    acc = k
     qg = D[D_G]
+    hs = I[I_HSTART]
+    he = I[I_HEND]
+    hint = I[I_KHINT]
     for i in range(3):
-        a = RK_A[i] * h
-        for j in range(Y_SIZE):
-            Ys[j] = Y[j] + a * K[i, j]
-        st = stage(P, O, C, H, I, mode, tau + RK_C[i] * h, Ys, K, i + 1, Dn, ext)
+        yt = axpy6(y0, RK_A[i] * h, k)
+        st, hint, k, d, taun, g, gs, r = stage(
+            P, O, C, H, hs, he, hint, mode, tau + RK_C[i] * h, yt, ext
+        )
         if st != ST_OK:
+            I[I_KHINT] = hint
             return st
-        qg += RK_B6[i + 1] * Dn[D_G]
-    Dn[D_QG] = h / 6.0 * qg
+        acc = axpy6(acc, RK_B6[i + 1], k)
+        qg += RK_B6[i + 1] * g
+    yn = axpy6(y0, h / 6.0, acc)
     for j in range(Y_SIZE):
-        acc = K[0, j]
-        for i in range(1, 4):
-            acc += RK_B6[i] * K[i, j]
-        Yn[j] = Y[j] + h / 6.0 * acc
-        if not math.isfinite(Yn[j]):
+        if not math.isfinite(yn[j]):
+            I[I_KHINT] = hint
             return ST_NONFINITE
     # the end state's derivative and diagnostics: for the event functions, and the next stage 1
-    return stage(P, O, C, H, I, mode, tau + h, Yn, K, K_END, Dn, ext)
+    st, hint, k, d, taun, g, gs, r = stage(P, O, C, H, hs, he, hint, mode, tau + h, yn, ext)
+    I[I_KHINT] = hint
+    if st != ST_OK:
+        return st
+    Yn = Wk[yrow]
+    Dn = Wk[drow]
+    for j in range(Y_SIZE):
+        Yn[j] = yn[j]
+        K[K_END, j] = k[j]
+    write_diagnostics(P, mode, yn, d, taun, g, gs, r, Dn)
+    Dn[D_QG] = h / 6.0 * qg
+    return ST_OK
 
 
 @jit
@@ -306,20 +325,29 @@ def locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext):
 @jit
 def refresh(s: KernelState, ext) -> int:
     """Recompute the derivative and diagnostics at the current state (new mode or input)."""
-    return stage(
+    I, Y = s.ints, s.y
+    mode = I[I_MODE]
+    y = (Y[0], Y[1], Y[2], Y[3], Y[4], Y[5])
+    st, hint, k, d, taun, g, gs, r = stage(
         s.params,
         s.options,
         s.control,
         s.history,
-        s.ints,
-        s.ints[I_MODE],
+        I[I_HSTART],
+        I[I_HEND],
+        I[I_KHINT],
+        mode,
         s.clock[X_TAU],
-        s.y,
-        s.stages,
-        K_NOW,
-        s.diag,
+        y,
         ext,
     )
+    I[I_KHINT] = hint
+    if st != ST_OK:
+        return st
+    for j in range(Y_SIZE):
+        s.stages[K_NOW, j] = k[j]
+    write_diagnostics(s.params, mode, y, d, taun, g, gs, r, s.diag)
+    return ST_OK
 
 
 @jit
