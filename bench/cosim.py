@@ -94,8 +94,8 @@ def bare_loop_time(master, H: float, n: int) -> float:
     sysm = master.system
     slaves = []
     with kept_sys_path():
-        for unit, md, unzip in zip(
-            sysm.units, sysm.model_descriptions, master._unzipdirs, strict=True
+        for i, (unit, md, unzip) in enumerate(
+            zip(sysm.units, sysm.model_descriptions, master._unzipdirs, strict=True)
         ):
             fmu = FMU2Slave(
                 guid=md.guid,
@@ -105,7 +105,7 @@ def bare_loop_time(master, H: float, n: int) -> float:
             )
             fmu.instantiate()
             for name, value in unit.start_values.items():
-                ref = sysm.variables[sysm.unit_names.index(unit.name)][name]
+                ref = sysm.variables[i][name]
                 getattr(fmu, f"set{ref.type}")([ref.vr], [value])
             fmu.setupExperiment(startTime=0.0)
             fmu.enterInitializationMode()
@@ -121,9 +121,7 @@ def bare_loop_time(master, H: float, n: int) -> float:
         x = (ctypes.c_double * 4)()
         r = (ctypes.c_double * 1)()
         pc, cc = ctypes.c_void_p(plant.component), ctypes.c_void_p(ctrl.component)
-        p_step, c_step = plant.dll.fmi2DoStep, ctrl.dll.fmi2DoStep
-        for f in (p_step, c_step):
-            f.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
+        p_step, c_step = plant.dll.fmi2DoStep, ctrl.dll.fmi2DoStep  # typed by fmpy
         p_get, c_set = plant.dll.fmi2GetReal, ctrl.dll.fmi2SetReal
         c_get, p_set = ctrl.dll.fmi2GetReal, plant.dll.fmi2SetReal
         t0 = time.perf_counter()
