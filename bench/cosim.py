@@ -1,4 +1,4 @@
-"""Benchmark of the co-simulation master (issue 6).
+"""Benchmark of the co-simulation master.
 
 1. Wall time per macro step of the fmpy master (:mod:`drillstring.orchestration.master`)
    against libcosim (libcosimpy, in this process) on the same two FMUs, same connections, same
@@ -8,12 +8,12 @@
    get through ctypes, no master logic): the FMUs' own cost, so that
    ``per-step time - bare loop`` is each master's overhead.
 2. Total co-simulation time of the Fig. 5 case (tau in [0, 60], H = 1e-3) against the
-   monolithic run of the same loop (sampled every 1e-3 and every 1e-2).
+   monolithic twin of the same loop (sampled every 1e-3 and every 1e-2).
 
 Target: per-step master overhead no worse than libcosim's. Run:
-``.venv/bin/python bench/cosim.py [--gains G --fmus DIR] [--H 1e-3] [--steps 2000]``
-(without ``--fmus`` the FMUs are built into a temporary folder; without ``--gains`` a gains file
-is designed first).
+``.venv/bin/python bench/cosim.py [--fmus DIR | --gains G] [--H 1e-3] [--steps 2000]``
+(without ``--fmus`` the FMUs are built into a temporary folder from ``--gains``, or from a gains
+file designed first).
 """
 
 from __future__ import annotations
@@ -25,19 +25,19 @@ import tempfile
 import time
 from pathlib import Path
 
+from drillstring.apps.design import design_main
+from drillstring.model.experiments import FIG5
 from drillstring.orchestration.closed_loop import (
     CONNECTIONS,
-    LoopSetup,
     build_fmus_into,
     closed_loop_master,
-    controller_start_values,
+    experiment_start_values,
     fmu_paths,
     kept_sys_path,
-    load_gains,
-    plant_start_values,
+    read_loop_model,
     run_cosim,
-    run_reference,
 )
+from drillstring.orchestration.monolithic import run_monolithic
 
 
 def _typed(md, starts: dict) -> list[tuple[str, int, object]]:
@@ -151,28 +151,21 @@ def main() -> int:
     args = ap.parse_args()
 
     with tempfile.TemporaryDirectory(prefix="bench_cosim_") as tmp:
-        gains_path = args.gains
-        if gains_path is None:
-            from drillstring.apps.design import design_main
-
-            print("designing gains ...", flush=True)
-            gains_path = Path(tmp) / "gains.json"
-            if design_main(["--out", str(gains_path)]) != 0:
-                return 1
         fmus_dir = args.fmus
         if fmus_dir is None:
+            gains_path = args.gains
+            if gains_path is None:
+                print("designing gains ...", flush=True)
+                gains_path = Path(tmp) / "gains.json"
+                if design_main(["--out", str(gains_path)]) != 0:
+                    return 1
             print("building the FMUs ...", flush=True)
             fmus_dir = build_fmus_into(Path(tmp) / "fmus", gains_path)
-        gains = load_gains(gains_path)
-        setup = LoopSetup(dphi0=-2.5)
         H, n = args.H, args.steps
         plant_fmu, ctrl_fmu = fmu_paths(fmus_dir)
         fmus = {"plant": plant_fmu, "controller": ctrl_fmu}
-        starts = {
-            "plant": plant_start_values(gains.params, setup),
-            "controller": controller_start_values(gains, setup),
-        }
-        with closed_loop_master(fmus_dir, gains, setup, record=()) as master:
+        starts = experiment_start_values(FIG5)
+        with closed_loop_master(fmus_dir, FIG5, record=()) as master:
             run_cosim(master, 10 * H, H)  # warm-up (imports, numba kernel)
             libcosim_time(fmus, starts, H, 10)
 
@@ -214,9 +207,10 @@ def main() -> int:
                 print(f"Fig. 5 co-simulation failed: {res.failure}", file=sys.stderr)
                 return 1
         walls = {}
+        model = read_loop_model(fmus_dir, FIG5)
         for dt in (H, 1e-2):
             t0 = time.perf_counter()
-            run_reference(gains, setup, T, dt)
+            run_monolithic(model, T, dt_out=dt)
             walls[dt] = time.perf_counter() - t0
         cos = res.stats.wall_time
         print(

@@ -33,6 +33,7 @@ __all__ = [
     "parse_connection",
     "declared_start_values",
     "effective_start_values",
+    "StartValue",
 ]
 
 StartValue = float | int | bool | str
@@ -137,7 +138,23 @@ class System:
     feedthrough: tuple[bool, ...]
 
     def resolve(self, key: str) -> VarRef:
-        """``"unit.variable"`` -> :class:`VarRef`, with a clear error when unknown."""
+        """The variable ``"unit.variable"``.
+
+        Parameters
+        ----------
+        key : str
+            ``"unit.variable"``.
+
+        Returns
+        -------
+        VarRef
+            The resolved variable.
+
+        Raises
+        ------
+        ValueError
+            Naming an unknown unit or variable.
+        """
         return _resolve(self.units, self.variables, key)
 
 

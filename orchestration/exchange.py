@@ -112,14 +112,30 @@ class Exchange:
                 self.instances.fail(inst, fname, st, t, None)
 
     def set_inputs(self, op: RealBatch, values: np.ndarray, t: float) -> None:
-        """Write one unit's inputs of batch ``op`` from ``values`` (laid out like ``y``)."""
+        """Write one unit's inputs.
+
+        Parameters
+        ----------
+        op : RealBatch
+            The unit's batch of inputs (from :attr:`input_ops`).
+        values : numpy.ndarray
+            Source values, laid out like ``y``.
+        t : float
+            Communication point (for failure reports).
+        """
         values.take(op.idx, out=op.view)
         st = op.fn(op.inst.comp, op.vr, op.n, op.buf)
         if st > 1:
             self.instances.fail(op.inst, op.fname, st, t, None)
 
     def reset_inputs(self, t: float) -> None:
-        """Write every unit's connected inputs from ``y`` (after a rollback to ``t``)."""
+        """Write every unit's connected inputs from ``y`` (after a rollback).
+
+        Parameters
+        ----------
+        t : float
+            The communication point rolled back to.
+        """
         for op in self.input_ops:
             if op is not None:
                 self.set_inputs(op, self.y, t)

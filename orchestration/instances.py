@@ -269,7 +269,24 @@ class Instances:
         raise UnitFailure(inst.index, function, status, t, h)
 
     def call(self, inst: Instance, function: str, t: float, call: Callable, *args: Any) -> Any:
-        """A life-cycle call through fmpy; an FMI error becomes :class:`UnitFailure`."""
+        """A life-cycle call through fmpy.
+
+        Parameters
+        ----------
+        inst : Instance
+            The unit called.
+        function : str
+            The FMI function (as a failure report should name it).
+        t : float
+            Current time (for failure reports).
+        call : callable
+            The fmpy method, called with ``*args``.
+
+        Returns
+        -------
+        object
+            What ``call`` returns; an FMI error raises :class:`UnitFailure` instead.
+        """
         try:
             return call(*args)
         except FMICallException as exc:
@@ -353,13 +370,25 @@ class Instances:
                 self.call(inst, f"fmi2Set{ref.type} ({name})", t0, setter, [ref.vr], [value])
 
     def enter_initialization(self, t0: float) -> None:
-        """fmi2EnterInitializationMode of every unit."""
+        """fmi2EnterInitializationMode of every unit.
+
+        Parameters
+        ----------
+        t0 : float
+            Start time (for failure reports).
+        """
         for inst in self.items:
             self.call(inst, "fmi2EnterInitializationMode", t0, inst.fmu.enterInitializationMode)
             inst.initialized = True
 
     def exit_initialization(self, t0: float) -> None:
-        """fmi2ExitInitializationMode of every unit."""
+        """fmi2ExitInitializationMode of every unit.
+
+        Parameters
+        ----------
+        t0 : float
+            Start time (for failure reports).
+        """
         for inst in self.items:
             self.call(inst, "fmi2ExitInitializationMode", t0, inst.fmu.exitInitializationMode)
 
@@ -371,14 +400,26 @@ class Instances:
                 raise ValueError(f"unit {inst.name!r} {msg}")
 
     def save_states(self, t: float) -> None:
-        """fmi2GetFMUstate of every unit into its state slot (before a step that may be undone)."""
+        """fmi2GetFMUstate of every unit into its state slot (before a step that may be undone).
+
+        Parameters
+        ----------
+        t : float
+            Current communication point (for failure reports).
+        """
         for inst in self.items:
             st = inst.get_state(inst.comp, ctypes.byref(inst.state))
             if st > 1:
                 self.fail(inst, "fmi2GetFMUstate", st, t, None)
 
     def restore_states(self, t: float) -> None:
-        """fmi2SetFMUstate of every unit from its state slot (roll back to ``t``)."""
+        """fmi2SetFMUstate of every unit from its state slot.
+
+        Parameters
+        ----------
+        t : float
+            The communication point rolled back to (for failure reports).
+        """
         for inst in self.items:
             st = inst.set_state(inst.comp, inst.state)
             if st > 1:

@@ -54,13 +54,25 @@ class Recorder:
         self.n = 0
 
     def reserve(self, n_rows: int) -> None:
-        """Make room for exactly ``n_rows`` rows in all (no growth while they are recorded)."""
+        """Make room for exactly ``n_rows`` rows in all (no growth while they are recorded).
+
+        Parameters
+        ----------
+        n_rows : int
+            Total number of rows, those already recorded included.
+        """
         rows = np.empty((n_rows, self.n_cols))
         rows[: self.n] = self.rows[: self.n]
         self.rows = rows
 
     def record(self, t: float) -> None:
-        """Append the row of communication point ``t``."""
+        """Append the row of a communication point.
+
+        Parameters
+        ----------
+        t : float
+            The communication point (``y`` holds its exchanged values).
+        """
         k = self.n
         if k == len(self.rows):
             self.rows = np.concatenate([self.rows, np.empty_like(self.rows)])

@@ -147,12 +147,40 @@ def coupling_error(
 
 
 def accepts(err: float, h: float, control: StepControl) -> bool:
-    """True when the step is within tolerance, or at ``h_min`` (a forced step)."""
+    """Whether a step is accepted.
+
+    Parameters
+    ----------
+    err : float
+        Its error norm.
+    h : float
+        The step.
+    control : StepControl
+        Tolerances and limits.
+
+    Returns
+    -------
+    bool
+        True within tolerance, or at ``h_min`` (a forced step).
+    """
     return err <= 1.0 or h <= control.h_min * (1 + 1e-12)
 
 
 def retry_step(h: float, err: float, p: int, control: StepControl) -> float:
-    """The step to retry with after rejecting step ``h`` with error ``err`` (``err > 1``)."""
+    """The step to retry with after a rejection.
+
+    Parameters
+    ----------
+    h, err, p
+        The rejected step, its error norm (``> 1``) and the extrapolation degree.
+    control : StepControl
+        Limits and shape of the update.
+
+    Returns
+    -------
+    float
+        A shorter step, at least ``h_min``.
+    """
     factor = max(control.shrink_min, control.safety * err ** (-1.0 / (p + 2)))
     return max(control.h_min, min(h * factor, h))
 

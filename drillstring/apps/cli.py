@@ -138,7 +138,7 @@ COMMANDS = {
     "simulate": _simulate_main,
     "axial": _axial_main,
     "design": _lazy("drillstring.apps.design", "design_main"),
-    "crosscheck": _lazy("drillstring.orchestration.crosscheck", "crosscheck_main"),
+    "crosscheck": _lazy("drillstring.apps.crosscheck", "crosscheck_main"),
     "sweep": _lazy("drillstring.apps.sweep.runner", "sweep_main"),
     "demo": _lazy("drillstring.apps.demo", "demo_main"),
 }

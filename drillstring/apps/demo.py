@@ -77,13 +77,13 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
     from drillstring.orchestration.figures import write_fig5, write_fig6
 
     t0 = _step(f"Fig. 5 by co-simulation (fmpy master, H = {args.H:g}) vs monolithic solver")
-    fig5 = write_fig5(out / "fig5", args.gains, args.fmus, H=args.H)
+    fig5 = write_fig5(out / "fig5", args.fmus, H=args.H)
     _report(fig5)
     summary["fig5"] = _jsonable(fig5)
     print(f"   ({time.perf_counter() - t0:.1f} s)")
 
     t0 = _step("Fig. 6: torsional stick-slip, controller switched on at tau = 25")
-    fig6 = write_fig6(out / "fig6", args.gains, args.fmus, H=args.H)
+    fig6 = write_fig6(out / "fig6", args.fmus, H=args.H)
     _report(fig6)
     summary["fig6"] = _jsonable(fig6)
     print(f"   ({time.perf_counter() - t0:.1f} s)")

@@ -75,6 +75,17 @@ def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
     return grid
 
 
+def _times(times: np.ndarray, tau_end: float) -> np.ndarray:
+    t = np.asarray(times, dtype=float)
+    if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("times must be increasing finite output times, at least two")
+    if t[0] != 0.0 or t[-1] != tau_end:
+        raise ValueError(
+            f"times must run from 0 to tau_end = {tau_end!r}, got {t[0]!r} .. {t[-1]!r}"
+        )
+    return t
+
+
 def simulate(
     params: ScaledParams,
     tau_end: float,
@@ -84,6 +95,7 @@ def simulate(
     dt_out: float = 1e-2,
     options: EngineOptions | None = None,
     progress: bool | None = None,
+    times: np.ndarray | None = None,
 ) -> SimulationResult:
     """Simulate the model (11)-(14), (17) from tau = 0 to ``tau_end``.
 
@@ -92,9 +104,11 @@ def simulate(
     ``f(tau, y)``. Outputs are sampled every ``dt_out``; the engine lands on each sample time,
     so a run equals an FMU driven with macro step ``dt_out`` and the same input. ``progress``:
     True/False, or None for a bar that appears only when the run takes more than a second.
+    ``times``: increasing output times from 0 to ``tau_end`` instead of the grid of ``dt_out``
+    (e.g. the communication points of an adaptive co-simulation).
     """
     engine = Engine(params, options=options, initial=initial, history=history, control=control)
-    grid = output_grid(float(tau_end), float(dt_out))
+    grid = output_grid(float(tau_end), float(dt_out)) if times is None else _times(times, tau_end)
     rows = np.full((grid.size, len(COLUMNS)), np.nan)
     status = Status("ok", "", 0.0)
     n_done = 0
