@@ -59,6 +59,7 @@ from drillstring.orchestration.recorder import Recorder
 from drillstring.orchestration.results import CosimResult, FmuFailure, StepStats
 from drillstring.orchestration.step import macro_step
 from drillstring.orchestration.step_control import StepControl
+from drillstring.validation import check_choice, check_real
 
 __all__ = [
     "Master",
@@ -221,18 +222,12 @@ class Master:
             For bad arguments, naming the value, or a unit that cannot do what they ask
             (variable steps, rollback).
         """
-        if not (math.isfinite(start_time) and math.isfinite(stop_time) and stop_time > start_time):
-            raise ValueError(
-                f"need finite start_time < stop_time, got {start_time!r}, {stop_time!r}"
-            )
-        if scheme not in ("jacobi", "gauss-seidel"):
-            raise ValueError(f"scheme must be 'jacobi' or 'gauss-seidel', got {scheme!r}")
-        if extrapolation not in ("zoh", "linear"):
-            raise ValueError(f"extrapolation must be 'zoh' or 'linear', got {extrapolation!r}")
-        if exchange not in ("propagate", "simple"):
-            raise ValueError(f"exchange must be 'propagate' or 'simple', got {exchange!r}")
-        if grid not in ("float", "ns"):
-            raise ValueError(f"grid must be 'float' or 'ns', got {grid!r}")
+        check_real("start_time", start_time)
+        check_real("stop_time", stop_time, lower=start_time)
+        check_choice("scheme", scheme, ("jacobi", "gauss-seidel"))
+        check_choice("extrapolation", extrapolation, ("zoh", "linear"))
+        check_choice("exchange", exchange, ("propagate", "simple"))
+        check_choice("grid", grid, ("float", "ns"))
         if grid == "ns":
             if step_control is not None:
                 raise ValueError("grid='ns' is for fixed-step runs, not with step_control")
@@ -244,8 +239,9 @@ class Master:
                         f"grid='ns' needs a {name} that is a whole number of ns, got {v!r}"
                     )
         if step_control is None:
-            if step is None or not (math.isfinite(step) and step > 0):
-                raise ValueError(f"fixed-step run needs a finite step > 0, got {step!r}")
+            if step is None:
+                raise ValueError("a fixed-step run needs a step (or pass step_control)")
+            check_real("step", step, lower=0.0)
         else:
             if not isinstance(step_control, StepControl):
                 raise ValueError(f"step_control must be a StepControl, got {step_control!r}")
