@@ -1,6 +1,6 @@
 """Fixed-step co-simulation: the communication grid and the loop over it.
 
-Communication points (:func:`communication_grid`):
+Communication points (:func:`run_fixed`):
 
 * ``grid="float"``: ``t_k = t0 + k*H``; every full step passes the nominal ``H`` to the units;
 * ``grid="ns"``: libcosim's integer-nanosecond grid, ``t_k = (t0_ns + k*H_ns)/1e9`` with
@@ -13,14 +13,14 @@ A last step shorter than ``H`` ends on the stop time in both grids.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import numpy as np
 
 from drillstring.orchestration.recorder import Recorder
 from drillstring.orchestration.step import JacobiStep
 
-__all__ = ["n_steps", "communication_grid", "run_fixed"]
+__all__ = ["n_steps", "run_fixed"]
 
 
 def n_steps(span: float, h: float) -> tuple[int, bool]:
@@ -46,41 +46,6 @@ def n_steps(span: float, h: float) -> tuple[int, bool]:
     return max(1, math.ceil(span / h)), False
 
 
-def communication_grid(
-    t0: float, t_end: float, h: float, ns_grid: bool
-) -> Iterator[tuple[float, float]]:
-    """The communication points after ``t0`` and the step that reaches each.
-
-    Parameters
-    ----------
-    t0, t_end : float
-        Start and stop time.
-    h : float
-        Macro step.
-    ns_grid : bool
-        libcosim's integer-nanosecond grid (module docstring) instead of ``t0 + k*h``.
-
-    Yields
-    ------
-    t_next : float
-        The next communication point.
-    h_n : float
-        The step from the previous point to ``t_next``.
-    """
-    n_total, exact = n_steps(t_end - t0, h)
-    h_ns, t0_ns = round(h * 1e9), round(t0 * 1e9)
-    t = t0
-    for n in range(1, n_total + 1):
-        if ns_grid and (n < n_total or exact):  # libcosim: integer ns, then double
-            t_next = (t0_ns + n * h_ns) / 1e9
-            hn = t_next - t
-        else:
-            t_next = t0 + n * h if n < n_total else t_end
-            hn = h if n < n_total or exact else t_next - t
-        yield t_next, hn
-        t = t_next
-
-
 def run_fixed(
     step: JacobiStep,
     recorder: Recorder,
@@ -104,7 +69,7 @@ def run_fixed(
     t0, t_end, h : float
         Start, stop time and macro step.
     ns_grid : bool
-        Use libcosim's nanosecond grid (:func:`communication_grid`).
+        Use libcosim's nanosecond grid (module docstring).
     progress : callable
         Called with the simulated time now and then.
     """
@@ -115,9 +80,18 @@ def run_fixed(
     have_prev = False
     h_prev = h
     t = t0
-    recorder.reserve(n_steps(t_end - t0, h)[0] + 1)  # exact size: no growth in the loop
+    n_total, exact = n_steps(t_end - t0, h)
+    h_ns, t0_ns = round(h * 1e9), round(t0 * 1e9)
+    recorder.reserve(n_total + 1)  # exact size: no growth in the loop
     record, advance = recorder.record, step.advance
-    for n, (t_next, hn) in enumerate(communication_grid(t0, t_end, h, ns_grid), start=1):
+    for n in range(1, n_total + 1):
+        # the grid inline: this loop is the master's hot path
+        if ns_grid and (n < n_total or exact):  # libcosim: integer ns, then double
+            t_next = (t0_ns + n * h_ns) / 1e9
+            hn = t_next - t
+        else:
+            t_next = t0 + n * h if n < n_total else t_end
+            hn = h if n < n_total or exact else t_next - t
         if need_prev:
             np.copyto(y_save, y)
         advance(t, hn, y_prev if have_prev else None, h_prev, 1)
