@@ -3,16 +3,10 @@
 A system is a list of :class:`Unit` (instance name -> FMU file + start values) and a
 list of :class:`Connection` (``"unit.output" -> "unit.input"``). :func:`build_system`
 checks them against the FMUs' model descriptions (FMI 2.0 standard, section 2.2) and
-derives what the master needs before any FMU is instantiated:
-
-* the *exchange schedule*: in which order outputs are read and inputs written at a
-  communication point so that every input receives a value computed from already
-  consistent inputs. It follows the output dependencies declared in
-  ``ModelStructure/Outputs`` (FMI 2.0, section 2.2.8); an output without a
-  ``dependencies`` attribute depends on all inputs. A cycle through direct feedthrough
-  is an algebraic loop and is refused with an error naming it.
-* the default Gauss-Seidel order: units whose connected outputs have no direct
-  feedthrough from connected inputs first, then the others in dependency order.
+derives what the master needs before any FMU is instantiated: the direct dependencies of
+the connected outputs on the connected inputs (``ModelStructure/Outputs``, FMI 2.0,
+section 2.2.8; an output without a ``dependencies`` attribute depends on all inputs), and
+from them the exchange schedule and the default Gauss-Seidel order (:mod:`.schedule`).
 """
 
 from __future__ import annotations
@@ -24,15 +18,25 @@ from typing import Any
 
 from fmpy import read_model_description
 
+from drillstring.orchestration.schedule import (
+    ExchangeRound,
+    exchange_schedule,
+    gauss_seidel_order,
+)
+
 __all__ = [
     "Unit",
     "Connection",
     "VarRef",
-    "ExchangeRound",
     "System",
     "build_system",
     "parse_connection",
+    "declared_start_values",
+    "effective_start_values",
+    "StartValue",
 ]
+
+StartValue = float | int | bool | str
 
 _SETTABLE_INITIAL = ("exact", "approx")
 
@@ -41,15 +45,21 @@ _SETTABLE_INITIAL = ("exact", "approx")
 class Unit:
     """One FMU instance in the system.
 
-    ``name`` is the instance name (no dots: ``"unit.variable"`` is split at the first
-    dot), ``fmu`` the path of the ``.fmu`` file, ``start_values`` maps variable names to
-    start values set before initialization (parameters, inputs, ``initial="exact"``
-    or ``"approx"`` variables).
+    Attributes
+    ----------
+    name : str
+        Instance name (no dots: ``"unit.variable"`` is split at the first dot).
+    fmu : str or Path
+        Path of the ``.fmu`` file.
+    start_values : mapping
+        Variable name -> start value set before initialization (parameters, inputs,
+        ``initial="exact"`` or ``"approx"`` variables), replacing the one the model
+        description declares.
     """
 
     name: str
     fmu: str | Path
-    start_values: Mapping[str, float | int | bool | str] = field(default_factory=dict)
+    start_values: Mapping[str, StartValue] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or "." in self.name:
@@ -67,7 +77,23 @@ class Connection:
 
 
 def parse_connection(spec: Connection | tuple[str, str] | str) -> Connection:
-    """Accept a :class:`Connection`, a ``(source, target)`` pair or ``"a.y -> b.u"``."""
+    """A :class:`Connection` from any of the accepted spellings.
+
+    Parameters
+    ----------
+    spec : Connection, (str, str) or str
+        A :class:`Connection`, a ``(source, target)`` pair or ``"a.y -> b.u"``.
+
+    Returns
+    -------
+    Connection
+        The connection.
+
+    Raises
+    ------
+    ValueError
+        For any other form.
+    """
     if isinstance(spec, Connection):
         return spec
     if isinstance(spec, str):
@@ -94,18 +120,6 @@ class VarRef:
 
 
 @dataclass(frozen=True)
-class ExchangeRound:
-    """One round of the exchange schedule.
-
-    ``gets``: (unit index, output keys) read in this round; ``sets``: (unit index, input
-    keys) written afterwards. Keys are ``"unit.variable"`` strings.
-    """
-
-    gets: tuple[tuple[int, tuple[str, ...]], ...]
-    sets: tuple[tuple[int, tuple[str, ...]], ...]
-
-
-@dataclass(frozen=True)
 class System:
     """A validated system: what the master needs to run it (see :func:`build_system`)."""
 
@@ -123,12 +137,24 @@ class System:
     #: unit index -> True if a connected output depends directly on a connected input
     feedthrough: tuple[bool, ...]
 
-    @property
-    def unit_names(self) -> tuple[str, ...]:
-        return tuple(u.name for u in self.units)
-
     def resolve(self, key: str) -> VarRef:
-        """``"unit.variable"`` -> :class:`VarRef`, with a clear error when unknown."""
+        """The variable ``"unit.variable"``.
+
+        Parameters
+        ----------
+        key : str
+            ``"unit.variable"``.
+
+        Returns
+        -------
+        VarRef
+            The resolved variable.
+
+        Raises
+        ------
+        ValueError
+            Naming an unknown unit or variable.
+        """
         return _resolve(self.units, self.variables, key)
 
 
@@ -207,17 +233,34 @@ def build_system(
 ) -> System:
     """Validate units and connections against the model descriptions.
 
-    Raises :class:`ValueError` naming the offending unit, variable or connection for:
-    duplicate unit names, unknown units or variables, a source that is not an output,
-    a target that is not an input, non-Real connections, an input connected twice,
-    unsettable or ill-typed start values, an algebraic loop, a bad ``gs_order``.
+    Parameters
+    ----------
+    units : sequence of Unit, or mapping
+        The units, or name -> :class:`Unit`, FMU path or (FMU path, start values).
+    connections : iterable
+        ``"a.y -> b.u"`` strings, ``(source, target)`` pairs or :class:`Connection`.
+    gs_order : sequence of str, optional
+        Unit names in Gauss-Seidel order (default: from the declared dependencies).
+
+    Returns
+    -------
+    System
+        What the master needs to run the system.
+
+    Raises
+    ------
+    ValueError
+        Naming the offending unit, variable or connection for: duplicate unit names,
+        unknown units or variables, a source that is not an output, a target that is not
+        an input, non-Real connections, an input connected twice, unsettable or ill-typed
+        start values, an algebraic loop, a bad ``gs_order``.
     """
     if isinstance(units, Mapping):
         units = [_unit_from_mapping(name, spec) for name, spec in units.items()]
     units = tuple(units)
     if not units:
         raise ValueError("a system needs at least one unit")
-    names = [u.name for u in units]
+    names = tuple(u.name for u in units)
     for name in names:
         if names.count(name) > 1:
             raise ValueError(f"unit name {name!r} is used more than once")
@@ -288,8 +331,8 @@ def build_system(
         any(deps[k] for k in outputs if k.split(".", 1)[0] == u.name) for u in units
     )
 
-    schedule = _schedule(units, outputs, deps, input_source)
-    order = _gs_order(units, outputs, deps, input_source, feedthrough, gs_order)
+    schedule = exchange_schedule(names, outputs, deps, input_source)
+    order = gauss_seidel_order(names, outputs, deps, input_source, feedthrough, gs_order)
     return System(
         units=units,
         model_descriptions=tuple(mds),
@@ -303,82 +346,58 @@ def build_system(
     )
 
 
-def _unit_index(units: Sequence[Unit], key: str) -> int:
-    name = key.split(".", 1)[0]
-    return next(i for i, u in enumerate(units) if u.name == name)
+def _typed_start(var: Any) -> StartValue:
+    """A model description's start string as a value of the variable's FMI type."""
+    if var.type == "Real":
+        return float(var.start)
+    if var.type in ("Integer", "Enumeration"):
+        return int(var.start)
+    if var.type == "Boolean":
+        return var.start in ("true", "1")
+    return str(var.start)
 
 
-def _schedule(
-    units: Sequence[Unit],
-    outputs: Sequence[str],
-    deps: Mapping[str, set[str]],
-    input_source: Mapping[str, str],
-) -> tuple[ExchangeRound, ...]:
-    """Rounds of (read ready outputs, write the inputs they feed) until all are fresh."""
-    fresh: set[str] = set()
-    remaining = list(outputs)
-    rounds = []
-    while remaining:
-        ready = [o for o in remaining if deps[o] <= fresh]
-        if not ready:
-            loop = ", ".join(f"{o} <- {sorted(deps[o] - fresh)}" for o in remaining)
-            raise ValueError(
-                "algebraic loop through direct feedthrough (outputs waiting for inputs): "
-                f"{loop}. Check the FMUs' ModelStructure/Outputs dependencies."
-            )
-        remaining = [o for o in remaining if o not in ready]
-        ready_set = set(ready)
-        targets = [i for i, s in input_source.items() if s in ready_set]
-        fresh.update(targets)
-        rounds.append(
-            ExchangeRound(
-                gets=_group(units, ready),
-                sets=_group(units, targets),
-            )
-        )
-    return tuple(rounds)
+def declared_start_values(model_description: Any) -> dict[str, StartValue]:
+    """The start values a model description declares, typed (FMI 2.0, section 2.2.7).
+
+    Parameters
+    ----------
+    model_description : fmpy ModelDescription
+        As returned by ``fmpy.read_model_description``.
+
+    Returns
+    -------
+    dict
+        Variable name -> start value (float, int, bool or str) of every variable with a
+        ``start`` attribute.
+    """
+    return {
+        v.name: _typed_start(v) for v in model_description.modelVariables if v.start is not None
+    }
 
 
-def _group(units: Sequence[Unit], keys: Sequence[str]) -> tuple[tuple[int, tuple[str, ...]], ...]:
-    by_unit: dict[int, list[str]] = {}
-    for k in keys:
-        by_unit.setdefault(_unit_index(units, k), []).append(k)
-    return tuple((i, tuple(by_unit[i])) for i in sorted(by_unit))
+def effective_start_values(unit: Unit) -> dict[str, StartValue]:
+    """The start values a unit begins with: the FMU's declared ones, replaced by the unit's own.
 
+    Parameters
+    ----------
+    unit : Unit
+        The unit (its FMU's model description is read).
 
-def _gs_order(
-    units: Sequence[Unit],
-    outputs: Sequence[str],
-    deps: Mapping[str, set[str]],
-    input_source: Mapping[str, str],
-    feedthrough: Sequence[bool],
-    given: Sequence[str] | None,
-) -> tuple[int, ...]:
-    names = [u.name for u in units]
-    if given is not None:
-        given = list(given)
-        if sorted(given) != sorted(names):
-            raise ValueError(
-                f"Gauss-Seidel order {given} must list every unit exactly once: {names}"
-            )
-        return tuple(names.index(n) for n in given)
-    order = [i for i in range(len(units)) if not feedthrough[i]]
-    pending = [i for i in range(len(units)) if feedthrough[i]]
-    while pending:
-        # a feedthrough unit goes once every feedthrough unit feeding its
-        # feedthrough inputs is placed (acyclic: the schedule already checked)
-        for i in pending:
-            needs = {
-                _unit_index(units, input_source[inp])
-                for o in outputs
-                if _unit_index(units, o) == i
-                for inp in deps[o]
-            }
-            if all(j in order or j == i for j in needs):
-                order.append(i)
-                pending.remove(i)
-                break
-        else:  # only reachable through a feedthrough cycle across units
-            order.extend(pending)
-            break
-    return tuple(order)
+    Returns
+    -------
+    dict
+        Variable name -> start value.
+
+    Raises
+    ------
+    ValueError
+        If the unit sets a variable the FMU does not have.
+    """
+    md, _ = _load(unit)
+    values = declared_start_values(md)
+    unknown = sorted(set(unit.start_values) - {v.name for v in md.modelVariables})
+    if unknown:
+        raise ValueError(f"unit {unit.name!r} has no variable(s) {unknown} (start values)")
+    values.update(unit.start_values)
+    return values

@@ -1,13 +1,14 @@
-"""``drillstring crosscheck``: co-simulation against the monolithic solver, convergence in H.
+"""Co-simulation against the monolithic twin: convergence in the macro step H.
 
-The closed loop of Fig. 5 (reference set of the gains file, dphi/dtau(0) = -2.5, controller
-(29)-(31) on from tau = 0, paper's law without latch) is co-simulated by the fmpy master
-(:mod:`.master`) for a list of macro steps ``H`` and schemes, and compared with the monolithic
-solver (:func:`~drillstring.orchestration.monolithic.run_monolithic`: the same engine with the
-law evaluated continuously) at every communication point. Both use the engine step ``h``; every
-``H`` is a multiple of ``h`` and of the reference's output step ``min(H)``, so the plant FMU's RK4
-steps fall on the monolithic run's and the difference is the coupling error alone (sample and
-hold of the torque over a macro step), not a discretization difference.
+The closed loop of Fig. 5 (:data:`CROSSCHECK`: :data:`~drillstring.model.experiments.FIG5`
+over tau in [0, 10], where the initial transient makes the largest coupling errors) is
+co-simulated by the fmpy master (:mod:`.master`) for a list of macro steps ``H`` and schemes,
+and compared with the monolithic twin (:mod:`.monolithic`: the same engine with the law
+evaluated continuously, read from the same FMUs) at every communication point. Both use the
+engine step ``h``; every ``H`` is a multiple of ``h`` and of the reference's output step
+``min(H)``, so the plant FMU's RK4 steps fall on the monolithic run's and the difference is the
+coupling error alone (sample and hold of the torque over a macro step), not a discretization
+difference.
 
 Expected orders (max error over the run against H): 1 for zero-order hold (the torque lags by
 H/2 on average), 2 for linear extrapolation (the master gives the mean of the extrapolated line
@@ -15,55 +16,59 @@ over the step). For this loop Gauss-Seidel equals Jacobi: the controller has no 
 output is exchanged at every communication point after the plant's outputs, so the plant
 always receives ``R(x(t_n))`` either way.
 
-Writes ``crosscheck.csv`` (scheme, extrapolation, H, steps, max error du, max error dphi, wall
-time, status) and ``crosscheck.png`` (log-log errors against H with the fitted orders) and
-prints the table. :func:`adaptive_vs_fixed` compares the step-size-controlled master with the
-fixed-step one at equal accuracy.
+:func:`run_crosscheck` returns the table (:func:`write_table`: ``crosscheck.csv``;
+:func:`plot_errors`: ``crosscheck.png``, log-log errors against H with the fitted orders;
+:func:`format_table`: text). :func:`adaptive_vs_fixed` compares the step-size-controlled master
+with the fixed-step one at equal accuracy. The command line is ``drillstring crosscheck``
+(:mod:`drillstring.apps.crosscheck`).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
-import sys
-import tempfile
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drillstring.controller.gains import GainsFile
+from drillstring.fileio import save_figure, write_csv
+from drillstring.model.experiments import FIG5, Experiment
 from drillstring.orchestration.closed_loop import (
-    LoopSetup,
-    build_fmus_into,
+    Overrides,
     closed_loop_master,
     errors_on_grid,
-    fmu_paths,
-    load_gains,
-    reference_at,
+    read_loop_model,
     run_cosim,
-    run_reference,
 )
-from drillstring.orchestration.master import StepControl
+from drillstring.orchestration.monolithic import run_monolithic
+from drillstring.orchestration.results import CosimResult
+from drillstring.orchestration.step_control import StepControl
 
 __all__ = [
+    "CROSSCHECK",
     "DEFAULT_STEPS",
     "DEFAULT_SCHEMES",
+    "FIT_MAX_H",
+    "DEFAULT_CONTROL",
     "CrosscheckRow",
     "CrosscheckResult",
+    "check_steps",
     "fit_order",
     "run_crosscheck",
     "write_table",
     "plot_errors",
+    "format_row",
     "format_table",
+    "HEADER_LINE",
     "adaptive_vs_fixed",
-    "crosscheck_main",
 ]
 
+#: The cross-check's experiment: Fig. 5 over tau in [0, 10] (the initial transient).
+CROSSCHECK = replace(FIG5, name="crosscheck", tau_end=10.0)
 DEFAULT_STEPS: tuple[float, ...] = (0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001)
 DEFAULT_SCHEMES: tuple[tuple[str, str], ...] = (
     ("jacobi", "zoh"),
@@ -72,6 +77,8 @@ DEFAULT_SCHEMES: tuple[tuple[str, str], ...] = (
 )
 #: fitted orders use the macro steps up to this one ("the smaller steps")
 FIT_MAX_H = 0.01
+#: step control of :func:`adaptive_vs_fixed` (absolute tolerance: see there)
+DEFAULT_CONTROL = StepControl(rtol=0.0, atol=1e-2, h_min=1e-5, h_max=0.1)
 TABLE_HEADER = (
     "scheme",
     "extrapolation",
@@ -100,23 +107,64 @@ class CrosscheckRow:
 
 @dataclass(frozen=True)
 class CrosscheckResult:
+    """The rows of a cross-check, the fitted orders and how the reference was computed.
+
+    Attributes
+    ----------
+    rows : tuple of CrosscheckRow
+        One per (scheme, extrapolation, H).
+    orders : dict
+        (scheme, extrapolation) -> {"du": order, "dphi": order} fitted over ``H <= fit_max``.
+    experiment : Experiment
+        The experiment run.
+    fit_max : float
+        Largest H in the fits.
+    reference_wall_time, reference_dt : float
+        Wall time and output step of the monolithic reference.
+    """
+
     rows: tuple[CrosscheckRow, ...]
-    #: (scheme, extrapolation) -> {"du": order, "dphi": order} fitted over H <= fit_max
     orders: dict[tuple[str, str], dict[str, float]]
-    tau_end: float
-    setup: LoopSetup
+    experiment: Experiment
     fit_max: float
     reference_wall_time: float
     reference_dt: float
     extra: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def tau_end(self) -> float:
+        """End of the runs."""
+        return self.experiment.tau_end
+
     def select(self, scheme: str, extrapolation: str) -> list[CrosscheckRow]:
+        """The rows of one coupling.
+
+        Parameters
+        ----------
+        scheme, extrapolation : str
+            The coupling.
+
+        Returns
+        -------
+        list of CrosscheckRow
+            Its rows, in the order of the steps.
+        """
         return [r for r in self.rows if (r.scheme, r.extrapolation) == (scheme, extrapolation)]
 
 
 def fit_order(H: Sequence[float], err: Sequence[float]) -> float:
-    """Least-squares slope of log(err) against log(H) over the finite, positive errors
-    (NaN with fewer than two)."""
+    """Least-squares slope of log(err) against log(H).
+
+    Parameters
+    ----------
+    H, err : sequence of float
+        Macro steps and errors; only finite, positive errors count.
+
+    Returns
+    -------
+    float
+        The slope (NaN with fewer than two usable points).
+    """
     h, e = np.asarray(H, dtype=float), np.asarray(err, dtype=float)
     ok = np.isfinite(e) & (e > 0) & (h > 0)
     if ok.sum() < 2:
@@ -129,7 +177,29 @@ def _is_multiple(a: float, b: float) -> bool:
     return k >= 1 and abs(k * b - a) <= 1e-9 * a
 
 
-def _check_steps(steps: Sequence[float], h: float, tau_end: float) -> float:
+def check_steps(steps: Sequence[float], h: float, tau_end: float) -> float:
+    """Check the macro steps of a cross-check; returns the reference's output step ``min(H)``.
+
+    Parameters
+    ----------
+    steps : sequence of float
+        The macro steps H.
+    h : float
+        The engine step.
+    tau_end : float
+        End of the runs.
+
+    Returns
+    -------
+    float
+        The smallest H.
+
+    Raises
+    ------
+    ValueError
+        Naming an H that is not positive, not a multiple of ``h`` or of the smallest H, or a
+        ``tau_end`` that is not positive or not a multiple of the smallest H.
+    """
     if not steps:
         raise ValueError("need at least one macro step H")
     for H in steps:
@@ -153,34 +223,60 @@ def _check_steps(steps: Sequence[float], h: float, tau_end: float) -> float:
 
 
 def run_crosscheck(
-    gains: GainsFile | str | os.PathLike[str],
     fmus_dir: str | os.PathLike[str],
+    experiment: Experiment = CROSSCHECK,
     *,
-    tau_end: float = 10.0,
     steps: Sequence[float] = DEFAULT_STEPS,
     schemes: Sequence[tuple[str, str]] = DEFAULT_SCHEMES,
-    setup: LoopSetup | None = None,
     fit_max: float = FIT_MAX_H,
-    verbose: bool = False,
+    overrides: Overrides | None = None,
+    on_row: Callable[[CrosscheckRow], None] | None = None,
 ) -> CrosscheckResult:
-    """Co-simulate for every scheme and H, compare with one monolithic run (module doc)."""
-    g = load_gains(gains)
-    setup = setup or LoopSetup()
+    """Co-simulate for every scheme and H, compare with one monolithic run (module docstring).
+
+    Parameters
+    ----------
+    fmus_dir : path
+        Folder of the built FMUs.
+    experiment : Experiment
+        The set-up, run over ``[0, experiment.tau_end]`` (default :data:`CROSSCHECK`).
+    steps : sequence of float
+        Macro steps H (see :func:`check_steps`).
+    schemes : sequence of (str, str)
+        (scheme, extrapolation) pairs.
+    fit_max : float
+        Orders are fitted over ``H <= fit_max``.
+    overrides : mapping, optional
+        ``"unit.variable"`` -> start value, for both runs.
+    on_row : callable, optional
+        Called with every row as soon as it is computed.
+
+    Returns
+    -------
+    CrosscheckResult
+        Rows and fitted orders.
+
+    Raises
+    ------
+    ValueError
+        For bad steps or schemes.
+    RuntimeError
+        If the monolithic reference stops early.
+    """
+    model = read_loop_model(fmus_dir, experiment, overrides)
+    tau_end = experiment.tau_end
     steps = sorted({float(H) for H in steps}, reverse=True)
-    dt = _check_steps(steps, setup.h, tau_end)
+    dt = check_steps(steps, model.options.h, tau_end)
     for scheme, ex in schemes:
         if scheme not in ("jacobi", "gauss-seidel") or ex not in ("zoh", "linear"):
             raise ValueError(f"unknown scheme/extrapolation {scheme!r}/{ex!r}")
     w0 = time.perf_counter()
-    ref = run_reference(g, setup, tau_end, dt)
+    ref = run_monolithic(model, tau_end, dt_out=dt)
     ref_wall = time.perf_counter() - w0
     if not ref.status.ok:
         raise RuntimeError(f"the monolithic reference stopped early: {ref.status.message}")
-    if verbose:
-        print(f"monolithic reference, dt_out = {dt:g}, h = {setup.h:g}: {ref_wall:.2f} s")
-        print(_HEADER_LINE, flush=True)
     rows = []
-    with closed_loop_master(fmus_dir, g, setup) as master:
+    with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
         for scheme, ex in schemes:
             for H in steps:
                 res = run_cosim(master, tau_end, H, scheme=scheme, extrapolation=ex)
@@ -202,8 +298,8 @@ def run_crosscheck(
                     status,
                 )
                 rows.append(row)
-                if verbose:
-                    print(_format_row(row), flush=True)
+                if on_row is not None:
+                    on_row(row)
     orders = {}
     for key in schemes:
         sel = [r for r in rows if (r.scheme, r.extrapolation) == key and r.H <= fit_max * 1.000001]
@@ -212,13 +308,24 @@ def run_crosscheck(
             "du": fit_order(Hs, [r.err_du for r in sel]),
             "dphi": fit_order(Hs, [r.err_dphi for r in sel]),
         }
-    return CrosscheckResult(tuple(rows), orders, tau_end, setup, fit_max, ref_wall, dt)
+    return CrosscheckResult(tuple(rows), orders, experiment, fit_max, ref_wall, dt)
 
 
 def write_table(result: CrosscheckResult, path: str | os.PathLike[str]) -> Path:
-    """``crosscheck.csv``: one row per (scheme, extrapolation, H)."""
-    from drillstring.fileio import write_csv
+    """Write ``crosscheck.csv``: one row per (scheme, extrapolation, H).
 
+    Parameters
+    ----------
+    result : CrosscheckResult
+        The cross-check.
+    path : path
+        The CSV file (written atomically).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     rows = [
         (r.scheme, r.extrapolation, r.H, r.steps, r.err_du, r.err_dphi, r.wall_time, r.status)
         for r in result.rows
@@ -226,7 +333,19 @@ def write_table(result: CrosscheckResult, path: str | os.PathLike[str]) -> Path:
     return write_csv(path, TABLE_HEADER, rows)
 
 
-def _format_row(r: CrosscheckRow) -> str:
+def format_row(r: CrosscheckRow) -> str:
+    """One row of the table as text.
+
+    Parameters
+    ----------
+    r : CrosscheckRow
+        The row.
+
+    Returns
+    -------
+    str
+        The row in the columns of :data:`HEADER_LINE`, with its status if it failed.
+    """
     line = (
         f"{r.scheme:>12} {r.extrapolation:>6} {r.H:8.4g} {r.steps:7d} {r.err_du:11.3e} "
         f"{r.err_dphi:11.3e} {r.wall_time:8.2f}"
@@ -234,15 +353,28 @@ def _format_row(r: CrosscheckRow) -> str:
     return line if r.status == "ok" else f"{line}  {r.status}"
 
 
-_HEADER_LINE = (
+HEADER_LINE = (
     f"{'scheme':>12} {'extrap':>6} {'H':>8} {'steps':>7} {'err du':>11} {'err dphi':>11} "
     f"{'wall s':>8}"
 )
 
 
 def format_table(result: CrosscheckResult, rows: bool = True) -> str:
-    """The table (``rows``) and the fitted orders as text."""
-    lines = [_HEADER_LINE, *(_format_row(r) for r in result.rows)] if rows else []
+    """The cross-check as text.
+
+    Parameters
+    ----------
+    result : CrosscheckResult
+        The cross-check.
+    rows : bool
+        Include the table of rows (else only the fitted orders).
+
+    Returns
+    -------
+    str
+        The text.
+    """
+    lines = [HEADER_LINE, *(format_row(r) for r in result.rows)] if rows else []
     lines.append(f"fitted orders over H <= {result.fit_max:g}:")
     for (scheme, ex), o in result.orders.items():
         lines.append(f"  {scheme}/{ex}: dphi {o['dphi']:.3f}, du {o['du']:.3f}")
@@ -250,11 +382,22 @@ def format_table(result: CrosscheckResult, rows: bool = True) -> str:
 
 
 def plot_errors(result: CrosscheckResult, path: str | os.PathLike[str]) -> Path:
-    """Log-log PNG of the max errors in dphi/dtau and du/dtau against H, fitted orders."""
+    """Write a log-log PNG of the max errors in dphi/dtau and du/dtau against H.
+
+    Parameters
+    ----------
+    result : CrosscheckResult
+        The cross-check (the legend gives the fitted orders).
+    path : path
+        The PNG file (written atomically).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-
-    from drillstring.fileio import save_figure
 
     fig = Figure(figsize=(10.0, 4.2), dpi=150)
     FigureCanvasAgg(fig)
@@ -292,49 +435,76 @@ def plot_errors(result: CrosscheckResult, path: str | os.PathLike[str]) -> Path:
 
 
 def adaptive_vs_fixed(
-    gains: GainsFile | str | os.PathLike[str],
     fmus_dir: str | os.PathLike[str],
+    experiment: Experiment = CROSSCHECK,
     *,
-    tau_end: float = 10.0,
-    setup: LoopSetup | None = None,
-    control: StepControl | None = None,
+    control: StepControl = DEFAULT_CONTROL,
     extrapolation: str = "zoh",
     max_doublings: int = 6,
+    overrides: Overrides | None = None,
 ) -> dict[str, Any]:
     """Steps of the adaptive master against the fixed-step master for the same error.
 
-    The adaptive run (``control``, default absolute tolerance 1e-2 on the input-error
-    impulse) reaches a max error ``E`` in dphi/dtau against the monolithic loop evaluated at
-    its own communication points (:func:`reference_at`) with ``N_a`` attempted steps
-    (accepted + rejected). Fixed-step runs then start at ``N_a`` steps and double the count
-    until their error is at most ``E``: ``fixed_steps_needed`` is that count (None if
-    ``max_doublings`` did not suffice).
+    The adaptive run reaches a max error ``E`` in dphi/dtau against the monolithic twin
+    evaluated at its own communication points with ``N_a`` attempted steps (accepted +
+    rejected). Fixed-step runs then start at ``N_a`` steps and double the count until their
+    error is at most ``E``.
 
     The default tolerance is absolute (``rtol=0``): the exchanged torque is thousands during
     the initial transient, where the coupling error is made, and tens later, so a relative
     tolerance would allow the largest input errors exactly where they matter most (with
     ``rtol=1e-3`` the adaptive run needs more steps than the fixed-step one).
+
+    Parameters
+    ----------
+    fmus_dir : path
+        Folder of the built FMUs.
+    experiment : Experiment
+        The set-up (default :data:`CROSSCHECK`).
+    control : StepControl
+        Step control of the adaptive run (default absolute tolerance 1e-2 on the input-error
+        impulse).
+    extrapolation : str
+        ``"zoh"`` or ``"linear"``, for all runs.
+    max_doublings : int
+        Doublings of the fixed step count tried.
+    overrides : mapping, optional
+        ``"unit.variable"`` -> start value, for all runs.
+
+    Returns
+    -------
+    dict
+        ``adaptive_error``, ``adaptive_attempted``/``accepted``/``rejected``,
+        ``adaptive_h_range``, ``fixed`` (list of (steps, error)) and ``fixed_steps_needed``
+        (None if ``max_doublings`` did not suffice).
+
+    Raises
+    ------
+    RuntimeError
+        If the adaptive co-simulation fails.
     """
-    g = load_gains(gains)
-    setup = setup or LoopSetup()
-    control = control or StepControl(rtol=0.0, atol=1e-2, h_min=1e-5, h_max=0.1)
-    with closed_loop_master(fmus_dir, g, setup) as master:
+    model = read_loop_model(fmus_dir, experiment, overrides)
+    tau_end = experiment.tau_end
+
+    def error(res: CosimResult) -> float:
+        """Max |dphi| error at the run's own communication points."""
+        ref = run_monolithic(model, float(res.time[-1]), times=res.time)
+        if not ref.status.ok:
+            raise RuntimeError(f"the monolithic reference stopped early: {ref.status.message}")
+        return float(np.max(np.abs(res["plant.dphi"] - ref.dphi)))
+
+    with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
         ad = run_cosim(master, tau_end, None, step_control=control, extrapolation=extrapolation)
         if not ad.completed:
             raise RuntimeError(f"adaptive co-simulation failed: {ad.failure}")
-        ref = reference_at(g, setup, ad.time, ("dphi",))
-        e_ad = float(np.max(np.abs(ad["plant.dphi"] - ref["dphi"])))
+        e_ad = error(ad)
         n_ad = ad.stats.attempted
         fixed: list[tuple[int, float]] = []
         needed = None
         n = n_ad
         for _ in range(max_doublings + 1):
             res = run_cosim(master, tau_end, tau_end / n, extrapolation=extrapolation)
-            if not res.completed:
-                e = math.inf
-            else:
-                ref_f = reference_at(g, setup, res.time, ("dphi",))
-                e = float(np.max(np.abs(res["plant.dphi"] - ref_f["dphi"])))
+            e = error(res) if res.completed else math.inf
             fixed.append((n, e))
             if e <= e_ad:
                 needed = n
@@ -351,111 +521,3 @@ def adaptive_vs_fixed(
         "fixed": fixed,
         "fixed_steps_needed": needed,
     }
-
-
-def crosscheck_main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``drillstring crosscheck``; returns the exit status."""
-    ap = argparse.ArgumentParser(
-        prog="drillstring crosscheck",
-        description="Co-simulation of the Fig. 5 closed loop against the monolithic solver "
-        "for a list of macro steps: table, log-log plot and fitted convergence orders.",
-    )
-    ap.add_argument(
-        "--gains",
-        type=Path,
-        default=None,
-        help="gains file (default: the synthesis' default path, controller/gains.json)",
-    )
-    ap.add_argument(
-        "--fmus",
-        type=Path,
-        default=None,
-        help="folder with prebuilt FMUs (default: build into a temporary folder)",
-    )
-    ap.add_argument("--out", type=Path, default=Path("out/crosscheck"), help="output folder")
-    ap.add_argument("--tau-end", type=float, default=10.0, help="end of the run (default 10)")
-    ap.add_argument(
-        "--steps", type=float, nargs="+", default=list(DEFAULT_STEPS), help="macro steps H"
-    )
-    ap.add_argument("--h", type=float, default=5e-4, help="engine RK4 step (default 5e-4)")
-    ap.add_argument(
-        "--fit-max",
-        type=float,
-        default=FIT_MAX_H,
-        help=f"fit the orders over H <= this (default {FIT_MAX_H})",
-    )
-    ap.add_argument(
-        "--adaptive-atol",
-        type=float,
-        default=1e-2,
-        help="also compare the adaptive master (absolute tolerance; 0: skip)",
-    )
-    args = ap.parse_args(argv)
-
-    from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFileError
-
-    gains_path = args.gains if args.gains is not None else DEFAULT_GAINS_PATH
-    try:
-        setup = LoopSetup(dphi0=-2.5, h=args.h)
-        _check_steps(args.steps, setup.h, args.tau_end)
-        if args.fmus is not None:
-            fmu_paths(args.fmus)
-            gains = load_gains(gains_path)
-    except (ValueError, GainsFileError, OSError) as exc:
-        print(f"drillstring crosscheck: {exc}", file=sys.stderr)
-        return 2
-    with tempfile.TemporaryDirectory(prefix="crosscheck_fmus_") as tmp:
-        fmus = args.fmus
-        try:
-            if fmus is None:
-                print(f"building the FMUs with {gains_path} into a temporary folder ...")
-                fmus = build_fmus_into(tmp, gains_path)
-            gains = load_gains(gains_path)
-            result = run_crosscheck(
-                gains,
-                fmus,
-                tau_end=args.tau_end,
-                steps=args.steps,
-                setup=setup,
-                fit_max=args.fit_max,
-                verbose=True,
-            )
-            adaptive = None
-            if args.adaptive_atol > 0:
-                control = StepControl(rtol=0.0, atol=args.adaptive_atol, h_min=1e-5, h_max=0.1)
-                adaptive = adaptive_vs_fixed(
-                    gains, fmus, tau_end=args.tau_end, setup=setup, control=control
-                )
-        except (ValueError, RuntimeError, GainsFileError, OSError) as exc:
-            print(f"drillstring crosscheck: {exc}", file=sys.stderr)
-            return 2
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    csv = write_table(result, out / "crosscheck.csv")
-    png = plot_errors(result, out / "crosscheck.png")
-    print(format_table(result, rows=False))
-    small = [r for r in result.rows if math.isclose(r.H, min(args.steps))]
-    for r in small:
-        rel = r.err_dphi / abs(setup.dphi0)
-        print(
-            f"H = {r.H:g}, {r.scheme}/{r.extrapolation}: max |error dphi| = {r.err_dphi:.3e} "
-            f"= {rel:.2e} of |dphi(0)|"
-        )
-    if adaptive is not None:
-        fixed = adaptive["fixed"]
-        needed = adaptive["fixed_steps_needed"]
-        if needed is None:
-            verdict = f"more than {fixed[-1][0]}"
-        elif len(fixed) > 1:
-            verdict = f"more than {fixed[-2][0]} ({needed} suffice)"
-        else:
-            verdict = f"at most {needed}"
-        print(
-            f"adaptive master ({adaptive['extrapolation']}, atol {args.adaptive_atol:g}): "
-            f"max |error dphi| = {adaptive['adaptive_error']:.3e} with "
-            f"{adaptive['adaptive_attempted']} steps ({adaptive['adaptive_rejected']} rejected); "
-            f"the fixed-step master needs {verdict} steps for that error "
-            f"({', '.join(f'{n} steps: {e:.3e}' for n, e in fixed)})"
-        )
-    print(f"wrote {csv} and {png}")
-    return 0

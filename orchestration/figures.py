@@ -2,15 +2,19 @@
 
 * Fig. 5 (:func:`write_fig5`): controller (29)-(31) on from tau = 0, dphi/dtau(0) = -2.5: the
   torsional vibration dies out while axial stick-slip goes on; du/dtau and dphi/dtau against tau.
-* Fig. 6 (:func:`write_fig6`): torsional-stick model on in the plant (NOTES.md section 6), open
-  loop (R_ff only) from dphi/dtau(0) = -4.9 until the torsional stick-slip is under way, the
-  controller switched on at tau = 25 with the bumpless latch "angle" (NOTES.md section 7): no
-  torsional stick afterwards, dphi/dtau back to a small ripple, d >= 0 throughout.
+* Fig. 6 (:func:`write_fig6`): torsional-stick model on in the plant (``docs/model.md``,
+  "Torsional stick"), open loop (R_ff only) from dphi/dtau(0) = -4.9 until the torsional
+  stick-slip is under way, the controller switched on at tau = 25 with the bumpless latch
+  "angle" (``docs/model.md``, "Bumpless switch-on"): no torsional stick afterwards, dphi/dtau
+  back to a small ripple, d >= 0 throughout.
 
-Both co-simulate the plant and controller FMUs on the fmpy master (:mod:`.master`, fixed macro
-step H) and run the monolithic loop (:func:`.closed_loop.run_reference`, same gains file, same
-parameters, same engine step, sampled at the same communication points) for comparison. Each
-writes a PNG and a CSV into ``out_dir`` and returns a flat summary dict (paths, errors, checks).
+The set-ups are :data:`~drillstring.model.experiments.FIG5` and
+:data:`~drillstring.model.experiments.FIG6` (``docs/model.md``, "Experiments of Figs. 5 and
+6"). Both figures co-simulate the plant and controller FMUs on the fmpy master (:mod:`.master`,
+fixed macro step H) and run the monolithic twin (:mod:`.monolithic`: the loop the FMUs describe,
+same gains, parameters and engine step, sampled at the same communication points) for
+comparison. Each writes a PNG and a CSV into ``out_dir`` and returns a flat summary dict (paths,
+errors, checks).
 
 Default coupling: Jacobi with linear extrapolation (second order in H). Zero-order hold, the
 master's default, is first order: at H = 1e-3 its max error in dphi/dtau over Fig. 5 is 1e-3 to
@@ -30,17 +34,18 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.controller.gains import GainsFile
 from drillstring.fileio import write_csv
+from drillstring.model.control import AffineFeedback
+from drillstring.model.experiments import FIG5, FIG6, Experiment
 from drillstring.model.simulate import SimulationResult
 from drillstring.orchestration.closed_loop import (
-    LoopSetup,
+    Overrides,
     closed_loop_master,
     grid_indices,
-    load_gains,
+    read_loop_model,
     run_cosim,
-    run_reference,
 )
+from drillstring.orchestration.monolithic import run_monolithic
 from drillstring.orchestration.results import CosimResult
 from drillstring.plotting import plot_velocities
 
@@ -68,34 +73,52 @@ def _check_H(H: float, h: float, tau_end: float) -> None:
     k = round(H / h)
     if k < 1 or abs(k * h - H) > 1e-9 * H:
         raise ValueError(f"macro step H = {H!r} must be a multiple of the engine step h = {h!r}")
-    if not (math.isfinite(tau_end) and tau_end > 0):
-        raise ValueError(f"tau_end must be a positive finite time, got {tau_end!r}")
     n = round(tau_end / H)
     if n < 1 or abs(n * H - tau_end) > 1e-9 * tau_end:
         raise ValueError(f"tau_end = {tau_end!r} must be a multiple of the macro step H = {H!r}")
 
 
 def run_pair(
-    gains: GainsFile | str | os.PathLike[str],
     fmus_dir: str | os.PathLike[str],
-    setup: LoopSetup,
-    tau_end: float,
+    experiment: Experiment,
     H: float,
     *,
     scheme: str = "jacobi",
     extrapolation: str = "linear",
+    overrides: Overrides | None = None,
 ) -> tuple[CosimResult, SimulationResult, dict[str, Any]]:
-    """Co-simulation (fixed step H) and monolithic run of one closed-loop experiment.
+    """Co-simulation (fixed step H) and monolithic twin of one closed-loop experiment.
 
-    Returns both results and a summary: steps, wall times, max |difference| of du/dtau and
-    dphi/dtau over the common communication points, the co-simulation's failure if any.
+    Parameters
+    ----------
+    fmus_dir : path
+        Folder of the built FMUs (their gains and parameter set are used).
+    experiment : Experiment
+        The set-up, run over ``[0, experiment.tau_end]``.
+    H : float
+        Macro step, a multiple of the engine step that divides ``tau_end``.
+    scheme, extrapolation : str
+        Coupling of the master.
+    overrides : mapping, optional
+        ``"unit.variable"`` -> start value, for both runs.
+
+    Returns
+    -------
+    cosim : CosimResult
+        The co-simulation.
+    mono : SimulationResult
+        The monolithic twin sampled every H.
+    summary : dict
+        Steps, wall times, max |difference| of du/dtau and dphi/dtau over the common
+        communication points, the co-simulation's failure if any.
     """
-    _check_H(H, setup.h, tau_end)
-    g = load_gains(gains)
-    with closed_loop_master(fmus_dir, g, setup) as master:
+    model = read_loop_model(fmus_dir, experiment, overrides)
+    tau_end = experiment.tau_end
+    _check_H(H, model.options.h, tau_end)
+    with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
         cos = run_cosim(master, tau_end, H, scheme=scheme, extrapolation=extrapolation)
     w0 = time.perf_counter()
-    mono = run_reference(g, setup, tau_end, H)
+    mono = run_monolithic(model, tau_end, dt_out=H)
     mono_wall = time.perf_counter() - w0
     n = min(len(cos.time), len(mono.tau))
     k = grid_indices(cos.time[:n], H, len(mono.tau))
@@ -103,12 +126,15 @@ def run_pair(
         name: float(np.max(np.abs(cos[f"plant.{name}"][:n] - getattr(mono, name)[k])))
         for name in ("du", "dphi")
     }
+    dphi0 = model.initial.dphi
     summary: dict[str, Any] = {
+        "experiment": experiment.name,
         "H": H,
         "scheme": scheme,
         "extrapolation": extrapolation,
         "tau_end": tau_end,
-        "engine_h": setup.h,
+        "engine_h": model.options.h,
+        "dphi0": dphi0,
         "steps": cos.stats.accepted,
         "cosim_completed": cos.completed,
         "cosim_failure": None if cos.completed else str(cos.failure),
@@ -117,7 +143,7 @@ def run_pair(
         "monolithic_wall_s": mono_wall,
         "max_abs_diff_du": diff["du"],
         "max_abs_diff_dphi": diff["dphi"],
-        "max_abs_diff_dphi_rel": diff["dphi"] / abs(setup.dphi0) if setup.dphi0 else math.nan,
+        "max_abs_diff_dphi_rel": diff["dphi"] / abs(dphi0) if dphi0 else math.nan,
     }
     return cos, mono, summary
 
@@ -177,66 +203,103 @@ def _late_max(t: np.ndarray, y: np.ndarray, t0: float) -> float:
 
 def write_fig5(
     out_dir: str | os.PathLike[str],
-    gains: GainsFile | str | os.PathLike[str],
     fmus_dir: str | os.PathLike[str],
     H: float = 1e-3,
     *,
-    tau_end: float = 60.0,
-    dphi0: float = -2.5,
+    experiment: Experiment = FIG5,
     scheme: str = "jacobi",
     extrapolation: str = "linear",
-    h: float = 5e-4,
     csv_dt: float | None = 1e-2,
+    overrides: Overrides | None = None,
 ) -> dict[str, Any]:
-    """Fig. 5 by co-simulation: ``fig5.png`` and ``fig5.csv`` (sampled every ``csv_dt``; None:
-    every communication point) in ``out_dir``; returns the paths and a summary (see
-    :func:`run_pair`; also max |dphi/dtau| over the last 10 time units of both runs)."""
-    setup = LoopSetup(dphi0=dphi0, h=h)
+    """Fig. 5 by co-simulation: ``fig5.png`` and ``fig5.csv`` in ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : path
+        Output folder.
+    fmus_dir : path
+        Folder of the built FMUs.
+    H : float
+        Macro step.
+    experiment : Experiment
+        The set-up (default :data:`~drillstring.model.experiments.FIG5`).
+    scheme, extrapolation : str
+        Coupling of the master.
+    csv_dt : float or None
+        Sampling of the CSV (None: every communication point).
+    overrides : mapping, optional
+        ``"unit.variable"`` -> start value, for both runs.
+
+    Returns
+    -------
+    dict
+        Paths ``png`` and ``csv``, :func:`run_pair`'s summary, max |dphi/dtau| over the last
+        10 time units of both runs, min d and the axial stick entries of the co-simulation.
+    """
     cos, mono, summary = run_pair(
-        gains, fmus_dir, setup, tau_end, H, scheme=scheme, extrapolation=extrapolation
+        fmus_dir, experiment, H, scheme=scheme, extrapolation=extrapolation, overrides=overrides
     )
+    tau_end = experiment.tau_end
     late = max(0.0, tau_end - 10.0)
     summary["late_window"] = (late, tau_end)
     summary["late_max_abs_dphi_cosim"] = _late_max(cos.time, cos["plant.dphi"], late)
     summary["late_max_abs_dphi_monolithic"] = _late_max(mono.tau, mono.dphi, late)
     summary["min_d_cosim"] = float(np.min(cos["plant.d"]))
     summary["axial_stick_events_cosim"] = int(cos["plant.stick_events"][-1])
-    title = rf"Fig. 5: closed loop from $\dot\varphi(0) = {dphi0:g}$"
+    title = rf"Fig. 5: closed loop from $\dot\varphi(0) = {summary['dphi0']:g}$"
     paths = _write_outputs(Path(out_dir), "fig5", cos, mono, summary, title, None, csv_dt)
     return {**paths, **summary}
 
 
 def write_fig6(
     out_dir: str | os.PathLike[str],
-    gains: GainsFile | str | os.PathLike[str],
     fmus_dir: str | os.PathLike[str],
     H: float = 1e-3,
     *,
-    tau_end: float = 60.0,
-    dphi0: float = -4.9,
-    t_on: float = 25.0,
-    latch: str = "angle",
+    experiment: Experiment = FIG6,
     scheme: str = "jacobi",
     extrapolation: str = "linear",
-    h: float = 5e-4,
     csv_dt: float | None = 1e-2,
+    overrides: Overrides | None = None,
 ) -> dict[str, Any]:
     """Fig. 6 by co-simulation: ``fig6.png`` and ``fig6.csv`` in ``out_dir``.
 
-    Besides :func:`run_pair`'s summary: torsional-stick entries before and after ``t_on``
-    (co-simulation: the plant's counter ``torsional_stick`` at the communication point
-    ``t_on`` and at the end; monolithic: its events), the plant's mode after ``t_on``
-    (never 3 = torsional stick), min d and bit-bounce count (the plant stops on bit
-    bouncing), max |dphi/dtau| over the last 10 time units and ``suppressed``: all of
-    the paper's claims hold (entries before ``t_on``, none after, d >= 0, late ripple below
-    ``FIG6_RIPPLE`` |dphi0|).
+    Parameters
+    ----------
+    out_dir, fmus_dir, H, scheme, extrapolation, csv_dt, overrides
+        As for :func:`write_fig5`.
+    experiment : Experiment
+        The set-up (default :data:`~drillstring.model.experiments.FIG6`); the feedback must be
+        enabled and switched on inside the run.
+
+    Returns
+    -------
+    dict
+        Besides :func:`run_pair`'s summary: torsional-stick entries before and after ``t_on``
+        (co-simulation: the plant's counter ``torsional_stick`` at the communication point
+        ``t_on`` and at the end; monolithic: its events), the plant's mode after ``t_on``
+        (never 3 = torsional stick), min d and bit-bounce count (the plant stops on bit
+        bouncing), max |dphi/dtau| over the last 10 time units and ``suppressed``: all of
+        the paper's claims hold (entries before ``t_on``, none after, d >= 0, late ripple
+        below ``FIG6_RIPPLE`` |dphi0|).
+
+    Raises
+    ------
+    ValueError
+        If the controller is not switched on inside ``(0, tau_end)``.
     """
-    if not (math.isfinite(t_on) and 0 < t_on < tau_end):
+    law = read_loop_model(fmus_dir, experiment, overrides).control
+    tau_end = experiment.tau_end
+    if not isinstance(law, AffineFeedback):
+        raise ValueError(f"Fig. 6 needs the feedback enabled (experiment {experiment.name!r})")
+    t_on = law.t_on
+    if not 0 < t_on < tau_end:
         raise ValueError(f"t_on must lie inside (0, tau_end = {tau_end!r}), got {t_on!r}")
-    setup = LoopSetup(dphi0=dphi0, t_on=t_on, latch=latch, torsional_stick=True, h=h)
     cos, mono, summary = run_pair(
-        gains, fmus_dir, setup, tau_end, H, scheme=scheme, extrapolation=extrapolation
+        fmus_dir, experiment, H, scheme=scheme, extrapolation=extrapolation, overrides=overrides
     )
+    dphi0 = summary["dphi0"]
     t = cos.time
     count = cos["plant.torsional_stick"]
     on = t <= t_on + 1e-9 * max(1.0, t_on)
@@ -247,7 +310,7 @@ def write_fig6(
     ripple = _late_max(t, cos["plant.dphi"], late)
     summary.update(
         t_on=t_on,
-        latch=latch,
+        latch=law.latch,
         torsional_stick_before_t_on_cosim=before,
         torsional_stick_after_t_on_cosim=after,
         torsional_stick_mode_after_t_on_cosim=bool(np.any(cos["plant.mode"][~on] == 3)),

@@ -1,50 +1,58 @@
-"""Monolithic reference of the co-simulated closed loop: one solver, the controller law of
-(29)-(31) evaluated continuously inside the right-hand side (no sample-and-hold).
+"""Monolithic twin of the co-simulated closed loop: one solver, the controller law (29)-(31)
+evaluated continuously inside the right-hand side (no sample and hold).
 
-It reads the same gains file the controller FMU is built from, and uses the parameter set
-stored in it, so the two runs describe the same system.
+It runs the :class:`~drillstring.orchestration.closed_loop.LoopModel` read from the FMUs' own
+start values (:func:`~drillstring.orchestration.closed_loop.read_loop_model`), so it describes
+the system the co-simulation runs, whatever gains and parameters the FMUs were built with.
 """
 
 from __future__ import annotations
 
-import os
-from collections.abc import Mapping
+import numpy as np
 
-from drillstring.controller.gains import GainsFile, read_gains
-from drillstring.model.control import AffineFeedback
-from drillstring.model.engine import EngineOptions
-from drillstring.model.params import ScaledParams
+from drillstring.model.experiments import DEFAULT_DT_OUT
 from drillstring.model.simulate import SimulationResult, simulate
+from drillstring.orchestration.closed_loop import LoopModel
 
-
-def closed_loop_law(gains: GainsFile, t_on: float = 0.0, latch: str = "none") -> AffineFeedback:
-    """The controller FMU's law as a continuous :class:`AffineFeedback`."""
-    return AffineFeedback(F=gains.F, K0=gains.K0, R_ff=gains.R_ff, t_on=t_on, latch=latch)
+__all__ = ["run_monolithic"]
 
 
 def run_monolithic(
-    gains: GainsFile | str | os.PathLike[str],
+    model: LoopModel,
     tau_end: float,
     *,
-    initial: Mapping[str, float] | None = None,
-    t_on: float = 0.0,
-    latch: str = "none",
-    enabled: bool = True,
-    params: ScaledParams | None = None,
-    options: EngineOptions | None = None,
-    dt_out: float = 1e-2,
-    progress: bool | None = None,
+    dt_out: float = DEFAULT_DT_OUT,
+    times: np.ndarray | None = None,
+    progress: bool | None = False,
 ) -> SimulationResult:
-    """Simulate plant + controller in one solver. ``enabled=False`` applies R_ff only."""
-    g = gains if isinstance(gains, GainsFile) else read_gains(gains)
-    p = params or g.params
-    control: float | AffineFeedback = closed_loop_law(g, t_on, latch) if enabled else g.R_ff
+    """Simulate plant and controller in one solver.
+
+    Parameters
+    ----------
+    model : LoopModel
+        The closed loop (from :func:`~.closed_loop.read_loop_model`).
+    tau_end : float
+        End of the run.
+    dt_out : float
+        Output step.
+    times : numpy.ndarray, optional
+        Output times from 0 to ``tau_end`` instead of the grid of ``dt_out`` (e.g. the
+        communication points of an adaptive co-simulation; the engine lands on each).
+    progress : bool, optional
+        Progress bar (None: only for long runs).
+
+    Returns
+    -------
+    SimulationResult
+        The sampled trajectories.
+    """
     return simulate(
-        p,
+        model.params,
         tau_end,
-        control=control,
-        initial=initial,
+        control=model.control,
+        initial=model.initial,
         dt_out=dt_out,
-        options=options,
+        options=model.options,
         progress=progress,
+        times=times,
     )

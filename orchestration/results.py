@@ -88,7 +88,18 @@ class CosimResult:
         return self.data[name]
 
     def to_csv(self, path: str | os.PathLike) -> Path:
-        """Write ``data`` as FMI Cross-Check CSV (atomic replace); returns the path."""
+        """Write ``data`` as FMI Cross-Check CSV (see :func:`write_csv`).
+
+        Parameters
+        ----------
+        path : path
+            The CSV file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         return write_csv(self.data, path)
 
 
@@ -97,6 +108,23 @@ def write_csv(data: np.ndarray, path: str | os.PathLike) -> Path:
 
     The file is written next to ``path`` under a temporary name and renamed over it, so
     readers never see a partial file.
+
+    Parameters
+    ----------
+    data : numpy.ndarray
+        Structured array whose first field is ``"time"``.
+    path : path
+        The CSV file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        If the first field is not ``"time"`` or a name cannot be quoted.
     """
     names = data.dtype.names
     if not names or names[0] != "time":

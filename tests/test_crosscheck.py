@@ -1,4 +1,4 @@
-"""Co-simulation of the Fig. 5 loop against libcosim and against the monolithic solver (issue 6).
+"""Co-simulation of the Fig. 5 loop against libcosim and against the monolithic solver.
 
 * libcosim's fixed-step algorithm reads every output right after the step and then transfers:
   the controller's output reaches the plant one macro step late. The master's
@@ -15,17 +15,23 @@ FMUs: built once per session by ``fmu_testlib.built_fmus`` (gains: paper's F, as
 from __future__ import annotations
 
 import csv
+import dataclasses
+import importlib.util
 import math
 
 import fmu_testlib as tl
 import numpy as np
 import pytest
 
-from drillstring.orchestration.closed_loop import LoopSetup, reference_at, run_reference
+from drillstring.apps.cli import main as cli_main
+from drillstring.apps.crosscheck import crosscheck_main
+from drillstring.model.experiments import FIG5
+from drillstring.orchestration.closed_loop import read_loop_model
 from drillstring.orchestration.crosscheck import (
+    CROSSCHECK,
     adaptive_vs_fixed,
-    crosscheck_main,
     fit_order,
+    format_table,
     run_crosscheck,
 )
 from drillstring.orchestration.master import Master, Unit
@@ -38,7 +44,8 @@ CONNECTIONS = [f"plant.{n} -> controller.{n}" for n in tl.FEEDBACK] + [
     "controller.R_minus_R0 -> plant.R_minus_R0"
 ]
 COLUMNS = ["plant." + n for n in tl.RECORD_PLANT] + ["controller.R_minus_R0"]
-CC_TAU_END = 5.0  # the largest errors occur in the first time unit (initial transient)
+#: the largest errors occur in the first time unit (initial transient)
+CC = dataclasses.replace(CROSSCHECK, tau_end=5.0)
 
 
 @pytest.fixture(scope="session")
@@ -64,15 +71,9 @@ def lib_runs(built):
         Unit("controller", built.controller.fmu, LIB_STARTS["controller"]),
     ]
     dt = min(LIB_STEPS_NS) / 1e9
-    mono = run_monolithic(
-        built.gains,
-        LIB_T,
-        initial={"dphi": -2.5},  # the plant FMU's default dphi0 (Fig. 5)
-        t_on=0.5,
-        latch="angle",  # the controller FMU's default latch
-        dt_out=dt,
-        progress=False,
-    )
+    # the twin of the FMUs as built (their own start values) with the same t_on
+    model = read_loop_model(built.out, None, {"controller.t_on": LIB_STARTS["controller"]["t_on"]})
+    mono = run_monolithic(model, LIB_T, dt_out=dt)
     out = {}
     with (
         Master(
@@ -131,8 +132,6 @@ def test_default_exchange_differs_by_order_H_and_is_closer_to_monolithic(lib_run
 @pytest.fixture(scope="module")
 def small_fmus(tmp_path_factory):
     """The master's small test FMUs (integrator, feedthrough gain) of ``tests/fmus``."""
-    import importlib.util
-
     spec = importlib.util.spec_from_file_location(
         "_crosscheck_test_fmus", tl.ROOT / "tests" / "fmus" / "build.py"
     )
@@ -182,7 +181,7 @@ def test_exchange_and_grid_arguments_are_validated(built):
 
 @pytest.fixture(scope="module")
 def cc(built):
-    return run_crosscheck(built.gains, built.out, tau_end=CC_TAU_END)
+    return run_crosscheck(built.out, CC)
 
 
 def test_fit_order_recovers_a_known_power_law():
@@ -191,16 +190,18 @@ def test_fit_order_recovers_a_known_power_law():
     assert math.isnan(fit_order([0.1, 0.01], [1.0, math.nan]))
 
 
-def test_reference_at_lands_on_the_monolithic_grid_bit_for_bit(built):
-    setup = LoopSetup()
-    ref = run_reference(built.gains, setup, 1.0, 0.01)
-    at = reference_at(built.gains, setup, ref.tau)
-    assert np.array_equal(at["dphi"], ref.dphi) and np.array_equal(at["du"], ref.du)
+def test_twin_at_given_times_equals_the_grid_run_bit_for_bit(built):
+    """The adaptive comparison evaluates the twin at arbitrary times: on the grid's own times
+    it must be the grid run exactly (the engine lands on the same points)."""
+    model = read_loop_model(built.out, FIG5)
+    ref = run_monolithic(model, 1.0, dt_out=0.01)
+    at = run_monolithic(model, 1.0, times=ref.tau)
+    assert np.array_equal(at.dphi, ref.dphi) and np.array_equal(at.du, ref.du)
+    with pytest.raises(ValueError, match="from 0 to tau_end"):
+        run_monolithic(model, 1.0, times=ref.tau[1:])
 
 
 def test_zero_order_hold_is_first_order(cc):
-    from drillstring.orchestration.crosscheck import format_table
-
     print(format_table(cc))
     for scheme in ("jacobi", "gauss-seidel"):
         o = cc.orders[(scheme, "zoh")]
@@ -227,7 +228,7 @@ def test_gauss_seidel_equals_jacobi_for_a_memoryless_controller(cc):
 
 
 def test_error_at_H_1e3_below_1e3_of_initial_deviation(cc):
-    dphi0 = abs(LoopSetup().dphi0)
+    dphi0 = abs(CC.dphi0)
     rows = {(r.scheme, r.extrapolation): r for r in cc.rows if math.isclose(r.H, 1e-3)}
     for key, r in rows.items():
         print(f"H = 1e-3 {key}: max |error dphi| = {r.err_dphi:.3e} = {r.err_dphi / dphi0:.2e}")
@@ -237,7 +238,7 @@ def test_error_at_H_1e3_below_1e3_of_initial_deviation(cc):
 
 
 def test_adaptive_master_needs_fewer_steps_than_fixed_for_same_error(built):
-    r = adaptive_vs_fixed(built.gains, built.out, tau_end=CC_TAU_END)
+    r = adaptive_vs_fixed(built.out, CC)
     print(
         f"adaptive: error {r['adaptive_error']:.3e} with {r['adaptive_attempted']} steps "
         f"({r['adaptive_rejected']} rejected, h in [{r['adaptive_h_range'][0]:.3g}, "
@@ -288,7 +289,8 @@ def test_cli_writes_table_and_plot(built, tmp_path, capsys):
     [
         (["--steps", "0.01", "0.0003"], "0.0003 is not a multiple of the engine step"),
         (["--steps", "0.003", "0.002"], "0.003 is not a multiple of the smallest"),
-        (["--tau-end", "-1"], "tau_end must be a positive"),
+        (["--tau-end", "-1"], "tau_end of 'crosscheck' must be > 0, got -1.0"),
+        (["--h", "-1"], "h of 'crosscheck' must be > 0, got -1.0"),
     ],
 )
 def test_cli_rejects_bad_steps(built, tmp_path, capsys, extra, message):
@@ -298,6 +300,6 @@ def test_cli_rejects_bad_steps(built, tmp_path, capsys, extra, message):
 
 
 def test_cli_names_missing_fmus(built, tmp_path, capsys):
-    argv = ["--gains", str(built.gains), "--fmus", str(tmp_path), "--out", str(tmp_path)]
-    assert crosscheck_main(argv) == 2
+    argv = ["crosscheck", "--fmus", str(tmp_path), "--out", str(tmp_path)]
+    assert cli_main(argv) == 2  # through the dispatch table of the drillstring command
     assert "DrillStringPlant.fmu" in capsys.readouterr().err

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from drillstring.orchestration import step_control as sc
 from drillstring.orchestration.master import Master, StepControl, Unit
 
 HERE = Path(__file__).resolve().parent
@@ -268,6 +269,29 @@ def test_adaptive_needs_fewer_steps_than_fixed_for_same_error(osc):
     assert n_fixed is not None and n_fixed > n_ad
 
 
+def test_step_control_rules_by_hand():
+    """The control's pure rules against values worked out by hand."""
+    c = StepControl(rtol=0.0, atol=0.01, h_min=0.05, h_max=0.5, safety=0.9)
+    assert sc.step_to_take(0.3, 0.0, 1.0, c.h_min) == 0.3
+    assert sc.step_to_take(0.3, 0.75, 1.0, c.h_min) == 0.25  # lands on the stop time
+    assert sc.step_to_take(0.23, 0.75, 1.0, c.h_min) == 0.125  # no sliver of 0.02 < h_min
+    y_n, y = np.array([1.0, -2.0]), np.array([1.1, -2.0])
+    # hold: impulse 1/2 h |defect| = 0.5 * 0.2 * 0.1 against atol 0.01
+    assert sc.coupling_error(y, y_n, None, 0.2, 0.1, c) == (pytest.approx(1.0), 0)
+    # the line through (t - 0.1, 0.9) and (t, 1.0) predicts 1.2 at t + 0.2: defect 0.1
+    err, p = sc.coupling_error(y, y_n, np.array([0.9, -2.0]), 0.2, 0.1, c)
+    assert (err, p) == (pytest.approx(5.0 / 12.0 * 0.2 * 0.1 / 0.01), 1)
+    assert sc.accepts(1.0, 0.2, c) and not sc.accepts(1.01, 0.2, c) and sc.accepts(50.0, 0.05, c)
+    assert sc.retry_step(0.5, 100.0, 0, c) == pytest.approx(0.5 * 0.2)  # shrink_min bounds it
+    assert sc.retry_step(0.2, 100.0, 0, c) == 0.05  # and h_min
+    assert sc.retry_step(0.2, 4.0, 0, c) == pytest.approx(0.2 * 0.9 / 2.0)
+    assert sc.next_step(0.2, 0.0, 0, False, c) == pytest.approx(0.4)  # grow_max
+    assert sc.next_step(0.4, 0.0, 0, False, c) == 0.5  # h_max
+    assert sc.next_step(0.2, 1.0 / 8.0, 1, False, c) == pytest.approx(0.2 * 0.9 * 2.0)  # 8^(1/3)
+    assert sc.next_step(0.2, 1.0 / 8.0, 1, True, c) == 0.2  # no growth after a rejection
+    assert math.isinf(sc.coupling_error(np.array([math.nan]), y_n[:1], None, 0.2, 0.1, c)[0])
+
+
 def test_adaptive_converges_with_tolerance(osc):
     """Rollback must restore the units exactly: error follows the tolerance down."""
     errs = []
@@ -354,15 +378,16 @@ def test_validation_errors_name_the_culprit(fmus):
 
 def test_run_argument_errors(loop):
     for kwargs, message in [
-        (dict(step=0.0), "step > 0"),
-        (dict(step=math.nan), "step > 0"),
+        (dict(step=0.0), "step must be > 0, got 0.0"),
+        (dict(step=math.nan), "step must be finite, got nan"),
+        (dict(step=None), "fixed-step run needs a step"),
         (dict(step=0.1, scheme="gs"), "scheme"),
         (dict(step=0.1, extrapolation="cubic"), "extrapolation"),
         (dict(step=5.0, step_control=StepControl(h_min=0.1, h_max=1.0)), "outside"),
     ]:
         with pytest.raises(ValueError, match=message):
             loop.run(1.0, **kwargs)
-    with pytest.raises(ValueError, match="start_time < stop_time"):
+    with pytest.raises(ValueError, match="stop_time must be > 0, got 0.0"):
         loop.run(0.0, 0.1)
     with pytest.raises(ValueError, match="h_min"):
         StepControl(h_min=0.2, h_max=0.1)

@@ -21,11 +21,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "simulate": ("drillstring.apps.simulate", "simulate_main", "one run of the full model"),
     "axial": ("drillstring.apps.axial", "axial_main", "Section III: Figs. 2-4"),
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
-    "crosscheck": (
-        "drillstring.orchestration.crosscheck",
-        "crosscheck_main",
-        "co-simulation vs monolithic",
-    ),
+    "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
     "demo": ("drillstring.apps.demo", "demo_main", "the main job (make demo)"),
 }

@@ -32,6 +32,8 @@ from drillstring.analysis.figures import (
 from drillstring.controller.design import FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import write_json
+from drillstring.model.control import AffineFeedback
+from drillstring.orchestration.closed_loop import read_loop_model
 from drillstring.orchestration.figures import write_fig5, write_fig6
 
 __all__ = ["DemoSummary", "demo_main", "run_demo"]
@@ -92,6 +94,7 @@ def run_demo(
     design_dir, out = Path(design_dir), Path(out_dir)
     gains = read_gains(design_dir / GAINS_FILE)
     fit = read_average_points(design_dir / FIT_FILE)
+    _check_fmus_carry(gains, fmus_dir, design_dir)
     summary = DemoSummary(design=_design_numbers(gains))
 
     t0 = time.perf_counter()
@@ -104,18 +107,36 @@ def run_demo(
 
     t0 = time.perf_counter()
     log(f"Fig. 5 by co-simulation (fmpy master, H = {H:g}) vs monolithic solver")
-    summary.fig5 = dict(write_fig5(out / "fig5", gains, fmus_dir, H=H))
+    summary.fig5 = dict(write_fig5(out / "fig5", fmus_dir, H=H))
     summary.figures["fig5"] = {k: str(summary.fig5.pop(k)) for k in ("png", "csv")}
     summary.seconds["fig5"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     log("Fig. 6: torsional stick-slip, controller switched on at tau = 25")
-    summary.fig6 = dict(write_fig6(out / "fig6", gains, fmus_dir, H=H))
+    summary.fig6 = dict(write_fig6(out / "fig6", fmus_dir, H=H))
     summary.figures["fig6"] = {k: str(summary.fig6.pop(k)) for k in ("png", "csv")}
     summary.seconds["fig6"] = time.perf_counter() - t0
 
     write_json(out / "summary.json", summary.to_json())
     return summary
+
+
+def _check_fmus_carry(gains: GainsFile, fmus_dir: str | Path, design_dir: Path) -> None:
+    """The FMUs' own gains and parameter set must be the design's (one path for the data)."""
+    built = read_loop_model(fmus_dir, None)
+    law = built.control
+    ok = (
+        isinstance(law, AffineFeedback)
+        and law.F == gains.F
+        and law.K0 == gains.K0
+        and law.R_ff == gains.R_ff
+        and built.params == gains.params
+    )
+    if not ok:
+        raise ValueError(
+            f"the FMUs in {fmus_dir} were not built from {design_dir / GAINS_FILE} (their gains "
+            f"or parameter set differ): rebuild them"
+        )
 
 
 def _design_numbers(gains: GainsFile) -> dict[str, Any]:

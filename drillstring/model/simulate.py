@@ -114,6 +114,17 @@ def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
 _PROGRESS_INTERVAL = 0.25
 
 
+def _times(times: np.ndarray, tau_end: float) -> np.ndarray:
+    t = np.asarray(times, dtype=float)
+    if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("times must be increasing finite output times, at least two")
+    if t[0] != 0.0 or t[-1] != tau_end:
+        raise ValueError(
+            f"times must run from 0 to tau_end = {tau_end!r}, got {t[0]!r} .. {t[-1]!r}"
+        )
+    return t
+
+
 def simulate(
     params: ScaledParams,
     tau_end: float,
@@ -123,6 +134,7 @@ def simulate(
     dt_out: float = DEFAULT_DT_OUT,
     options: EngineOptions | None = None,
     progress: bool | None = None,
+    times: np.ndarray | None = None,
 ) -> SimulationResult:
     """Simulate the model (11)-(14), (17) from tau = 0 to ``tau_end``.
 
@@ -147,6 +159,9 @@ def simulate(
         Integration options.
     progress : bool, optional
         True/False, or None for a bar that appears only when the run takes more than a second.
+    times : array of float, optional
+        Increasing output times from 0 to ``tau_end`` instead of the grid of ``dt_out`` (e.g.
+        the communication points of an adaptive co-simulation).
 
     Returns
     -------
@@ -154,7 +169,7 @@ def simulate(
         The sampled columns, events, counters and the outcome (partial on an early stop).
     """
     engine = Engine(params, options=options, initial=initial, history=history, control=control)
-    grid = output_grid(tau_end, dt_out)
+    grid = output_grid(tau_end, dt_out) if times is None else _times(times, tau_end)
     rows = np.empty((grid.size, len(COLUMNS)))
     n_done = 0
     status = Status("ok", "", 0.0)

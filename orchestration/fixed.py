@@ -1,0 +1,107 @@
+"""Fixed-step co-simulation: the communication grid and the loop over it.
+
+Communication points (:func:`run_fixed`):
+
+* ``grid="float"``: ``t_k = t0 + k*H``; every full step passes the nominal ``H`` to the units;
+* ``grid="ns"``: libcosim's integer-nanosecond grid, ``t_k = (t0_ns + k*H_ns)/1e9`` with
+  ``H_ns = round(H*1e9)``, ``t0_ns = round(t0*1e9)`` (integers, then one division: exactly
+  what libcosim passes to ``fmi2DoStep``), step ``t_{k+1} - t_k`` in double.
+
+A last step shorter than ``H`` ends on the stop time in both grids.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from drillstring.orchestration.recorder import Recorder
+from drillstring.orchestration.step import JacobiStep
+
+__all__ = ["n_steps", "run_fixed"]
+
+
+def n_steps(span: float, h: float) -> tuple[int, bool]:
+    """Number of fixed steps that cover ``span``, and whether they all equal ``h``.
+
+    Parameters
+    ----------
+    span : float
+        Length of the run.
+    h : float
+        Macro step.
+
+    Returns
+    -------
+    n : int
+        Number of steps.
+    exact : bool
+        True when ``n*h`` equals ``span`` to ``1e-9 h``; otherwise the last step is shorter.
+    """
+    n = round(span / h)
+    if n >= 1 and abs(n * h - span) <= 1e-9 * h:
+        return n, True
+    return max(1, math.ceil(span / h)), False
+
+
+def run_fixed(
+    step: JacobiStep,
+    recorder: Recorder,
+    stats: dict,
+    t0: float,
+    t_end: float,
+    h: float,
+    ns_grid: bool,
+    progress: Callable[[float], None],
+) -> None:
+    """Fixed-step co-simulation from ``t0`` (already initialized and recorded) to ``t_end``.
+
+    Parameters
+    ----------
+    step : JacobiStep or GaussSeidelStep
+        The macro step.
+    recorder : Recorder
+        Receives one row per communication point.
+    stats : dict
+        Its ``"accepted"`` entry counts the steps taken.
+    t0, t_end, h : float
+        Start, stop time and macro step.
+    ns_grid : bool
+        Use libcosim's nanosecond grid (module docstring).
+    progress : callable
+        Called with the simulated time now and then.
+    """
+    y = step.y
+    need_prev = step.linear
+    y_prev = np.empty_like(y) if need_prev else None
+    y_save = np.empty_like(y) if need_prev else None
+    have_prev = False
+    h_prev = h
+    t = t0
+    n_total, exact = n_steps(t_end - t0, h)
+    h_ns, t0_ns = round(h * 1e9), round(t0 * 1e9)
+    recorder.reserve(n_total + 1)  # exact size: no growth in the loop
+    record, advance = recorder.record, step.advance
+    for n in range(1, n_total + 1):
+        # the grid inline: this loop is the master's hot path
+        if ns_grid and (n < n_total or exact):  # libcosim: integer ns, then double
+            t_next = (t0_ns + n * h_ns) / 1e9
+            hn = t_next - t
+        else:
+            t_next = t0 + n * h if n < n_total else t_end
+            hn = h if n < n_total or exact else t_next - t
+        if need_prev:
+            np.copyto(y_save, y)
+        advance(t, hn, y_prev if have_prev else None, h_prev, 1)
+        if need_prev:
+            np.copyto(y_prev, y_save)
+            have_prev = True
+        h_prev = hn
+        t = t_next
+        stats["accepted"] = n
+        record(t)
+        if n & 255 == 0:
+            progress(t)
+    progress(t)
