@@ -378,7 +378,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--gains",
         type=Path,
         default=None,
-        help="gains file of the synthesis (default: controller/gains.json)",
+        help="gains file of the design (default: out/design/gains.json, designed if missing)",
     )
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default: build/)")
     args = ap.parse_args(argv)

@@ -47,8 +47,9 @@ __all__ = [
 
 #: Gain published in Section V of the paper (Theorem 1 at its Table I), ``R_fb = F x``.
 PAPER_F: tuple[float, float, float, float] = (-3448.5, -1574.7, 481.8, -89.0)
-#: Default location of the gains file baked into the controller FMU.
-DEFAULT_GAINS_PATH = Path(__file__).with_name("gains.json")
+#: Where ``drillstring design`` writes the gains file by default (relative to the working
+#: folder), and so where ``build_fmus.py`` and ``drillstring crosscheck`` look by default.
+DEFAULT_GAINS_PATH = Path("out/design/gains.json")
 FORMAT = "drillstring-gains"
 FORMAT_VERSION = 1
 
@@ -215,14 +216,14 @@ class GainsFile:
             raise GainsFileError(f"{source}: {exc}") from None
 
 
-def write_gains(gains: GainsFile, path: str | os.PathLike[str] = DEFAULT_GAINS_PATH) -> Path:
+def write_gains(gains: GainsFile, path: str | os.PathLike[str]) -> Path:
     """Write ``gains`` as JSON to ``path`` atomically (temp file + ``os.replace``); return it."""
     path = Path(path)
     text = json.dumps(gains.to_json_dict(), indent=2, allow_nan=False) + "\n"
     return write_text(path, text)
 
 
-def read_gains(path: str | os.PathLike[str] = DEFAULT_GAINS_PATH) -> GainsFile:
+def read_gains(path: str | os.PathLike[str]) -> GainsFile:
     """Read and validate a gains file; :class:`GainsFileError` names what is wrong."""
     path = Path(path)
     try:

@@ -22,13 +22,13 @@ import numpy as np
 
 from drillstring.controller.averaged import AveragedModel, ode_poles, open_loop_roots
 from drillstring.controller.design import Design, design_controller, write_design
-from drillstring.controller.gains import PAPER_F
+from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F
 from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
 from drillstring.model.params import ParameterError, ScaledParams, params_from_spec
 
 __all__ = ["build_parser", "design_main", "print_design"]
 
-DEFAULT_OUT = Path("out/design")
+DEFAULT_OUT = DEFAULT_GAINS_PATH.parent
 
 
 def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
