@@ -2,7 +2,7 @@
 
 Usage::
 
-    python build_fmus.py [--gains controller/gains.json] [--out build/]
+    python build_fmus.py [--gains out/design/gains.json] [--out build/]
 
 For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
 ``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``):

@@ -51,7 +51,7 @@ def _parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         help="gains file to build the FMUs with when --fmus is not given (default: "
-        "controller/gains.json)",
+        "out/design/gains.json)",
     )
     ap.add_argument(
         "--fmus",
