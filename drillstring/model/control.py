@@ -15,6 +15,7 @@ from drillstring.model.kernel.jit import jit_for
 from drillstring.validation import check_choice, check_real
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 __all__ = [
     "LATCH_MODES",
@@ -46,7 +47,7 @@ def switch_on_references(latch: int, phi: float, theta: float, K0: float) -> tup
     return phi_ref, twist_ref
 
 
-@jit
+@inline
 def feedback_torque(
     tau: float,
     phi: float,
