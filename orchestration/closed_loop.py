@@ -165,7 +165,8 @@ def controller_start_values(gains: GainsFile, setup: LoopSetup) -> dict[str, Any
         R_ff=float(gains.R_ff),
         t_on=float(setup.t_on),
         enabled=bool(setup.enabled),
-        latch=str(setup.latch),
+        # an Enumeration of the FMU: item values 1, 2, 3 in the order of LATCH_MODES
+        latch=LATCH_MODES.index(setup.latch) + 1,
     )
     return values
 
