@@ -3,8 +3,8 @@
 * :func:`built_fmus` builds both FMUs once per test session with the real command
   (``python build_fmus.py --gains ... --out ...`` in a subprocess, so the test process is not
   touched by pythonfmu's builder) from a gains file made here;
-* :class:`Slave` drives one FMU instance with fmpy, records its log messages (through fmpy's
-  logger proxy, which formats them as any C host would) and returns raw statuses;
+* :class:`Slave` drives one FMU instance with fmpy, records its log messages (formatted as a C
+  host formats them) and returns raw statuses;
 * :func:`jacobi_fmpy`, :func:`run_libcosim` and :func:`run_c_host` run the same fixed-step Jacobi
   co-simulation of plant and controller in three independent masters. All three follow libcosim's
   ``fixed_step_algorithm``: time in integer nanoseconds, ``t_k = k*H_ns/1e9`` and
@@ -44,7 +44,6 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
-from fmpy.logging import addLoggerProxy
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
@@ -297,17 +296,22 @@ class InstantiationError(Exception):
 
 
 def make_callbacks(sink: list[tuple[int, str, str]]) -> fmi2CallbackFunctions:
-    """fmi2CallbackFunctions appending (status, category, message) to ``sink``."""
+    """fmi2CallbackFunctions appending (status, category, message) to ``sink``.
+
+    The FMUs pass each message as a printf format without arguments ('%' written as '%%'); this
+    logger formats it as printf would. (fmpy's native logger proxy would do it too, but it keeps
+    one Python logger per process: the last one registered receives every instance's messages.)
+    """
 
     def logger(env: Any, instance: Any, status: int, category: Any, message: bytes) -> None:
         cat = category.decode("utf-8") if category else ""
-        sink.append((int(status), cat, message.decode("utf-8", "replace")))
+        text = message.decode("utf-8", "replace").replace("%%", "%")
+        sink.append((int(status), cat, text))
 
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = fmi2CallbackLoggerTYPE(logger)
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(_calloc)
     callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(_free)
-    addLoggerProxy(ctypes.byref(callbacks))
     return callbacks
 
 

@@ -29,8 +29,9 @@ import pytest
 H_NS = 2_000_000
 N_STEPS = 1000
 STARTS = {"controller": {"t_on": 0.5}}
-#: A folder name whose file URI needs percent-encoding.
-ODD = "drill ü#%[x] 100%"
+#: A folder name whose file URI needs percent-encoding ("%20" literally too: pythonfmu would read
+#: it as a space, so the FMU hands pythonfmu a symbolic link).
+ODD = "drill ü#%[x] 100%20"
 #: Half a unit in the last place of Ecos's CSV numbers (std::to_string: "%f").
 CSV_RESOLUTION = 5e-7 + 1e-12
 
@@ -308,3 +309,18 @@ def test_fmpy_command_line_fails_on_a_validity_stop(built, tmp_path, clean_home)
     assert proc.returncode != 0
     text = proc.stdout + proc.stderr
     assert "bit bouncing: depth of cut d < 0, outside the model at tau = 0.0107" in text
+
+
+def test_readme_c_host_example(built, tmp_path, clean_home):
+    """The C-host example of README.md, run as it stands (with the session's FMUs)."""
+    import re
+
+    readme = (tl.ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme[readme.index("### Example: a C host") :]
+    script = re.search(r"```sh\n(.*?)```", section, re.S).group(1)
+    env = tl.clean_env(clean_home, FMUS=str(built.out))
+    proc = tl.run_clean(["bash", "-e", "-c", script], env, tl.ROOT)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    t, dphi, r = (float(x) for x in proc.stdout.split()[-1].split(","))
+    assert t == 2.0 and -1 < dphi < 0 and abs(r) > 0.1
+    assert "started Python" in proc.stderr
