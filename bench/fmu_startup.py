@@ -121,8 +121,9 @@ def _overhead(built: tl.Built, work: Path, unit: tl.Unit, blocks: int, steps: in
         [str(exe), str(unit.unzipped), unit.model, unit.guid, str(blocks), str(steps)],
         capture_output=True, text=True, check=True, timeout=900,
     ).stdout.split()  # fmt: skip
-    layer = [float(v) for k, v in zip(out[::2], out[1::2], strict=True) if k == "layer"]
-    direct = [float(v) for k, v in zip(out[::2], out[1::2], strict=True) if k == "direct"]
+    pairs = list(zip(out[::2], out[1::2], strict=True))[2:]  # the first block pair warms up
+    layer = [float(v) for k, v in pairs if k == "layer"]
+    direct = [float(v) for k, v in pairs if k == "direct"]
     diffs = [a - b for a, b in zip(layer, direct, strict=True)]
     return statistics.median(layer), statistics.median(direct), statistics.median(diffs)
 

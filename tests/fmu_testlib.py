@@ -70,6 +70,7 @@ class Unit:
     guid: str
     vr: dict[str, int]
     types: dict[str, str]
+    causality: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -150,13 +151,19 @@ def run_build(
     return proc
 
 
+#: Folder of the session's unpacked FMUs, which every in-process fmpy test uses: its file URI
+#: needs percent-encoding (fmpy encodes it), "%20" included.
+UNPACKED = "unpacked ü#%[x] 100%20"
+
+
 def _unit(model: str, fmu: Path, root: Path) -> Unit:
-    unzipped = root / f"{model}_unzipped"
+    unzipped = root / UNPACKED / model
     extract(str(fmu), str(unzipped))
     md = read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     types = {v.name: v.type for v in md.modelVariables}
-    return Unit(model, fmu, unzipped, md.guid, vr, types)
+    causality = {v.name: v.causality for v in md.modelVariables}
+    return Unit(model, fmu, unzipped, md.guid, vr, types, causality)
 
 
 def built_fmus(tmp_path_factory: Any) -> Built:

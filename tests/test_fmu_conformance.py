@@ -999,12 +999,6 @@ BUILT: tl.Built
 def built(tmp_path_factory):
     global BUILT
     BUILT = tl.built_fmus(tmp_path_factory)
-    for unit in (BUILT.plant, BUILT.controller):
-        if not hasattr(unit, "causality"):
-            from fmpy import read_model_description
-
-            md = read_model_description(str(unit.fmu))
-            object.__setattr__(unit, "causality", {v.name: v.causality for v in md.modelVariables})
     return BUILT
 
 

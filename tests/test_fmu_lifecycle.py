@@ -162,3 +162,56 @@ def test_another_machine_needs_only_the_three_variables(built, host, tmp_path, c
     assert proc.returncode == 0, proc.stderr
     ref = tl.jacobi_fmpy(built, H_NS, N, {}, units=("plant",))
     assert np.array_equal(rows[1:], ref)
+
+
+THREADS = textwrap.dedent(
+    """
+    import ctypes, sys, threading
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    pairs = [(sys.argv[i], sys.argv[i + 1]) for i in (1, 3)]
+    libs = []
+    for fmu, unzipped in pairs:
+        model = read_model_description(fmu).coSimulation.modelIdentifier
+        libs.append(ctypes.CDLL(f"{unzipped}/binaries/linux64/{model}.so"))
+    locks = {ctypes.addressof(ctypes.c_char.in_dll(lib, "drillstring_fmi2_process_lock"))
+             for lib in libs}
+    path0, errors = list(sys.path), []
+
+    def cycles(fmu, unzipped):
+        md = read_model_description(fmu)
+        try:
+            for i in range(40):
+                s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, instanceName=f"t{i}",
+                              modelIdentifier=md.coSimulation.modelIdentifier)
+                s.instantiate()
+                s.setupExperiment(startTime=0.0)
+                s.enterInitializationMode()
+                s.exitInitializationMode()
+                s.doStep(0.0, 0.01)
+                s.terminate()
+                s.freeInstance()
+        except Exception as exc:
+            errors.append(repr(exc))
+
+    threads = [threading.Thread(target=cycles, args=p) for p in pairs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    print(len(locks), sys.path == path0, errors)
+    """
+)
+
+
+def test_all_layers_share_one_lock_and_threads_may_instantiate(built):
+    """Both FMUs' copies of the layer bind one process-wide lock; plant and controller
+    instantiated, stepped and freed concurrently from two threads leave sys.path unchanged."""
+    args = [str(built.plant.fmu), str(built.plant.unzipped)]
+    args += [str(built.controller.fmu), str(built.controller.unzipped)]
+    proc = subprocess.run(
+        [sys.executable, "-c", THREADS, *args], capture_output=True, text=True, timeout=600
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().split(maxsplit=2) == ["1", "True", "[]"], proc.stdout

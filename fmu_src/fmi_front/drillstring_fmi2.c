@@ -256,7 +256,13 @@ typedef struct {
 static const char STATE_HEADER_MAGIC[8] = "DSFMI2S";
 
 /* ---- process-wide data ----------------------------------------------------------------------- */
-static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;       /* instantiate, free, reset */
+/* One lock for every copy of this layer in the process (each FMU has its own copy, loaded with
+   RTLD_LOCAL): a unique symbol (STB_GNU_UNIQUE), which the dynamic loader binds to its first
+   definition process-wide. It serializes what touches the shared interpreter's set-up: starting
+   Python, instantiation (sys.path saved and restored around it), fmi2FreeInstance, fmi2Reset. */
+EXPORT pthread_mutex_t drillstring_fmi2_process_lock = PTHREAD_MUTEX_INITIALIZER;
+__asm__(".type drillstring_fmi2_process_lock, @gnu_unique_object");
+#define g_lock drillstring_fmi2_process_lock
 static pthread_mutex_t g_state_lock = PTHREAD_MUTEX_INITIALIZER; /* the list of FMU states */
 static PythonApi py;
 static PythonFmu pf;
