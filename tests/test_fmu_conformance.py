@@ -1077,6 +1077,15 @@ def test_the_table_has_at_least_40_rows():
     )
 
 
+def _excerpt(pattern: str) -> str:
+    """A message pattern as text: numbers and hex as N, wildcards as '...'."""
+    for token in (r"\d+", "[-0-9a-f]+", "[0-9a-f]+", "0+"):
+        pattern = pattern.replace(token, "N")
+    pattern = pattern.replace(".*", " ... ")
+    text = re.sub(r"\\(.)", r"\1", pattern).replace("|", "/")
+    return re.sub(" +", " ", text).strip()[:110]
+
+
 def markdown_table() -> str:
     """The conformance table as the README carries it."""
     rows = [
@@ -1085,16 +1094,13 @@ def markdown_table() -> str:
     ]
     names = {P: "plant", C: "controller"}
     for c in CASES:
-        excerpt = re.sub(r"\\(.)", r"\1", c.message).replace(".*", " ... ").replace("|", "/")
-        excerpt = re.sub(r"\d\+|\[-0-9a-f\]\+|\[0-9a-f\]\+", "N", excerpt)
         rows.append(
             f"| {c.id} | {names[c.unit]} | {c.state} | {c.situation} | {STATUS[c.status]} "
-            f"| {excerpt[:110]} |"
+            f"| {_excerpt(c.message)} |"
         )
     for c in INSTANTIATE_CASES:
-        excerpt = re.sub(r"\\(.)", r"\1", c.message).replace(".*", " ... ")
         rows.append(
-            f"| {c.id} | plant | (fmi2Instantiate) | {c.situation} | NULL | {excerpt[:110]} |"
+            f"| {c.id} | plant | (fmi2Instantiate) | {c.situation} | NULL | {_excerpt(c.message)} |"
         )
     return "\n".join(rows) + "\n"
 
