@@ -137,7 +137,7 @@ def test_experiment_passes_only_its_own_start_values(built):
     parameter set (those are the FMUs' own)."""
     assert experiment_start_values(FIG6) == {
         "plant": {"dphi0": -4.9, "h": 5e-4, "torsional_stick_model": True},
-        "controller": {"t_on": 25.0, "latch": "angle", "enabled": True},
+        "controller": {"t_on": 25.0, "latch": 2, "enabled": True},  # Enumeration item "angle"
     }
     with closed_loop_master(built.out, FIG5, overrides={"controller.K0": 0.1}) as m:
         plant, controller = m.system.units

@@ -45,7 +45,9 @@ __all__ = [
     "Event",
     "InitialState",
     "MODE_NAMES",
+    "ON_INVALID_CHOICES",
     "OUTPUT_COLUMNS",
+    "OUTPUT_KEYS",
     "Status",
     "stick_entries",
     "time_in_mode",
@@ -83,8 +85,13 @@ STATUS_TEXT = {
     S.ST_ZENO: "events accumulate without progress in time (Zeno behaviour)",
 }
 _STATUS_LIST = tuple(STATUS_CODES.values())
+#: What the engine does when the bit bounces (``EngineOptions.on_invalid``), in this order (the
+#: FMUs' Enumeration ``on_invalid`` has the item values 1, 2 in this order).
+ON_INVALID_CHOICES = ("stop", "continue")
 #: Columns of :meth:`Engine.sample` rows (time, perturbations, d, g, tau_n, applied R - R0, mode).
 OUTPUT_COLUMNS = S.OUTPUT_COLUMNS
+#: Keys of :meth:`Engine.outputs`: the columns without time, and the validity counters.
+OUTPUT_KEYS = (*OUTPUT_COLUMNS[1:], "stick_events", "bit_bounce", "torsional_stick")
 
 _PURE_STEPPER: ModuleType | None = None
 
@@ -142,7 +149,7 @@ class EngineOptions:
 
     def __post_init__(self) -> None:
         check_real("EngineOptions.h", self.h, lower=0.0)
-        check_choice("EngineOptions.on_invalid", self.on_invalid, ("stop", "continue"))
+        check_choice("EngineOptions.on_invalid", self.on_invalid, ON_INVALID_CHOICES)
         check_real("EngineOptions.event_tol", self.event_tol, lower=0.0, upper=1e-10)
         for name in ("history_capacity", "event_capacity"):
             check_int(f"EngineOptions.{name}", getattr(self, name), lower=16)
@@ -581,12 +588,9 @@ class Engine:
         validity counters ``stick_events``, ``bit_bounce``, ``torsional_stick``."""
         row = np.empty(S.OUT_SIZE)
         self._stepper.write_sample(self._s, row)
-        out = {name: float(v) for name, v in zip(OUTPUT_COLUMNS[1:], row[1:], strict=True)}
         I = self._s.ints  # noqa: E741
-        out["stick_events"] = float(I[S.I_NSTICK])
-        out["bit_bounce"] = float(I[S.I_NBOUNCE])
-        out["torsional_stick"] = float(I[S.I_NTSTICK])
-        return out
+        counters = (I[S.I_NSTICK], I[S.I_NBOUNCE], I[S.I_NTSTICK])
+        return {k: float(v) for k, v in zip(OUTPUT_KEYS, (*row[1:], *counters), strict=True)}
 
     # ----------------------------------------------------------------- state
     def get_state(self) -> EngineState:
