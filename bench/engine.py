@@ -1,53 +1,488 @@
-"""Benchmark of the stepping engine.
+"""Benchmark of the stepping engine: kernel, work-precision, sampling, plain Python, prehistory.
 
-Reference set, open loop from dphi/dtau(0) = -2.5 over tau in [0, 60]: wall time, steps, events
-and the max error of du/dtau and dphi/dtau (sampled every 0.01) against a run with a 16x finer
-step. Target: error below 1e-6 in under 2 s of wall time. Run: .venv/bin/python bench/engine.py
+Run: ``.venv/bin/python bench/engine.py`` (about 3 minutes; ``--quick`` for a shorter pass).
+Every comparison is measured side by side in this run (interleaved rounds, medians):
+
+1. Kernel per RK4 step against a minimal compiled loop of the same work (``minimal_loop.py``),
+   on a smooth run without mode events: the stable axial set (taubar_n0 = 0.5 taubar_crit, the
+   axial kick of ``tests/test_engine.py``), u(0) = 1e-4, dphi/dtau(0) = -0.5, tau in [0, 20],
+   h = 5e-4. Target: ratio <= 2. Also the RK4 trials per event location (target <= 8).
+2. Work-precision of Fig. 5 (``drillstring.model.experiments.FIG5``, tau in [0, 60]) closed
+   with the paper's gain and K0 of the averaged model at A = 0.3855 (``docs/model.md``,
+   "Equation (30)"), and open (R = R0): max error of du/dtau and dphi/dtau on the output grid
+   (every 0.01) against a run at h = 2.5e-5/4, and wall time of ``simulate``, for h from 8e-3
+   to 2.5e-5; the same for today's engine (commit ``OLD_COMMIT``, run from ``git archive`` in a
+   subprocess). Target: at each accuracy from 1e-4 to 1e-8 (log-log interpolation of the
+   curves) the engine is at least 1.5x faster than today's.
+3. Sampling: overhead per output sample, the run of 1. sampled every h against one sample.
+   Target: <= 1 us.
+4. Plain Python (``DRILLSTRING_JIT=0``): cost per step and bit-identity with the compiled
+   kernel on a short Fig. 5 closed-loop run with events.
+5. Prehistory: building the engine at h = 1.25e-5 (nominal history).
+
+Today's engine (``OLD_COMMIT``), measured by this script on the 2-core machine (Dec 2026; its
+own rounds are printed next to the new engine's in every run):
+
+=========  ================================  ================================
+           Fig. 5 closed loop                open loop
+h          wall s   error                    wall s   error
+=========  ================================  ================================
+8e-3       (filled in below)
+=========  ================================  ================================
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
 import time
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
+from minimal_loop import minimal_loop, minimal_start
 
-from drillstring.model.engine import EngineOptions
+from drillstring.analysis.axial_stability import critical_delay
+from drillstring.controller.averaged import averaged_model
+from drillstring.controller.gains import PAPER_F
+from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.experiments import FIG5
 from drillstring.model.kernel.jit import numba_available
-from drillstring.model.params import REFERENCE
+from drillstring.model.kernel.state import H_ROWS, I_HEND
+from drillstring.model.params import REFERENCE, ScaledParams
+from drillstring.model.prehistory import build_prehistory, nominal_history
 from drillstring.model.simulate import simulate
 
+REPO = Path(__file__).resolve().parent.parent
+#: Today's engine: the version before the speed work, compared side by side.
+OLD_COMMIT = "9cc60e0"
+#: Slope of the averaged contact force at the reference set (docs/model.md, "Equation (30)").
+A_REF = 0.3855
+STEPS = (8e-3, 4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4, 5e-5, 2.5e-5)
+H_REFERENCE = 2.5e-5 / 4
+ACCURACIES = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
+#: The smooth run of sections 1 and 3.
+SMOOTH_T, SMOOTH_H, SMOOTH_INITIAL = 20.0, 5e-4, {"u": 1e-4, "dphi": -0.5}
 
-def run(h: float, tau_end: float):
+
+def stable_axial_set() -> ScaledParams:
+    """The reference set with omega0 such that taubar_n0 = 0.5 taubar_crit (no stick-slip)."""
+    p = REFERENCE
+    taubar = 0.5 * critical_delay(p.gammabar, p.etabar2)
+    return p.replace(omega0=2 * math.pi / (p.n * taubar / p.sqrt_npsi))
+
+
+def fig5_law() -> AffineFeedback:
+    """The paper's gain with K0 of the averaged model, feed-forward R_ff = -K0 (31)."""
+    p = REFERENCE
+    K0 = averaged_model(p, A_REF, critical_delay(p.gammabar, p.etabar2)).K0
+    return AffineFeedback(PAPER_F, K0, -K0)
+
+
+def median_of(fn: Callable[[], float], rounds: int) -> float:
+    return float(np.median([fn() for _ in range(rounds)]))
+
+
+# ------------------------------------------------------------------ 1. kernel vs minimal loop
+#: Chunks of the smooth run timed one by one (about 0.3 ms each: the median over chunks is
+#: robust to the other processes of a shared machine).
+CHUNK = 0.5
+
+
+def kernel_vs_minimal(rounds: int) -> None:
+    p = stable_axial_set()
+    opts = EngineOptions(h=SMOOTH_H)
+    pm = (float(p.n), p.n * p.psi, p.gamma, p.eta, p.v0, p.d0, p.rho, 2 * math.pi / p.n)
+    n_chunks = int(round(SMOOTH_T / CHUNK))
+    t_min, t_ker = [], []
+    for _ in range(rounds + 1):  # the first round loads the code
+        engine = Engine(p, opts, initial=SMOOTH_INITIAL)
+        s = engine._s
+        end = int(s.ints[I_HEND])
+        # the whole buffer written before the timing (as the kernel's reused buffer is)
+        H = np.full((H_ROWS, end + int(SMOOTH_T / SMOOTH_H) + 16), np.nan)
+        H[:, :end] = s.history[:, :end]
+        state = minimal_start(pm, H, end, tuple(float(v) for v in s.y))
+        per_min, per_ker = [], []
+        for j in range(1, n_chunks + 1):
+            t0 = time.perf_counter()
+            state, steps = minimal_loop(pm, H, state, j * CHUNK, SMOOTH_H)
+            t1 = time.perf_counter()
+            before = engine.counters["steps"]
+            engine.advance(j * CHUNK)
+            t2 = time.perf_counter()
+            per_min.append((t1 - t0) / steps)
+            per_ker.append((t2 - t1) / (engine.counters["steps"] - before))
+        t_min.append(per_min)
+        t_ker.append(per_ker)
+    m, k = np.median(t_min[1:]), np.median(t_ker[1:])
+    c = engine.counters
+    gap = np.max(np.abs(np.array(state[1]) - engine.total_state()))
+    print("\n1. Kernel per RK4 step against the minimal loop of the same work")
+    print(
+        f"   smooth run: {c['steps']} steps, {c['events']} mode events, "
+        f"{c['event_locations']} delayed discontinuity located; medians over "
+        f"{rounds} x {n_chunks} chunks of {int(CHUNK / SMOOTH_H)} steps"
+    )
+    print(
+        f"   minimal loop {m * 1e9:6.1f} ns/step, kernel {k * 1e9:6.1f} ns/step: "
+        f"ratio {k / m:.2f} (target <= 2)"
+    )
+    print(
+        f"   end states agree to {gap:.1e} (the minimal loop does not stop at the delayed "
+        "discontinuity)"
+    )
+
+
+def trials_per_location(result) -> str:
+    c = result.counters
+    return f"{c['event_trials'] / max(c['event_locations'], 1):.2f}"
+
+
+# ------------------------------------------------------------------ 2. work-precision
+WORKER = r"""
+import json, sys, time
+import numpy as np
+import drillstring
+assert drillstring.__file__.startswith(sys.argv[1]), drillstring.__file__
+from drillstring.control_law import AffineFeedback
+from drillstring.engine import Engine, EngineOptions
+from drillstring.params import ScaledParams
+from drillstring.simulate import simulate
+
+for line in sys.stdin:
+    req = json.loads(line)
+    p = ScaledParams(**req["params"])
+    opts = EngineOptions(h=req["h"])
+    if req["kind"] == "engine":
+        t0 = time.perf_counter()
+        Engine(p, opts, initial=req["initial"])
+        print(json.dumps({"wall": time.perf_counter() - t0}), flush=True)
+        continue
+    law = req["law"]
+    control = None if law is None else AffineFeedback(tuple(law[0]), law[1], law[2])
+    t0 = time.perf_counter()
+    r = simulate(p, req["tau_end"], control=control, initial=req["initial"],
+                 dt_out=req["dt_out"], options=opts, progress=False)
+    wall = time.perf_counter() - t0
+    np.save(req["out"], np.vstack([r.tau, r.du, r.dphi]))
+    print(json.dumps({"wall": wall, "status": r.status.code, "steps": r.counters["steps"]}),
+          flush=True)
+"""
+
+
+class OldEngine:
+    """Today's engine in a subprocess (``git archive OLD_COMMIT drillstring``)."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        archive = subprocess.run(
+            ["git", "-C", str(REPO), "archive", OLD_COMMIT, "drillstring"],
+            check=True,
+            capture_output=True,
+        ).stdout
+        subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
+        env = {**os.environ, "PYTHONPATH": str(folder)}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", WORKER, str(folder)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            env=env,
+            cwd=folder,
+        )
+        self.n = 0
+
+    def request(self, **req) -> dict:
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self.proc.stdin.write(json.dumps(req) + "\n")
+        self.proc.stdin.flush()
+        line = self.proc.stdout.readline()
+        if not line:
+            raise RuntimeError("today's engine worker died")
+        return json.loads(line)
+
+    def simulate(self, case: dict, h: float, dt_out: float) -> tuple[float, np.ndarray | None]:
+        self.n += 1
+        out = self.folder / f"run{self.n}.npy"
+        reply = self.request(kind="simulate", h=h, dt_out=dt_out, out=str(out), **case)
+        data = np.load(out) if reply["status"] == "ok" else None
+        return reply["wall"], data
+
+    def close(self) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.close()
+        self.proc.wait(timeout=60)
+
+
+def new_simulate(case: dict, h: float, dt_out: float) -> tuple[float, np.ndarray | None, object]:
+    law = case["law"]
+    control = None if law is None else AffineFeedback(tuple(law[0]), law[1], law[2])
     t0 = time.perf_counter()
     r = simulate(
-        REFERENCE, tau_end, initial={"dphi": -2.5}, options=EngineOptions(h=h), progress=False
+        ScaledParams(**case["params"]),
+        case["tau_end"],
+        control=control,
+        initial=case["initial"],
+        dt_out=dt_out,
+        options=EngineOptions(h=h),
+        progress=False,
     )
-    return r, time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    data = np.vstack([r.tau, r.du, r.dphi]) if r.status.ok else None
+    return wall, data, r
+
+
+def error(data: np.ndarray | None, ref: np.ndarray) -> float:
+    if data is None or data.shape != ref.shape:
+        return math.inf
+    return float(max(np.max(np.abs(data[1] - ref[1])), np.max(np.abs(data[2] - ref[2]))))
+
+
+def wall_at(accuracy: float, errs: list[float], walls: list[float]) -> float:
+    """Wall time to reach ``accuracy``, interpolated log-log along the curve (h decreasing).
+
+    The curve is made monotone (the best error so far); an accuracy above the coarsest error
+    costs the coarsest run; one never reached is inf.
+    """
+    e = np.minimum.accumulate(np.asarray(errs, dtype=float))
+    w = np.asarray(walls, dtype=float)
+    if accuracy >= e[0]:
+        return float(w[0])
+    for i in range(1, len(e)):
+        if e[i] <= accuracy:
+            if not math.isfinite(e[i - 1]) or e[i - 1] == e[i]:
+                return float(w[i])
+            x = (math.log(accuracy) - math.log(e[i - 1])) / (math.log(e[i]) - math.log(e[i - 1]))
+            return float(math.exp(math.log(w[i - 1]) + x * (math.log(w[i]) - math.log(w[i - 1]))))
+    return math.inf
+
+
+def work_precision(old: OldEngine | None, steps: tuple[float, ...], rounds: int) -> None:
+    params = {f.name: getattr(REFERENCE, f.name) for f in dataclasses.fields(REFERENCE)}
+    law = fig5_law()
+    base = {"params": params, "tau_end": FIG5.tau_end, "initial": dict(FIG5.initial())}
+    cases = {
+        "Fig. 5 closed loop": {**base, "law": [list(law.F), law.K0, law.R_ff]},
+        "open loop": {**base, "law": None},
+    }
+    dt_out = 1e-2
+    print(
+        f"\n2. Work-precision over tau in [0, {FIG5.tau_end:g}]: max error of du/dtau, dphi/dtau "
+        f"(every {dt_out:g}) against h = {H_REFERENCE:.3g}; wall s = median of {rounds}"
+    )
+    for name, case in cases.items():
+        _, ref, rref = new_simulate(case, H_REFERENCE, dt_out)
+        assert ref is not None, rref.status
+        rows = []
+        for h in steps:
+            walls, walls_old = [], []
+            for _ in range(rounds):
+                w, data, r = new_simulate(case, h, dt_out)
+                walls.append(w)
+                if old is not None:
+                    w_old, data_old = old.simulate(case, h, dt_out)
+                    walls_old.append(w_old)
+            rows.append(
+                (
+                    h,
+                    float(np.median(walls)),
+                    error(data, ref),
+                    r.counters["steps"],
+                    trials_per_location(r),
+                    float(np.median(walls_old)) if old else math.nan,
+                    error(data_old, ref) if old else math.nan,
+                )
+            )
+        print(
+            f"\n   {name} (trials per event location in the engine: "
+            f"{trials_per_location(rref)} at h = {H_REFERENCE:.3g})"
+        )
+        print(
+            f"   {'h':>8} {'steps':>8} {'trials':>6} {'wall s':>8} {'error':>9}"
+            f" | today: {'wall s':>8} {'error':>9}"
+        )
+        for h, w, e, n, tr, wo, eo in rows:
+            print(f"   {h:8.3g} {n:8d} {tr:>6} {w:8.3f} {e:9.2e} |        {wo:8.3f} {eo:9.2e}")
+        if old is None:
+            continue
+        print(f"   {'accuracy':>8} {'wall s':>8} {'today':>8} {'speed-up':>9}  (target >= 1.5)")
+        for acc in ACCURACIES:
+            a = wall_at(acc, [r[2] for r in rows], [r[1] for r in rows])
+            b = wall_at(acc, [r[6] for r in rows], [r[5] for r in rows])
+            ratio = b / a if math.isfinite(b) else math.inf
+            label = f"{ratio:8.2f}x" if math.isfinite(ratio) else " not reached today"
+            print(f"   {acc:8.0e} {a:8.3f} {b:8.3f} {label}")
+
+
+# ------------------------------------------------------------------ 3. sampling
+def sampling(old: OldEngine | None, rounds: int) -> None:
+    p = stable_axial_set()
+    opts = EngineOptions(h=SMOOTH_H)
+    n = int(round(SMOOTH_T / SMOOTH_H))
+
+    def run(dt_out: float) -> float:
+        t0 = time.perf_counter()
+        simulate(p, SMOOTH_T, initial=SMOOTH_INITIAL, dt_out=dt_out, options=opts, progress=False)
+        return time.perf_counter() - t0
+
+    run(SMOOTH_H)
+    dense, single = [], []
+    for _ in range(rounds):
+        dense.append(run(SMOOTH_H))
+        single.append(run(SMOOTH_T))
+    per = (np.median(dense) - np.median(single)) / n
+    print(f"\n3. Sampling: the run of 1. sampled every h ({n} samples) against one sample")
+    print(
+        f"   {np.median(dense):.4f} s against {np.median(single):.4f} s: "
+        f"{per * 1e6:.3f} us per sample (target <= 1)"
+    )
+    if old is not None:
+        params = {f.name: getattr(p, f.name) for f in dataclasses.fields(p)}
+        case = {"params": params, "tau_end": SMOOTH_T, "initial": SMOOTH_INITIAL, "law": None}
+        d = median_of(lambda: old.simulate(case, SMOOTH_H, SMOOTH_H)[0], max(rounds // 2, 1))
+        s1 = median_of(lambda: old.simulate(case, SMOOTH_H, SMOOTH_T)[0], max(rounds // 2, 1))
+        print(f"   today: {d:.4f} s against {s1:.4f} s: {(d - s1) / n * 1e6:.3f} us per sample")
+
+
+# ------------------------------------------------------------------ 4. plain Python
+PLAIN = r"""
+import sys, time
+import numpy as np
+from drillstring.model.kernel.jit import numba_available
+assert not numba_available()
+sys.path.insert(0, sys.argv[1])
+import engine as bench
+from drillstring.model.engine import EngineOptions
+from drillstring.model.experiments import FIG5
+from drillstring.model.params import REFERENCE
+from drillstring.model.simulate import simulate
+t0 = time.perf_counter()
+r = simulate(REFERENCE, float(sys.argv[2]), control=bench.fig5_law(), initial=FIG5.initial(),
+             options=EngineOptions(h=5e-4), progress=False)
+wall = time.perf_counter() - t0
+np.save(sys.argv[3], np.vstack([r.data[c] for c in r.data]))
+print(wall, r.counters["steps"], r.counters["events"])
+"""
+
+
+def plain_python(tau_end: float) -> None:
+    law = fig5_law()
+    r = simulate(
+        REFERENCE,
+        tau_end,
+        control=law,
+        initial=FIG5.initial(),
+        options=EngineOptions(h=5e-4),
+        progress=False,
+    )
+    compiled = np.vstack([r.data[c] for c in r.data])
+    t0 = time.perf_counter()
+    simulate(
+        REFERENCE,
+        tau_end,
+        control=law,
+        initial=FIG5.initial(),
+        options=EngineOptions(h=5e-4),
+        progress=False,
+    )
+    wall_c = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "plain.npy"
+        env = {**os.environ, "DRILLSTRING_JIT": "0"}
+        bench_dir = str(Path(__file__).resolve().parent)
+        res = subprocess.run(
+            [sys.executable, "-c", PLAIN, bench_dir, repr(tau_end), str(out)],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        wall_p, steps, events = res.stdout.split()
+        plain = np.load(out)
+    same = plain.shape == compiled.shape and np.array_equal(plain, compiled)
+    steps_n = int(steps)
+    print(
+        f"\n4. Plain Python (DRILLSTRING_JIT=0): Fig. 5 closed loop, tau in [0, {tau_end:g}], "
+        f"h = 5e-4 ({steps_n} steps, {events} events)"
+    )
+    print(
+        f"   {float(wall_p) / steps_n * 1e6:.0f} us/step against {wall_c / steps_n * 1e6:.2f} "
+        f"us/step compiled ({float(wall_p) / wall_c:.0f}x); outputs bit-identical: {same}"
+    )
+
+
+# ------------------------------------------------------------------ 5. prehistory
+def prehistory(old: OldEngine | None, rounds: int) -> None:
+    h = 1.25e-5
+    build = median_of(
+        lambda: _timed(lambda: build_prehistory(REFERENCE, nominal_history, h, 2048)), rounds
+    )
+    init = dict(FIG5.initial())
+    engine = median_of(lambda: _timed(lambda: Engine(REFERENCE, EngineOptions(h=h), init)), rounds)
+    print(
+        f"\n5. Prehistory at h = {h:g} (nominal history, "
+        f"{math.ceil(2 * math.pi / REFERENCE.n / (REFERENCE.omega0 * h))} nodes)"
+    )
+    print(f"   build_prehistory {build * 1e3:.2f} ms, Engine() {engine * 1e3:.2f} ms")
+    if old is not None:
+        params = {f.name: getattr(REFERENCE, f.name) for f in dataclasses.fields(REFERENCE)}
+        w = median_of(
+            lambda: old.request(kind="engine", params=params, h=h, initial=init)["wall"], rounds
+        )
+        print(f"   today: Engine() {w * 1e3:.2f} ms")
+
+
+def _timed(fn: Callable[[], object]) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--tau-end", type=float, default=60.0)
-    ap.add_argument("--steps", type=float, nargs="+", default=[1e-3, 5e-4, 2.5e-4])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer rounds and steps")
+    ap.add_argument("--no-today", action="store_true", help="skip today's engine")
+    ap.add_argument(
+        "--today-dir",
+        type=Path,
+        help="folder for today's engine (kept, so its numba cache survives; default: temporary)",
+    )
     args = ap.parse_args()
-    print(f"numba kernel: {numba_available()}")
-    run(1e-3, 0.1)  # warm-up: load/compile the kernel outside the timings
-    h_ref = min(args.steps) / 16
-    ref, t_ref = run(h_ref, args.tau_end)
-    print(f"reference h = {h_ref:.3e}: {t_ref:.2f} s, {ref.counters['steps']} steps")
-    print(f"{'h':>10} {'wall s':>8} {'steps':>8} {'events':>7} {'err du':>10} {'err dphi':>10}")
-    for h in args.steps:
-        r, wall = run(h, args.tau_end)
-        e_du = float(np.max(np.abs(r.du - ref.du)))
-        e_dphi = float(np.max(np.abs(r.dphi - ref.dphi)))
-        print(
-            f"{h:10.3e} {wall:8.3f} {r.counters['steps']:8d} {r.counters['events']:7d} "
-            f"{e_du:10.2e} {e_dphi:10.2e}"
-        )
-        if e_du < 1e-6 and e_dphi < 1e-6:
-            verdict = "meets" if wall < 2.0 else "misses"
-            print(f"  -> error < 1e-6 in {wall:.2f} s: {verdict} the 2 s target")
+    if not numba_available():
+        sys.exit("bench/engine.py measures the compiled kernel: numba is not available")
+    rounds = 1 if args.quick else 3
+    steps = STEPS[::2] if args.quick else STEPS
+    simulate(REFERENCE, 0.1, initial={"dphi": -2.5}, progress=False)  # load the kernel
+    with tempfile.TemporaryDirectory() as tmp:
+        old = None
+        if not args.no_today:
+            folder = args.today_dir or Path(tmp)
+            folder.mkdir(parents=True, exist_ok=True)
+            old = OldEngine(folder)
+            t0 = time.perf_counter()
+            case = {"params": dataclasses.asdict(REFERENCE), "tau_end": 0.1, "law": None}
+            old.simulate({**case, "initial": {"dphi": -2.5}}, 1e-3, 1e-2)
+            print(
+                f"today's engine: commit {OLD_COMMIT} in a subprocess from {folder} "
+                f"(loaded or compiled in {time.perf_counter() - t0:.1f} s)"
+            )
+        try:
+            kernel_vs_minimal(2 if args.quick else 5)
+            work_precision(old, steps, rounds)
+            sampling(old, 3 if args.quick else 7)
+            plain_python(0.5 if args.quick else 2.0)
+            prehistory(old, 3 if args.quick else 7)
+        finally:
+            if old is not None:
+                old.close()
 
 
 if __name__ == "__main__":
