@@ -30,16 +30,6 @@ from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
-
-
 def _units(built):
     return {"plant": built.plant, "controller": built.controller}
 

@@ -996,15 +996,11 @@ BUILT: tl.Built
 
 
 @pytest.fixture(scope="session")
-def built(tmp_path_factory):
+def built(built):
+    """The session's build (conftest), also kept in BUILT for the table's call functions."""
     global BUILT
-    BUILT = tl.built_fmus(tmp_path_factory)
+    BUILT = built
     return BUILT
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
 
 
 def _undisturbed(c: Case, unit: tl.Unit) -> list[list[Any]]:

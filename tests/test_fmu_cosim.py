@@ -36,16 +36,6 @@ ODD = "drill ü#%[x] 100%20"
 CSV_RESOLUTION = 5e-7 + 1e-12
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
-
-
 @pytest.fixture(scope="module")
 def jacobi(built):
     rows = tl.jacobi_fmpy(built, H_NS, N_STEPS, STARTS)

@@ -27,11 +27,6 @@ H_NS = 10_000_000
 N = 20
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
 @pytest.fixture(scope="module")
 def host(tmp_path_factory):
     return tl.compile_c_host(tmp_path_factory.mktemp("c_host"))
