@@ -22,6 +22,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "axial": ("drillstring.apps.axial", "axial_main", "Section III: Figs. 2-4"),
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
+    "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
     "demo": ("drillstring.apps.demo", "demo_main", "the main job (make demo)"),
 }

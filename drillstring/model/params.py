@@ -337,17 +337,31 @@ class PhysicalParams:
         """Nominal depth of cut d0 = (2*pi/n)*V0/Omega0 [m], eq. (8)."""
         return 2.0 * math.pi / self.n * self.V0 / self.Omega0
 
+    def weight_on_bit(self, d: Any, g: Any = 0.0) -> Any:
+        """Weight on bit W^c + W^f [N] at depth of cut ``d`` [m]: eq. (4) plus eq. (7).
+
+        ``g`` is the contact multiplier of (17) (0: full wearflat contact, dU/dt > 0; 1: none,
+        dU/dt < 0; in between in axial stick): W^f = n*a*l*sigma_bar*(1 - g). Floats or numpy
+        arrays.
+        """
+        return self.n * self.a * (self.zeta * self.eps * d + self.l * self.sigma_bar * (1.0 - g))
+
+    def torque_on_bit(self, d: Any, g: Any = 0.0) -> Any:
+        """Torque on bit T^c + T^f [N m] at depth of cut ``d`` [m]: eq. (4) plus eq. (7),
+        T^f = a*xi*mu*W^f/2 with W^f as in :meth:`weight_on_bit` (while the bit slips)."""
+        cutting = 0.5 * self.n * self.a**2 * self.eps * d
+        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
+        return cutting + contact * (1.0 - g)
+
     @property
     def W0(self) -> float:
         """Nominal weight on bit W^c + W^f [N]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
-        return self.n * self.a * (self.zeta * self.eps * self.d0 + self.l * self.sigma_bar)
+        return self.weight_on_bit(self.d0)
 
     @property
     def T0(self) -> float:
         """Nominal torque on bit T^c + T^f [N m]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
-        cutting = 0.5 * self.n * self.a**2 * self.eps * self.d0
-        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
-        return cutting + contact
+        return self.torque_on_bit(self.d0)
 
     @property
     def R0(self) -> float:
