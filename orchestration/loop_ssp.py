@@ -21,6 +21,7 @@ Each component binds, in this order, ``fig5``, ``fig6`` and its own nominal set,
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -58,12 +59,14 @@ _GAINS = ("F[1]", "F[2]", "F[3]", "F[4]", "K0", "R_ff")
 
 
 def loop_default_experiment(variant: LoopVariant) -> tuple[float, float, float]:
-    """(start, stop, step) of a package: Fig. 5's run (tau in [0, 60], t* tau in SI) with the
-    fixed step :data:`DEFAULT_STEP`."""
+    """(start, stop, step) of a package: Fig. 5's run (tau in [0, 60]; in SI t* 60 s rounded up
+    to a whole number of steps, 55.352 s, so that every host takes the same equal steps) with
+    the fixed step :data:`DEFAULT_STEP`."""
+    step = DEFAULT_STEP[variant.name]
     stop = FIG5.tau_end
     if variant.name == SI.name:
-        stop = SIScaling(REFERENCE_RIG).time(stop)
-    return 0.0, float(stop), DEFAULT_STEP[variant.name]
+        stop = round(math.ceil(SIScaling(REFERENCE_RIG).time(stop) / step) * step, 12)
+    return 0.0, float(stop), step
 
 
 def _parameters(md, values: Mapping[str, object]) -> tuple[SspParameter, ...]:

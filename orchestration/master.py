@@ -20,7 +20,8 @@ A run, in FMI 2.0 terms (standard section 4.2.4, state machine of a co-simulatio
    a signal through a feedthrough unit by one macro step, an ``O(H)`` change of the result)
    and one recorded row (:mod:`.recorder`);
 4. the step size: fixed (:mod:`.fixed`; ``grid="ns"`` is libcosim's integer-nanosecond time
-   grid, so that ``exchange="simple", grid="ns"`` reproduces a libcosim run bit for bit) or
+   grid, so that ``exchange="simple", grid="ns"`` reproduces a libcosim run bit for bit;
+   ``grid="sum"`` is the accumulated time of Ecos and of fmpy's SSP simulator) or
    controlled by the coupling-error estimate with rollback (:mod:`.adaptive`,
    :mod:`.step_control`).
 
@@ -265,7 +266,7 @@ class Master:
         step_control: StepControl | None = None,
         progress: bool | None = None,
         exchange: ExchangeMode = "propagate",
-        grid: Literal["float", "ns"] = "float",
+        grid: Literal["float", "ns", "sum"] = "float",
     ) -> CosimResult:
         """Co-simulate from ``start_time`` to ``stop_time``.
 
@@ -290,9 +291,9 @@ class Master:
         exchange : {"propagate", "simple"}
             Exchange after a step: the dependency-ordered schedule, or libcosim's
             read-all-then-write-all.
-        grid : {"float", "ns"}
-            Communication points of a fixed-step run: ``start_time + k*step`` or libcosim's
-            integer-nanosecond grid.
+        grid : {"float", "ns", "sum"}
+            Communication points of a fixed-step run: ``start_time + k*step``, libcosim's
+            integer-nanosecond grid, or ``t + step`` accumulated (Ecos, fmpy's SSP simulator).
 
         Returns
         -------
@@ -311,7 +312,9 @@ class Master:
         check_choice("scheme", scheme, ("jacobi", "gauss-seidel"))
         check_choice("extrapolation", extrapolation, ("zoh", "linear"))
         check_choice("exchange", exchange, ("propagate", "simple"))
-        check_choice("grid", grid, ("float", "ns"))
+        check_choice("grid", grid, ("float", "ns", "sum"))
+        if grid == "sum" and step_control is not None:
+            raise ValueError("grid='sum' is for fixed-step runs, not with step_control")
         if grid == "ns":
             if step_control is not None:
                 raise ValueError("grid='ns' is for fixed-step runs, not with step_control")
@@ -357,7 +360,7 @@ class Master:
             scheme,
             extrapolation,
             exchange == "simple",
-            grid == "ns",
+            grid,
             progress,
         )
 
@@ -370,7 +373,7 @@ class Master:
         scheme: str,
         extrapolation: str,
         simple: bool,
-        ns_grid: bool,
+        grid: str,
         progress: bool | None,
     ) -> CosimResult:
         """One run on fresh instances (arguments checked by :meth:`run`)."""
@@ -405,7 +408,7 @@ class Master:
             exchange.exchange(t0)
             recorder.record(t0)
             if control is None:
-                run_fixed(step, recorder, stats, t0, t_end, h, ns_grid, show)
+                run_fixed(step, recorder, stats, t0, t_end, h, grid == "ns", show, grid == "sum")
             else:
                 run_adaptive(
                     step,
