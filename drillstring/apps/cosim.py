@@ -210,7 +210,11 @@ def _errors(got: Any, ref: dict[str, np.ndarray], rows: slice) -> dict[str, floa
 
 
 def run_si_demo(
-    fmus_dir: str | Path, out_dir: str | Path, *, parameter_set: str = "fig5"
+    fmus_dir: str | Path,
+    out_dir: str | Path,
+    *,
+    parameter_set: str = "fig5",
+    stop_time: float | None = None,
 ) -> dict[str, Any]:
     """Fig. 5 from the SI package in Ecos and in the project's master, against the monolithic
     solver in SI.
@@ -232,6 +236,8 @@ def run_si_demo(
         three) and ``si_fig5.json`` (the returned numbers) go.
     parameter_set : str
         The package's parameter set (default ``fig5``).
+    stop_time : float, optional
+        End of the run instead of the package's (a whole number of its steps).
 
     Returns
     -------
@@ -251,7 +257,7 @@ def run_si_demo(
     with kept_sys_path(), Master.from_ssp(ssp, parameter_set) as master:
         package = master.ssp
         assert package is not None and package.stop_time is not None and package.step is not None
-        stop, step = package.stop_time, package.step
+        stop, step = package.stop_time if stop_time is None else stop_time, package.step
         plant, controller = (effective_start_values(u) for u in master.system.units)
         t0 = time.perf_counter()
         res: CosimResult = master.run(stop, step, exchange="simple", grid="sum", progress=False)
