@@ -1,11 +1,15 @@
-"""Build the drillstring FMUs: the plant and the torsional controller (FMI 2.0 co-simulation).
+"""Build the drillstring FMUs: the plant and the torsional controller (FMI 2.0 co-simulation),
+each in the paper's scaled quantities and in SI units, and the closed loop as SSP 1.0 packages.
 
 Usage::
 
     python build_fmus.py [--gains out/design/gains.json] [--out build/]
 
-For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
-``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``):
+For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``),
+``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``) and their SI variants
+``fmu_src/drillstring_plant_si.py`` (``DrillStringPlantSI.fmu``) and
+``fmu_src/torsional_controller_si.py`` (``TorsionalControllerSI.fmu``, thin subclasses: the scaled
+script they derive from is bundled beside them; ``docs/si_fmus.md``):
 
 1. stage the files bundled into the FMU's ``resources/``: the ``drillstring`` package (the physics;
    no model code is in the FMU scripts), the shared lifecycle ``drillstring_fmu_support.py``, the
@@ -18,8 +22,10 @@ For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
 3. post-process ``modelDescription.xml`` where pythonfmu cannot express the truth: outputs
    ``initial="calculated"`` without start values, listed in ``InitialUnknowns``; the true
    ``ModelStructure`` (each variable's ``depends_on``); ``min``/``max`` of every parameter with a
-   range; Enumeration types (``TypeDefinitions``) for the enumeration parameters; unit "1" on every
-   Real with its ``UnitDefinitions``; start values written exactly (17 digits); a GUID derived from
+   range; Enumeration types (``TypeDefinitions``) for the enumeration parameters; each Real's unit
+   and display unit, with ``UnitDefinitions`` giving their SI base-unit exponents and display
+   units (``drillstring.model.units.UNITS``; "1" throughout the scaled FMUs); start values
+   written exactly (17 digits); a GUID derived from
    the content and a pinned ``generationDateAndTime`` when ``SOURCE_DATE_EPOCH`` is set;
 4. replace pythonfmu's binaries by the project's front layer: pythonfmu's ``linux64`` library is
    kept as ``binaries/linux64/<id>_pythonfmu.so`` and ``binaries/linux64/<id>.so`` is
@@ -28,6 +34,11 @@ For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
    ``win64`` DLL is dropped (only built and tested platforms are shipped);
 5. rewrite the archive deterministically (sorted entries, fixed timestamps) and run
    ``fmpy.validate_fmu``; any problem fails the build with the list of problems.
+
+Then ``DrillStringClosedLoop.ssp`` and ``DrillStringClosedLoopSI.ssp``
+(:mod:`drillstring.orchestration.loop_ssp`): both FMUs of a unit system, their connections and
+units, the parameter sets ``fig5``, ``fig6``, ``reference`` and ``gains``, the default experiment
+with a fixed step, validated against the SSP 1.0 schemas that fmpy ships.
 
 Building twice gives identical ``modelDescription.xml`` apart from ``generationDateAndTime``, and
 identical FMUs byte for byte when ``SOURCE_DATE_EPOCH`` is set.

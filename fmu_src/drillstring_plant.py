@@ -14,9 +14,11 @@ the FMU's variables; restoring it is bit exact.
 
 The unit system is the class's: :class:`DrillStringPlant` speaks the paper's scaled quantities;
 ``drillstring_plant_si.py`` derives ``DrillStringPlantSI`` from it, which only replaces the
-variables and the four conversions (:meth:`DrillStringPlant.engine_setup`,
-:meth:`~DrillStringPlant.engine_input`, :meth:`~DrillStringPlant.engine_time`,
-:meth:`~DrillStringPlant.converted_outputs`); everything else is this class.
+variables and the conversions between the FMU's quantities and the engine's
+(:meth:`DrillStringPlant.engine_setup`, :meth:`~DrillStringPlant.engine_input`,
+:meth:`~DrillStringPlant.engine_time` and :meth:`~DrillStringPlant.fmu_time`,
+:meth:`~DrillStringPlant.converted_outputs`, :meth:`~DrillStringPlant.stop_message`;
+``docs/si_fmus.md``); everything else is this class.
 """
 
 from __future__ import annotations

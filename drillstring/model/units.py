@@ -44,7 +44,8 @@ and the gains::
 (e_phi = phi, e_phi - e_theta = phi - theta - R0/C, de_phi = dphi/t*, de_theta = dtheta/t*).
 The references phi_ref, twist_ref are angles, the same in both.
 
-:data:`UNITS` defines every unit the SI FMUs and the SSP packages use, by the exponents of the
+``docs/si_fmus.md`` has these tables, how well the two unit systems agree and where they are
+used. :data:`UNITS` defines every unit the SI FMUs and the SSP packages use, by the exponents of the
 SI base units (FMI 2.0 ``BaseUnit``, SSP ``ssc:BaseUnit``) and the display units people read
 (rpm, kN, kN.m, mm, m/h).
 """
