@@ -128,10 +128,7 @@ def run_ecos(
     n = int(round(stop_time / step))
     rows: list[list[float]] = []
     with kept_sys_path(), ecospy.EcosSimulation(ssp_path=str(ssp), step_size=step) as sim:
-        if parameter_set is None:
-            sim.init()
-        else:
-            sim.init(parameter_set=parameter_set)
+        sim.init(parameter_set=parameter_set)
         getters = [
             (sim.get_real if kinds[v] == "Real" else sim.get_integer, v.replace(".", "::", 1))
             for v in variables

@@ -631,19 +631,14 @@ def read_ssp(
         )
         if con.start_element is None or con.end_element is None:
             raise SspError(f"{path.name}: connection {con} uses a connector of the system itself")
-        if len(e):
+        if any(etree.QName(x).localname.endswith("Transformation") for x in e):
             raise SspError(f"{path.name}: connection {con} has a transformation; not supported")
         connections.append(con)
-    units = {
-        u.get("name"): {
-            k: int(v)
-            for k, v in (
-                u.find("ssc:BaseUnit", NS).attrib if u.find("ssc:BaseUnit", NS) is not None else {}
-            ).items()
-            if k in BASE_UNITS
-        }
-        for u in ssd.iterfind("ssd:Units/ssc:Unit", NS)
-    }
+    units = {}
+    for u in ssd.iterfind("ssd:Units/ssc:Unit", NS):
+        base = u.find("ssc:BaseUnit", NS)
+        attrib = base.attrib if base is not None else {}
+        units[u.get("name")] = {k: int(v) for k, v in attrib.items() if k in BASE_UNITS}
     start = stop = step = None
     de = ssd.find("ssd:DefaultExperiment", NS)
     if de is not None:

@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from drillstring.apps.cosim import cosim_main, run_si_demo
+from drillstring.apps.cosim import cosim_main, run_si_demo, si_demo_lines
 from drillstring.model.experiments import FIG5, FIG6
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.units import UNITS, UnitDef
@@ -391,3 +391,5 @@ def test_run_si_demo_agrees_with_ecos_and_the_monolithic_solver(built, tmp_path)
             assert 1e-6 < err < 0.05, (host, name, err)
     assert Path(s["files"]["png"]).is_file()
     assert json.loads((tmp_path / "si_fig5.json").read_text())["steps"] == 1000
+    lines = si_demo_lines(s)
+    assert len(lines) == 4 and lines[-1].startswith("  Ecos vs master: max relative difference")

@@ -45,7 +45,7 @@ from drillstring.orchestration.results import CosimResult
 from drillstring.orchestration.ssp import SspError, read_ssp
 from drillstring.plotting import new_figure
 
-__all__ = ["cosim_main", "plot_speeds", "run_si_demo", "variant_of"]
+__all__ = ["cosim_main", "plot_speeds", "run_si_demo", "si_demo_lines", "variant_of"]
 
 _RPM = UNITS["rad/s"].display_unit("rpm").factor
 
@@ -322,3 +322,21 @@ def run_si_demo(
     }
     write_json(out / "si_fig5.json", summary)
     return summary
+
+
+def si_demo_lines(summary: dict[str, Any]) -> list[str]:
+    """The lines the demo prints for :func:`run_si_demo`'s summary."""
+    err, rel = summary["max_error"], summary["relative_error"]
+    lines = [
+        f"Fig. 5 in SI from {Path(summary['ssp']).name} ({summary['parameter_set']}): "
+        f"{summary['steps']} steps of {summary['step']:g} s to {summary['stop_time']:g} s, "
+        f"{summary['coupling']}",
+    ]
+    for host in ("master", "ecos"):
+        lines.append(
+            f"  {host:<6} vs monolithic: max |error| bit speed {err[host]['bit_speed']:.3e} rad/s "
+            f"({rel[host]['bit_speed']:.2e} of its max), axial bit velocity "
+            f"{err[host]['bit_velocity']:.3e} m/s ({rel[host]['bit_velocity']:.2e})"
+        )
+    lines.append(f"  Ecos vs master: max relative difference {summary['ecos_vs_master']:.3e}")
+    return lines
