@@ -32,11 +32,6 @@ def host(tmp_path_factory):
     return tl.compile_c_host(tmp_path_factory.mktemp("c_host"))
 
 
-@pytest.fixture(scope="session")
-def clean_home(tmp_path_factory):
-    return tmp_path_factory.mktemp("home")
-
-
 CYCLES = textwrap.dedent(
     """
     import gc, os, sys

@@ -48,11 +48,6 @@ CSV_RESOLUTION = 5e-7 + 1e-12
 ODD = "drill ü#%[x] 100%20"
 
 
-@pytest.fixture(scope="session")
-def clean_home(tmp_path_factory):
-    return tmp_path_factory.mktemp("home")
-
-
 def _plant_columns(data) -> list[str]:
     return [n for n in data.dtype.names if n.startswith("plant.")]
 
@@ -309,8 +304,8 @@ def test_libcosim_runs_the_package_with_its_first_bindings(built, tmp_path):
                 )
             finally:
                 shutil.rmtree(p.root, ignore_errors=True)
-        got = _libcosim(ssp, 2000, names)
-        ref = _master_run(built.si.ssp, first, 2.0, exchange="simple", grid="ns")
+        got = _libcosim(ssp, 1000, names)
+        ref = _master_run(built.si.ssp, first, 1.0, exchange="simple", grid="ns")
         err = max(_rel(got[:, j], ref[n][1:]) for j, n in enumerate(names))
         print(f"libcosim vs master, first binding {first}: {err:.2e}")
         assert err <= 1e-12, (first, err)
