@@ -15,7 +15,6 @@ time scale), which come from the axial analysis.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -25,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.params import ScaledParams
+from drillstring.validation import check_real
 
 __all__ = [
     "AveragedModel",
@@ -72,13 +72,6 @@ class AveragedModel:
     rho: float
 
 
-def _finite(name: str, value: float) -> float:
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
-
-
 def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> AveragedModel:
     """Build the averaged torsional model (29)-(31) for ``params`` and the axial pair.
 
@@ -91,8 +84,8 @@ def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> Averag
     Raises:
         ValueError: for non-finite or out-of-range ``A`` or ``taubar_crit``.
     """
-    A = _finite("A", A)
-    taubar_crit = _finite("taubar_crit", taubar_crit)
+    A = check_real("A", A)
+    taubar_crit = check_real("taubar_crit", taubar_crit)
     if A <= 0.0:
         raise ValueError(f"A (slope of (22)) must be > 0, got {A!r}")
     if taubar_crit <= 0.0:
@@ -202,7 +195,7 @@ def delay_roots(
     root within ``min(1, 2/tau)`` of the rightmost one), applied to a balanced similar system,
     sorted by real part, descending; at most ``n_roots`` are returned.
     """
-    tau = model.tau_n0 if tau is None else _finite("tau", tau)
+    tau = model.tau_n0 if tau is None else check_real("tau", tau)
     if tau <= 0.0:
         raise ValueError(f"delay tau must be > 0, got {tau!r}")
     Ab, A1b = _balanced(_closed_loop_A0(model, F), model.A1)

@@ -32,6 +32,7 @@ from typing import Any
 from drillstring.controller.averaged import averaged_model
 from drillstring.fileio import write_text
 from drillstring.model.params import ParameterError, ScaledParams
+from drillstring.validation import check_real
 
 __all__ = [
     "DEFAULT_GAINS_PATH",
@@ -90,12 +91,7 @@ def params_hash(params: ScaledParams) -> str:
 
 
 def _real(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise GainsFileError(f"gains file: {name} must be a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise GainsFileError(f"gains file: {name} must be finite, got {value!r}")
-    return x
+    return check_real(f"gains file: {name}", value, error=GainsFileError)
 
 
 @dataclass(frozen=True)

@@ -83,19 +83,25 @@ def check_int(
     ``integral_floats`` accepts a float with an integral value (``4.0``), as FMI hosts and JSON
     writers deliver integers as reals; ``bool`` is always rejected.
     """
-    bound = "" if lower is None else f" >= {lower}"
+    bound = "" if lower is None else (" positive" if lower == 1 else f" >= {lower}")
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise error(f"{name} must be an integer{bound}, got {value!r}")
+        raise error(_int_message(name, bound, value))
     if isinstance(value, numbers.Integral):
         out = int(value)
     else:
         x = float(value)
         if not (integral_floats and math.isfinite(x) and x == math.floor(x)):
-            raise error(f"{name} must be an integer{bound}, got {value!r}")
+            raise error(_int_message(name, bound, value))
         out = int(x)
     if lower is not None and out < lower:
-        raise error(f"{name} must be an integer{bound}, got {value!r}")
+        raise error(_int_message(name, bound, value))
     return out
+
+
+def _int_message(name: str, bound: str, value: Any) -> str:
+    if bound == " positive":
+        return f"{name} must be a positive integer, got {value!r}"
+    return f"{name} must be an integer{bound}, got {value!r}"
 
 
 def check_choice(

@@ -61,6 +61,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from drillstring.analysis.spectrum import DDESystem, dde_roots
+from drillstring.validation import check_real
 
 if TYPE_CHECKING:
     from drillstring.model.params import ScaledParams
@@ -90,21 +91,11 @@ TWO_PI = 2.0 * math.pi
 # validation
 
 
-def _real(name: str, value: object, *, lower: float, strict: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (v <= lower if strict else v < lower):
-        rel = ">" if strict else ">="
-        raise ValueError(f"{name} must be finite and {rel} {lower}, got {value!r}")
-    return v
-
-
 def _check_ge(
     gammabar: object, etabar2: object, *, etabar2_strict: bool = True
 ) -> tuple[float, float]:
-    g = _real("gammabar", gammabar, lower=0.0, strict=False)
-    e2 = _real("etabar2", etabar2, lower=0.0, strict=etabar2_strict)
+    g = check_real("gammabar", gammabar, lower=0.0, strict=False)
+    e2 = check_real("etabar2", etabar2, lower=0.0, strict=etabar2_strict)
     return g, e2
 
 
@@ -124,7 +115,7 @@ def characteristic_function(
 def axial_system(gammabar: float, etabar2: float, taubar_n: float) -> DDESystem:
     """Eq. (21) as x' = A0 x + A1 x(taubar - taubar_n), x = (ubar, ubar'); taubar_n = 0: the ODE."""
     g, e2 = _check_ge(gammabar, etabar2, etabar2_strict=False)
-    tau = _real("taubar_n", taubar_n, lower=0.0, strict=False)
+    tau = check_real("taubar_n", taubar_n, lower=0.0, strict=False)
     a0 = np.array([[0.0, 1.0], [-(e2 + 1.0), -g]])
     a1 = np.array([[0.0, 0.0], [1.0, 0.0]])
     if tau == 0.0:
@@ -201,7 +192,7 @@ def crossing_delays(gammabar: float, etabar2: float, taubar_max: float) -> tuple
     marginal pair at taubar = 0 (k = 0) is not listed (module docstring).
     """
     g, e2 = _check_ge(gammabar, etabar2)
-    tmax = _real("taubar_max", taubar_max, lower=0.0, strict=True)
+    tmax = check_real("taubar_max", taubar_max, lower=0.0, strict=True)
     out: list[Crossing] = []
     for w, theta, direction in _families(g, e2):
         k = 1
@@ -265,7 +256,7 @@ def unstable_root_count(gammabar: float, etabar2: ArrayLike, taubar_n: ArrayLike
     Vectorised over ``etabar2`` and ``taubar_n`` (broadcast). A delay exactly at a crossing counts
     the pair on the axis as not unstable (only crossings strictly below ``taubar_n`` count).
     """
-    g = _real("gammabar", gammabar, lower=0.0, strict=False)
+    g = check_real("gammabar", gammabar, lower=0.0, strict=False)
     e2 = np.asarray(etabar2, dtype=float)
     tau = np.asarray(taubar_n, dtype=float)
     if not np.all(np.isfinite(e2)) or np.any(e2 <= 0.0):
@@ -389,11 +380,11 @@ def stability_diagram(
     ``shade_gammabar`` (default: the smallest gammabar) gets a stable/unstable mask on a
     ``grid = (n_taubar, n_etabar2)`` grid for shading.
     """
-    gs = tuple(_real("gammabar", g, lower=0.0, strict=False) for g in gammabars)
+    gs = tuple(check_real("gammabar", g, lower=0.0, strict=False) for g in gammabars)
     if not gs:
         raise ValueError("gammabars must not be empty")
-    t0, t1 = (_real("taubar_range", v, lower=0.0, strict=False) for v in taubar_range)
-    e0, e1 = (_real("etabar2_range", v, lower=0.0, strict=False) for v in etabar2_range)
+    t0, t1 = (check_real("taubar_range", v, lower=0.0, strict=False) for v in taubar_range)
+    e0, e1 = (check_real("etabar2_range", v, lower=0.0, strict=False) for v in etabar2_range)
     if not (t1 > t0 and e1 > e0):
         raise ValueError(
             f"ranges must be increasing, got taubar_range={taubar_range!r}, "
@@ -422,7 +413,7 @@ def stability_diagram(
     sg = (
         min(gs)
         if shade_gammabar is None
-        else _real("shade_gammabar", shade_gammabar, lower=0.0, strict=False)
+        else check_real("shade_gammabar", shade_gammabar, lower=0.0, strict=False)
     )
     tg = np.linspace(t0, t1, grid[0])
     eg = np.linspace(max(e0, 1e-6), e1, grid[1])

@@ -62,7 +62,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import numbers
 import os
 import tomllib
 from collections.abc import Mapping
@@ -71,7 +70,7 @@ from pathlib import Path
 from typing import Any, Self
 
 from drillstring.fileio import load_table, write_text
-from drillstring.validation import check_real
+from drillstring.validation import check_int, check_real
 
 __all__ = [
     "KNOWN_PARAMS",
@@ -100,42 +99,18 @@ class ParameterError(ValueError):
 # --------------------------------------------------------------------------------------------
 
 
-def _as_int(cls: str, name: str, value: Any) -> int:
-    """Return ``value`` as a positive int, or raise ParameterError naming ``cls.name``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
-    if isinstance(value, numbers.Integral):
-        out = int(value)
-    else:
-        x = float(value)
-        if not math.isfinite(x) or x != math.floor(x):
-            raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
-        out = int(x)
-    if out < 1:
-        raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
-    return out
-
-
-def _as_real(cls: str, name: str, value: Any, *, lower: float, strict: bool) -> float:
-    """Return ``value`` as a finite float above ``lower`` (strictly if ``strict``)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ParameterError(f"{cls}.{name} must be a real number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise ParameterError(f"{cls}.{name} must be finite, got {value!r}")
-    if (strict and not x > lower) or (not strict and not x >= lower):
-        op = ">" if strict else ">="
-        raise ParameterError(f"{cls}.{name} must be {op} {lower:g}, got {value!r}")
-    return x
-
-
 def _check_fields(obj: Any, ints: tuple[str, ...], rules: Mapping[str, tuple[float, bool]]) -> None:
     """Validate and coerce the fields of a frozen dataclass in place."""
     cls = type(obj).__name__
     for name in ints:
-        object.__setattr__(obj, name, _as_int(cls, name, getattr(obj, name)))
+        value = check_int(
+            f"{cls}.{name}", getattr(obj, name), lower=1, integral_floats=True, error=ParameterError
+        )
+        object.__setattr__(obj, name, value)
     for name, (lower, strict) in rules.items():
-        value = _as_real(cls, name, getattr(obj, name), lower=lower, strict=strict)
+        value = check_real(
+            f"{cls}.{name}", getattr(obj, name), lower=lower, strict=strict, error=ParameterError
+        )
         object.__setattr__(obj, name, value)
 
 
