@@ -10,7 +10,9 @@
 3. ``drillstring demo --design out/design --fmus build --out out`` (:func:`run_demo`):
    Section III (Fig. 2, Fig. 3, Fig. 4 with the design's own line reused), then Figs. 5 and 6
    by co-simulation of the FMUs on the fmpy master with the monolithic solver of the same loop
-   overlaid, and their measured agreement. ``summary.json`` lists every file and number.
+   overlaid, and their measured agreement; then Fig. 5 in SI units from the SSP package in Ecos
+   and in the project's master, against the monolithic solver in SI. ``summary.json`` lists every
+   file and number.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from drillstring.analysis.figures import (
     write_limit_cycle_figure,
     write_stability_diagram,
 )
+from drillstring.apps.cosim import run_si_demo, si_demo_lines
 from drillstring.controller.design import FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import write_json
@@ -52,6 +55,7 @@ class DemoSummary:
     figures: dict[str, dict[str, str]] = field(default_factory=dict)
     fig5: dict[str, Any] = field(default_factory=dict)
     fig6: dict[str, Any] = field(default_factory=dict)
+    si: dict[str, Any] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -117,6 +121,11 @@ def run_demo(
     summary.fig6 = dict(write_fig6(out / "fig6", fmus_dir, H=H))
     summary.figures["fig6"] = {k: str(summary.fig6.pop(k)) for k in ("png", "csv")}
     summary.seconds["fig6"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    log("Fig. 5 in SI units from the SSP package, in Ecos and in the project's master")
+    summary.si = run_si_demo(fmus_dir, out / "si")
+    summary.seconds["si"] = time.perf_counter() - t0
 
     write_json(out / "summary.json", summary.to_json())
     return summary
@@ -194,6 +203,8 @@ def print_summary(summary: DemoSummary) -> None:
         f"{r['torsional_stick_before_t_on_cosim']}/{r['torsional_stick_after_t_on_cosim']}, "
         f"suppressed: {r['suppressed']}"
     )
+    for line in si_demo_lines(summary.si):
+        print(f"   {line}")
     for name, paths in summary.figures.items():
         print(f"   {name}: {', '.join(paths.values())}")
 
