@@ -28,8 +28,8 @@ import numpy as np
 
 from drillstring.analysis.limit_cycles import design_inputs, limit_cycle
 from drillstring.apps.sweep.spec import SweepOptions, SweepSpec
-from drillstring.controller.averaged import averaged_model, closed_loop_roots, open_loop_roots
-from drillstring.controller.synthesis import synthesize
+from drillstring.controller.averaged import averaged_model, open_loop_roots
+from drillstring.controller.lineup import lmi_gain
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.simulate import SimulationResult, simulate
@@ -167,27 +167,16 @@ def closed_loop_metrics(
     """Closed-loop metrics at one point (see the module docstring)."""
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    gains = opts.gains_file
-    if gains is None:
-        kw = {} if opts["gain_max"] is None else {"gain_max": opts["gain_max"]}
-        syn = synthesize(model, **kw)
-        F = np.asarray(syn.F, dtype=float).reshape(4)
-        K0, R_ff = model.K0, model.R_ff
-        abscissa = float(syn.certificate.abscissa_nominal)
-    else:
-        F = np.asarray(gains.F, dtype=float)
-        if opts["feedforward"] == "file":
-            K0, R_ff = gains.K0, gains.R_ff
-        else:
-            K0, R_ff = model.K0, model.R_ff
-        abscissa = float(closed_loop_roots(model, F, None, 1)[0].real)
-    law = AffineFeedback(F=tuple(float(f) for f in F), K0=float(K0), R_ff=float(R_ff))
+    gain = lmi_gain(
+        model, opts.gains_file, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
+    )
+    law = AffineFeedback(F=gain.F, K0=gain.K0, R_ff=gain.R_ff)
     res = _run(params, tau_end, law, opts)
     out = {
         "A": design.A,
         "taubar_crit": design.taubar_crit,
-        "gain_norm": float(np.linalg.norm(F)),
-        "abscissa_closed": abscissa,
+        "gain_norm": float(np.linalg.norm(gain.F)),
+        "abscissa_closed": gain.abscissa,
         "max_dR": float(np.max(np.abs(res.R_minus_R0))),
         **_outcome(res),
     }
