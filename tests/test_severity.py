@@ -134,8 +134,8 @@ def test_severity_metrics_of_stick_slip_steady_and_a_stopped_run():
     assert s.outcome == "bit_bounce" and math.isnan(s.utr) and math.isnan(s.peak_torque)
 
 
-def _sev(u, torque, out="steady"):
-    return Severity(u, 0.0, 0.0, torque, out == "stall", out, 60.0)
+def _sev(severity, torque, out="steady"):
+    return Severity(severity, severity, 0.0, torque, out == "stall", out, 60.0)
 
 
 def test_best_controller_ranking():
@@ -145,10 +145,14 @@ def test_best_controller_ranking():
         "z-torque": _sev(0.0, 12.0),
         "lmi": _sev(0.0, 5000.0),
     }
-    # within the tie of 0.02 of the lowest UTR the least torque wins
+    # within the tie of 0.02 of the lowest severity the least torque wins
     assert best_controller(m) == "soft-torque"
     assert best_controller(m, tie=0.0) == "z-torque"
     m["soft-torque"] = _sev(math.nan, math.nan, "bit_bounce")
-    m["z-torque"] = _sev(1.0, 1.0, "stall")
+    m["z-torque"] = _sev(math.nan, 1.0, "stall")
     assert best_controller(m) == "lmi"
+    # a negative UTR (the bit above omega0 all through the window) does not rank: severity does
+    fast = Severity(-0.2, 0.3, 0.0, 1.0, False, "vibration", 60.0)
+    slow = Severity(0.05, 0.05, 0.0, 9.0, False, "vibration", 60.0)
+    assert best_controller({"fast": fast, "slow": slow}) == "slow"
     assert best_controller({"a": _sev(math.nan, math.nan, "reverse_rotation")}) == ""

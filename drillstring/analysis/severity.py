@@ -12,7 +12,8 @@ omega_bit = omega0 + dphi/dtau (scaled, eq. (14)'s omega0 is the nominal speed):
 * the peak top-drive torque ``max R`` (scaled, units of C) from a given time on (the switch-on);
 * stall, permanent stick: the bit in torsional stick over the whole window, its own outcome.
 
-:func:`outcome` names what a run did, :func:`best_controller` picks the best of several runs.
+:func:`outcome` names what a run did, :func:`best_controller` picks the best of several runs
+(lowest severity, then lowest peak torque).
 """
 
 from __future__ import annotations
@@ -202,29 +203,32 @@ def severity_metrics(
 
 
 def best_controller(metrics: Mapping[str, Severity], *, tie: float = 0.02) -> str:
-    """The best of several runs at one operating point, or "" if none completed.
+    """The best of several runs at one operating point, or "" if none qualifies.
 
-    Ranking: a run that stopped or stalled never wins; among the others, the lowest UTR wins,
-    and runs within ``tie`` of the lowest UTR are ranked by the lowest peak torque (the same
-    suppression for less torque is better). Names are compared in the order given for a tie
-    in both.
+    Ranking: a run that stopped or stalled never wins; among the others the lowest speed
+    severity wins, and runs within ``tie`` of the lowest severity are ranked by the lowest peak
+    torque (the same smoothness for less torque is better); the first name given wins a tie in
+    both. The severity, not UTR, ranks: UTR only sees how far the bit falls below omega0, and is
+    negative for a bit that runs above it through the whole window.
 
     Parameters
     ----------
     metrics : mapping of name to Severity
     tie : float
-        UTR difference regarded as equal, >= 0.
+        Severity difference regarded as equal, >= 0.
 
     Returns
     -------
     str
     """
     tie = check_real("tie", tie, lower=0.0, strict=False)
-    ok = {k: m for k, m in metrics.items() if m.outcome in OUTCOMES[:3] and math.isfinite(m.utr)}
+    ok = {
+        k: m for k, m in metrics.items() if m.outcome in OUTCOMES[:3] and math.isfinite(m.severity)
+    }
     if not ok:
         return ""
-    low = min(m.utr for m in ok.values())
-    close = [k for k, m in ok.items() if m.utr <= low + tie]
+    low = min(m.severity for m in ok.values())
+    close = [k for k, m in ok.items() if m.severity <= low + tie]
     return min(close, key=lambda k: ok[k].peak_torque)
 
 

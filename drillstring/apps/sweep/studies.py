@@ -13,6 +13,10 @@ in this process.
   file, and the full closed loop (29)-(31) from dphi/dtau(0) = ``dphi0``: convergence, residual
   ripple and the largest torque |R - R0| (Remark 1: the design can fail on the full model).
 * ``axial``: the averaged contact force (lambda/vbar0)<gbar>_a of the fast model (18) (Fig. 4).
+* ``controllers``: every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` (stiff
+  PI, SoftTorque, Z-Torque, the LMI law with a fixed or a point-wise gain) as a digital law on
+  the full model with torsional stick, from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity
+  metrics of :mod:`drillstring.analysis.severity` over the late window, and the best controller.
 
 A and taubar_crit of (22) depend on (gammabar, etabar^2) only; :func:`axial_design` computes them
 once per distinct pair (the sweep runs it as a separate task that the point tasks depend on).
@@ -27,11 +31,15 @@ from typing import Any
 import numpy as np
 
 from drillstring.analysis.limit_cycles import design_inputs, limit_cycle
+from drillstring.analysis.severity import Severity, best_controller, severity_metrics
+from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, controller_column
 from drillstring.apps.sweep.spec import SweepOptions, SweepSpec
 from drillstring.controller.averaged import averaged_model, open_loop_roots
-from drillstring.controller.lineup import lmi_gain
+from drillstring.controller.lineup import LmiGain, controller_lineup, lmi_gain
+from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
+from drillstring.model.sampled import simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 
 __all__ = [
@@ -39,6 +47,7 @@ __all__ = [
     "axial_design",
     "axial_metrics",
     "closed_loop_metrics",
+    "controllers_metrics",
     "design_key",
     "evaluate_point",
     "open_loop_metrics",
@@ -191,6 +200,66 @@ def closed_loop_metrics(
     return out
 
 
+def controllers_metrics(
+    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+) -> dict[str, Any]:
+    """Severity of every controller at one point (see the module docstring).
+
+    A failed LMI design (no admissible gain at the point) is recorded in ``lmi_design_error``
+    with the outcome "no_design" for the LMI law; the industrial laws still run, with the
+    point's feed-forward R_ff = -K0 (31).
+    """
+    design.check()
+    model = averaged_model(params, design.A, design.taubar_crit)
+    error = ""
+    try:
+        gain = lmi_gain(
+            model, opts.gains_file, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
+        )
+    except SynthesisInfeasible as exc:
+        error = _first_line(exc)
+        gain = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=model.K0, R_ff=model.R_ff, abscissa=math.nan)
+    laws = controller_lineup(params, gain, t_on=opts["t_on"], latch=opts["latch"])
+    options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
+    out: dict[str, Any] = {
+        "A": design.A,
+        "taubar_crit": design.taubar_crit,
+        "lmi_gain_norm": math.nan if error else float(np.linalg.norm(gain.F)),
+        "lmi_abscissa": gain.abscissa,
+        "lmi_design_error": error,
+    }
+    found: dict[str, Severity] = {}
+    for name, law in laws.items():
+        if name == "lmi" and error:
+            nan = math.nan
+            sev = Severity(nan, nan, nan, nan, False, "no_design", nan)
+        else:
+            res = simulate_sampled(
+                params,
+                law,
+                tau_end,
+                opts["Ts"],
+                initial={"dphi": opts["dphi0_rel"] * params.omega0},
+                options=options,
+                dt_out=opts["dt_out"],
+            )
+            sev = severity_metrics(
+                res, opts["window"], t_from=opts["t_on"], vibration_tol=opts["vibration_tol"]
+            )
+        found[name] = sev
+        values = sev.to_dict()
+        for metric, kind in CONTROLLER_METRICS:
+            value = values[metric]
+            out[controller_column(metric, name)] = int(value) if kind == "flag" else value
+    out["best"] = best_controller(found, tie=opts["tie"])
+    return out
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}"
+
+
 def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
     """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4)."""
     lc = limit_cycle(
@@ -223,4 +292,6 @@ def evaluate_point(spec: SweepSpec, index: int, design: DesignInputs | None) -> 
     params = spec.point_params(index)
     if spec.study == "open-loop":
         return open_loop_metrics(params, design, spec.tau_end, spec.options)
+    if spec.study == "controllers":
+        return controllers_metrics(params, design, spec.tau_end, spec.options)
     return closed_loop_metrics(params, design, spec.tau_end, spec.options)
