@@ -142,3 +142,19 @@ def test_controller_map_resumes(paper_gains, tmp_path):
 def test_controller_spec_errors(paper_gains, options, message):
     with pytest.raises(SweepSpecError, match=message):
         _spec(paper_gains[1], **options)
+
+
+def test_a_subset_of_controllers_leaves_the_others_empty(paper_gains, serial_map, tmp_path):
+    spec = _spec(paper_gains[1], controllers=["soft-torque", "stiff-pi"])
+    assert spec.options["controllers"] == ("stiff-pi", "soft-torque")
+    report = run_sweep(spec, tmp_path, serial=True, progress=False, plots=False)
+    full = _rows(serial_map[1].results)
+    for row, ref in zip(_rows(report.results), full, strict=True):
+        for c in ("stiff-pi", "soft-torque"):
+            assert row[f"utr.{c}"] == ref[f"utr.{c}"]  # the same runs as with every controller
+        assert row["utr.lmi"] == row["outcome.z-torque"] == row["lmi_gain_norm"] == ""
+        assert row["best"] in ("stiff-pi", "soft-torque")
+    with pytest.raises(SweepSpecError, match="lists a controller twice"):
+        _spec(paper_gains[1], controllers=["lmi", "lmi"])
+    with pytest.raises(SweepSpecError, match=r"options.controllers\[0\] must be one of"):
+        _spec(paper_gains[1], controllers=["pid"])

@@ -41,7 +41,7 @@ from typing import Any
 from tqdm import tqdm
 
 from drillstring.analysis.severity import OUTCOMES
-from drillstring.apps.sweep.colors import CONTROLLER_COLORS, OUTCOME_COLORS
+from drillstring.apps.colors import CONTROLLER_COLORS, OUTCOME_COLORS
 from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, METRICS, controller_column
 from drillstring.apps.sweep.plots import metric_figure, panel_figure
 from drillstring.apps.sweep.spec import SweepSpec, SweepSpecError, load_spec
@@ -487,7 +487,7 @@ def _controller_plots(
         else:
             kind = kinds[metric]
             panels: dict[str, list[Any]] = {}
-            for c in CONTROLLERS:
+            for c in spec.options["controllers"]:
                 raw = _column(spec, rows, controller_column(metric, c))
                 panels[c] = raw if kind == "str" else [float(v) if v else None for v in raw]
             fig = panel_figure(

@@ -50,7 +50,7 @@ import numpy as np
 from drillstring.analysis.limit_cycles import fast_params
 from drillstring.apps.sweep.metrics import plottable
 from drillstring.controller.gains import GainsFileError, read_gains
-from drillstring.controller.lineup import FEEDFORWARD
+from drillstring.controller.lineup import CONTROLLERS, FEEDFORWARD
 from drillstring.fileio import load_table
 from drillstring.model.control import LATCH_MODES
 from drillstring.model.params import (
@@ -103,12 +103,14 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     },
     # drillstring.analysis.limit_cycles.limit_cycle: step, kick, period budget, lambda/vbar0
     "axial": {"h": 1e-2, "kick": 0.05, "max_periods": 400, "lam_over_vbar0": 50.0},
-    # Ts: sample period of the laws; dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5:
-    # -0.5); t_on/latch: switch-on of every law; window: late window of the metrics; gains,
-    # gain_max, feedforward: the LMI gain as in the closed-loop study (feedforward "point": K0
-    # and R_ff of the point, shared by every law); tie: severity difference treated as equal
-    # when ranking; vibration_tol: severity below which a run is steady; on_invalid: bit bouncing
+    # controllers: which of CONTROLLERS to run (default all); Ts: sample period of the laws;
+    # dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch: switch-on
+    # of every law; window: late window of the metrics; gains, gain_max, feedforward: the LMI
+    # gain as in the closed-loop study (feedforward "point": K0 and R_ff of the point, shared
+    # by every law); tie: severity difference treated as equal when ranking; vibration_tol:
+    # severity below which a run is steady; on_invalid: what bit bouncing does to a run
     "controllers": {
+        "controllers": CONTROLLERS,
         "h": 5e-4,
         "Ts": 1e-3,
         "dt_out": 1e-2,
@@ -416,6 +418,8 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             out[key] = _str(where, v, ("stop", "continue"))
         elif key == "gains":
             out[key] = _str(where, v)
+        elif key == "controllers":
+            out[key] = _controllers(where, v)
     if study in FULL_MODEL_STUDIES and out["h"] > out["dt_out"]:
         raise SweepSpecError(
             f"options.h = {out['h']!r} must not exceed options.dt_out = {out['dt_out']!r}"
@@ -436,6 +440,17 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             raise SweepSpecError(f"options.gains: {exc}") from None
         out["gains"] = str(path)
     return SweepOptions(values=tuple(out.items()), gains_file=gains_file)
+
+
+def _controllers(where: str, value: Any) -> tuple[str, ...]:
+    """A non-empty list of distinct names of CONTROLLERS, in CONTROLLERS' order."""
+    if not isinstance(value, list | tuple) or not value:
+        raise SweepSpecError(f"{where} must be a non-empty list of names, got {value!r}")
+    for k, name in enumerate(value):
+        _str(f"{where}[{k}]", name, CONTROLLERS)
+    if len(set(value)) != len(value):
+        raise SweepSpecError(f"{where} lists a controller twice: {list(value)!r}")
+    return tuple(c for c in CONTROLLERS if c in value)
 
 
 def _check_sampling(out: dict[str, Any]) -> None:

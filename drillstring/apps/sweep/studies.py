@@ -203,7 +203,8 @@ def closed_loop_metrics(
 def controllers_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
-    """Severity of every controller at one point (see the module docstring).
+    """Severity of every controller at one point (see the module docstring); the controllers
+    not selected by the option ``controllers`` get no values.
 
     A failed LMI design (no admissible gain at the point) is recorded in ``lmi_design_error``
     with the outcome "no_design" for the LMI law; the industrial laws still run, with the
@@ -212,24 +213,35 @@ def controllers_metrics(
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
     error = ""
-    try:
-        gain = lmi_gain(
-            model, opts.gains_file, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
-        )
-    except SynthesisInfeasible as exc:
-        error = _first_line(exc)
-        gain = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=model.K0, R_ff=model.R_ff, abscissa=math.nan)
+    gains = opts.gains_file
+    K0, R_ff = (
+        (gains.K0, gains.R_ff)
+        if gains is not None and opts["feedforward"] == "file"
+        else (model.K0, model.R_ff)
+    )
+    gain = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=K0, R_ff=R_ff, abscissa=math.nan)
+    run_lmi = "lmi" in opts["controllers"]
+    if run_lmi:
+        try:
+            gain = lmi_gain(
+                model, gains, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
+            )
+        except SynthesisInfeasible as exc:
+            error = _first_line(exc)
     laws = controller_lineup(params, gain, t_on=opts["t_on"], latch=opts["latch"])
     options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
     out: dict[str, Any] = {
         "A": design.A,
         "taubar_crit": design.taubar_crit,
-        "lmi_gain_norm": math.nan if error else float(np.linalg.norm(gain.F)),
-        "lmi_abscissa": gain.abscissa,
+        "lmi_gain_norm": (math.nan if error else float(np.linalg.norm(gain.F)))
+        if run_lmi
+        else None,
+        "lmi_abscissa": gain.abscissa if run_lmi else None,
         "lmi_design_error": error,
     }
     found: dict[str, Severity] = {}
-    for name, law in laws.items():
+    for name in opts["controllers"]:
+        law = laws[name]
         if name == "lmi" and error:
             nan = math.nan
             sev = Severity(nan, nan, nan, nan, False, "no_design", nan)
