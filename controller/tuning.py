@@ -14,7 +14,8 @@ per speed in units of C*t*); the rules below are written with them.
   circle |s| = omega_s, where they share the damping ratio 1/(2*sqrt(rho)), the largest common
   one (:func:`soft_torque_damping` states the damping for any kp).
 * :func:`z_torque`: the stiff PI with the set point corrected by the string torque over the
-  impedance (``z_gain = 1``), high-pass and low-pass filtered.
+  impedance (``z_gain = 1``), high-pass (corner 0.3*omega_s) and low-pass (10*omega_s)
+  filtered.
 
 :func:`linear_closed_loop` builds the closed loop of the linearised torsional model (13), (27)
 (:func:`~drillstring.controller.averaged.linearised_ode_matrix`) with a law, in continuous time,
@@ -162,7 +163,7 @@ def z_torque(
     params: ScaledParams,
     *,
     z_gain: float = 1.0,
-    omega_hp: float = 0.1,
+    omega_hp: float = 0.3,
     omega_lp: float = 10.0,
     bandwidth: float = 10.0,
     R_ff: float = 0.0,
@@ -177,8 +178,13 @@ def z_torque(
         Gives rho.
     z_gain : float
         Torque feedback in units of 1/Z (1: the impedance of the lumped string, matched).
-    omega_hp, omega_lp : float
-        Filter corners in units of omega_s (defaults: a decade below and above).
+    omega_hp : float
+        High-pass corner in units of omega_s. The default 0.3 gives the fastest decay of the
+        lumped string's closed loop ((13), (27) with c = 0) at rho = 5 (``docs/controllers.md``):
+        a lower corner lets the set-point correction linger (slow recovery of the mean speed),
+        a higher one shifts the correction's phase at omega_s.
+    omega_lp : float
+        Low-pass (measurement filter) corner in units of omega_s: a decade above.
     bandwidth : float
         Speed-loop bandwidth of the PI (see :func:`stiff_pi`).
     R_ff, t_on : float

@@ -9,9 +9,15 @@ from __future__ import annotations
 import csv
 import math
 
+import numpy as np
 import pytest
 
 from drillstring.analysis.severity import severity_metrics
+from drillstring.apps.controllers import (
+    COMPARISON_COLUMNS,
+    controllers_main,
+    write_controller_comparison,
+)
 from drillstring.apps.sweep.runner import run_sweep
 from drillstring.apps.sweep.spec import SweepSpecError, spec_from_dict
 from drillstring.apps.sweep.studies import axial_design
@@ -19,7 +25,8 @@ from drillstring.controller.averaged import averaged_model
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.lineup import CONTROLLERS, controller_lineup, lmi_gain
 from drillstring.model.engine import EngineOptions
-from drillstring.model.params import REFERENCE
+from drillstring.model.experiments import Experiment
+from drillstring.model.params import REFERENCE, get_physical
 from drillstring.model.sampled import simulate_sampled
 
 
@@ -158,3 +165,80 @@ def test_a_subset_of_controllers_leaves_the_others_empty(paper_gains, serial_map
         _spec(paper_gains[1], controllers=["lmi", "lmi"])
     with pytest.raises(SweepSpecError, match=r"options.controllers\[0\] must be one of"):
         _spec(paper_gains[1], controllers=["pid"])
+
+
+# --------------------------------------------------------------------------------------------
+# drillstring controllers compare / map (drillstring.apps.controllers)
+# --------------------------------------------------------------------------------------------
+
+SHORT_FIG6 = Experiment(
+    "fig6-short", dphi0=-4.9, tau_end=8.0, t_on=6.0, latch="angle", torsional_stick=True
+)
+
+
+def test_comparison_starts_every_controller_from_the_same_state(paper_gains, tmp_path):
+    result = write_controller_comparison(
+        tmp_path, paper_gains[0], experiment=SHORT_FIG6, window=2.0, log=None
+    )
+    names = [r["controller"] for r in result.rows]
+    assert names == ["open-loop", *CONTROLLERS, "lmi-continuous"]
+    with open(result.files["table"], newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert [r["controller"] for r in table] == names and list(table[0]) == list(COMPARISON_COLUMNS)
+    assert result.files["figure"].stat().st_size > 10_000
+    # until the switch-on every run is the open loop (the same held R_ff), to the event
+    # location's rounding (see test_laws: the held torque equals the monolithic run)
+    ol = result.runs["open-loop"]
+    before = ol.tau < 6.0
+    for name in CONTROLLERS:
+        r = result.runs[name]
+        np.testing.assert_allclose(r.tau[before], ol.tau[before], atol=1e-12)
+        np.testing.assert_allclose(r.dphi[before], ol.dphi[before], atol=1e-8)
+    # the reference rig is found for the reference set: peak torques in N m are C times
+    rows = {r["controller"]: r for r in result.rows}
+    C = get_physical("reference-rig").C
+    assert rows["lmi"]["peak_torque_Nm"] == pytest.approx(C * rows["lmi"]["peak_torque"])
+    assert result.laws["soft-torque"]["si"]["kp"] == pytest.approx(
+        result.laws["soft-torque"]["scaled"]["kp"] * C * math.sqrt(200.0 / 235.0), rel=1e-12
+    )
+    # sampled and continuous evaluation of the paper's law agree closely
+    assert rows["lmi"]["peak_torque"] == pytest.approx(rows["lmi-continuous"]["peak_torque"], 1e-2)
+
+
+def test_cli_compare_and_map(paper_gains, tmp_path, capsys):
+    assert (
+        controllers_main(
+            ["compare", "--gains", str(tmp_path / "none.json"), "--out", str(tmp_path)]
+        )
+        == 2
+    )
+    assert "cannot read gains file" in capsys.readouterr().err
+    out = tmp_path / "map"
+    code = controllers_main(
+        [
+            "map",
+            "--gains",
+            str(paper_gains[1]),
+            "--out",
+            str(out),
+            "--n",
+            "2",
+            "--tau-end",
+            "2",
+            "--window",
+            "1",
+            "--workers",
+            "0",
+            "--no-progress",
+        ]
+    )
+    assert code == 0
+    with open(out / "by_controller.csv", newline="") as fh:
+        counts = list(csv.DictReader(fh))
+    assert [r["controller"] for r in counts] == list(CONTROLLERS)
+    assert sum(int(r["best"]) for r in counts) == 4  # one best per point
+    for r in counts:
+        assert (
+            sum(int(r[o]) for o in ("steady", "vibration", "stick-slip", "stall", "stopped")) == 4
+        )
+    assert (out / "plots" / "best.png").exists()

@@ -23,6 +23,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
+    "controllers": ("drillstring.apps.controllers", "controllers_main", "industrial vs LMI"),
     "demo": ("drillstring.apps.demo", "demo_main", "the main job (make demo)"),
 }
 

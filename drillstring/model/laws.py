@@ -341,7 +341,8 @@ class ZTorque:
     z_gain : float
         Torque feedback gain in units of 1/Z (1: impedance matching), >= 0.
     omega_hp : float
-        High-pass corner (rad per unit of scaled time), > 0.
+        High-pass corner (rad per unit of scaled time), > 0 (default: the tuning of
+        ``drillstring.controller.tuning.z_torque``).
     omega_lp : float
         Low-pass corner, > 0.
     R_ff : float
@@ -353,7 +354,7 @@ class ZTorque:
     kp: float
     ki: float
     z_gain: float = 1.0
-    omega_hp: float = 0.1
+    omega_hp: float = 0.3
     omega_lp: float = 10.0
     R_ff: float = 0.0
     t_on: float = 0.0
