@@ -472,8 +472,22 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--window", type=float, default=20.0, help="late window of the metrics")
     m = sub.choices["map"]
     m.add_argument("--n", type=int, default=6, help="points per axis (default 6)")
-    m.add_argument("--omega0", type=float, nargs=2, default=(2.0, 10.0), metavar=("LO", "HI"))
-    m.add_argument("--v0", type=float, nargs=2, default=(0.25, 2.0), metavar=("LO", "HI"))
+    m.add_argument(
+        "--omega0",
+        type=float,
+        nargs=2,
+        default=(2.0, 10.0),
+        metavar=("LO", "HI"),
+        help="range of the surface speed omega0 (scaled; default 2 10)",
+    )
+    m.add_argument(
+        "--v0",
+        type=float,
+        nargs=2,
+        default=(0.25, 2.0),
+        metavar=("LO", "HI"),
+        help="range of the feed v0 (scaled; default 0.25 2)",
+    )
     m.add_argument("--tau-end", type=float, default=60.0, help="run length (default 60)")
     m.add_argument(
         "--workers", type=int, default=None, help="Dask workers (default: CPU count; 0: serial)"
