@@ -42,7 +42,7 @@ from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6, Experiment
-from drillstring.model.params import KNOWN_PHYSICAL, PhysicalParams, ScaledParams
+from drillstring.model.params import KNOWN_PARAMS, KNOWN_PHYSICAL, PhysicalParams, ScaledParams
 from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.plotting import new_figure
@@ -80,6 +80,14 @@ LMI_CONTINUOUS = "lmi-continuous"
 
 def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
     return gains if isinstance(gains, GainsFile) else read_gains(gains)
+
+
+def _base(params: ScaledParams) -> str | dict[str, Any]:
+    """A sweep's base for ``params``: the name of a known set equal to it, else the set."""
+    for name, known in KNOWN_PARAMS.items():
+        if known == params:
+            return name
+    return {"kind": "scaled", **params.to_dict()}
 
 
 def _matching_rig(params: ScaledParams) -> PhysicalParams | None:
@@ -404,7 +412,7 @@ def write_controller_map(
     spec = spec_from_dict(
         {
             "study": "controllers",
-            "base": {"kind": "scaled", **g.params.to_dict()},
+            "base": _base(g.params),
             "tau_end": tau_end,
             "sweep": [
                 {"param": "omega0", "start": omega0[0], "stop": omega0[1], "num": n},
