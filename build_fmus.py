@@ -7,17 +7,26 @@ Usage::
 For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
 ``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``):
 
-1. stage the project files bundled into the FMU's ``resources/``: the ``drillstring`` package (the
-   physics; no model code is in the FMU scripts), the shared ``drillstring_fmu_support.py``, the
-   build configuration ``drillstring_fmu.json`` (package version, controller gains) and
-   ``requirements.txt`` (numpy only, for ``pythonfmu deploy``);
+1. stage the files bundled into the FMU's ``resources/``: the ``drillstring`` package (the physics;
+   no model code is in the FMU scripts), the shared lifecycle ``drillstring_fmu_support.py``, the
+   start-up module ``drillstring_fmu_boot.py``, the script, a one-line entry module for pythonfmu
+   (``<script>_entry.py``, see :func:`entry_module`), the build configuration
+   ``drillstring_fmu.json`` (package version, controller gains), the record of the Python that
+   builds the FMU ``drillstring_fmu_python.cfg`` (libpython, home, site-packages) and
+   ``requirements.txt``; and the ``documentation/`` folder;
 2. build with pythonfmu (``canGetAndSetFMUstate`` and ``canSerializeFMUstate`` true);
-3. post-process ``modelDescription.xml`` where pythonfmu cannot express the truth: the
-   ``ModelStructure`` (each script's ``OUTPUT_DEPENDENCIES``: the plant's outputs do not depend
-   on its input, the controller's output depends on its four inputs), unit "1" on every Real with
-   its ``UnitDefinitions``, start values written with all 17 digits, a GUID derived from the
-   content and a pinned ``generationDateAndTime`` when ``SOURCE_DATE_EPOCH`` is set;
-4. rewrite the archive deterministically (sorted entries, fixed timestamps) and run
+3. post-process ``modelDescription.xml`` where pythonfmu cannot express the truth: outputs
+   ``initial="calculated"`` without start values, listed in ``InitialUnknowns``; the true
+   ``ModelStructure`` (each variable's ``depends_on``); ``min``/``max`` of every parameter with a
+   range; Enumeration types (``TypeDefinitions``) for the enumeration parameters; unit "1" on every
+   Real with its ``UnitDefinitions``; start values written exactly (17 digits); a GUID derived from
+   the content and a pinned ``generationDateAndTime`` when ``SOURCE_DATE_EPOCH`` is set;
+4. replace pythonfmu's binaries by the project's front layer: pythonfmu's ``linux64`` library is
+   kept as ``binaries/linux64/<id>_pythonfmu.so`` and ``binaries/linux64/<id>.so`` is
+   ``fmu_src/fmi_front/drillstring_fmi2.c`` compiled with the system's C compiler against a header
+   generated from the final modelDescription.xml (:func:`model_header`); pythonfmu's untested
+   ``win64`` DLL is dropped (only built and tested platforms are shipped);
+5. rewrite the archive deterministically (sorted entries, fixed timestamps) and run
    ``fmpy.validate_fmu``; any problem fails the build with the list of problems.
 
 Building twice gives identical ``modelDescription.xml`` apart from ``generationDateAndTime``, and
@@ -33,11 +42,15 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import hashlib
+import html
 import importlib.util
 import json
 import os
+import shlex
 import shutil
+import subprocess
 import sys
+import sysconfig
 import tempfile
 import uuid
 import zipfile
@@ -51,9 +64,13 @@ ROOT = Path(__file__).resolve().parent
 FMU_SRC = ROOT / "fmu_src"
 PACKAGE = ROOT / "drillstring"
 SUPPORT = FMU_SRC / "drillstring_fmu_support.py"
+BOOT = FMU_SRC / "drillstring_fmu_boot.py"
+FRONT_LAYER = FMU_SRC / "fmi_front" / "drillstring_fmi2.c"
 CONFIG_NAME = "drillstring_fmu.json"
+RUNTIME_NAME = "drillstring_fmu_python.cfg"
 DEFAULT_OUT = ROOT / "build"
-#: Runtime dependencies of the FMUs' Python code besides the standard library.
+#: Runtime dependencies of the FMUs' Python code besides the standard library (pythonfmu's own
+#: Python files are bundled by pythonfmu; numba is optional: without it the kernel is plain Python).
 REQUIREMENTS = "numpy>=2.0\n"
 #: Files of the drillstring package that are not bundled.
 _IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc", ".*")
@@ -61,6 +78,18 @@ _IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc", ".*")
 _GUID_NAMESPACE = uuid.UUID("6f1c2a8e-1d5b-5d3e-9a7c-2b4f0e8d9c11")
 #: Fixed timestamp of the archive entries (the earliest a zip file can hold).
 _ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
+#: Flags of the front layer (plain C, no debug information: the binary is reproducible).
+#: (Messages cut to their buffers are intended: -Wno-format-truncation.)
+CFLAGS = ("-std=gnu11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra")
+CFLAGS += ("-Wno-format-truncation",)
+CFLAGS_STRICT = ("-Werror", "-Wl,-z,defs")
+LDLIBS = ("-ldl", "-lpthread")
+#: The environment variables that override the recorded Python on another machine.
+OVERRIDES = {
+    "libpython": "DRILLSTRING_FMU_LIBPYTHON",
+    "home": "DRILLSTRING_FMU_PYTHONHOME",
+    "site": "DRILLSTRING_FMU_SITE_PACKAGES",
+}
 
 
 class BuildError(RuntimeError):
@@ -125,6 +154,65 @@ def load_gains(path: Path) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------------------------
+# the build environment: compiler, Python headers, the Python recorded in the FMU
+# ------------------------------------------------------------------------------------------------
+
+
+def find_compiler() -> list[str]:
+    """The C compiler: ``$CC``, else ``cc``, ``gcc`` or ``clang`` on PATH."""
+    if os.environ.get("CC"):
+        cmd = shlex.split(os.environ["CC"])
+        if shutil.which(cmd[0]) is None:
+            raise BuildError(f"CC={os.environ['CC']!r}: {cmd[0]} not found")
+        return cmd
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path is not None:
+            return [path]
+    raise BuildError(
+        "no C compiler found (looked for $CC, cc, gcc, clang): build_fmus.py compiles the FMUs' "
+        "front layer (fmu_src/fmi_front/drillstring_fmi2.c) with the system's C compiler; install "
+        "one (Debian: apt-get install gcc) or set CC"
+    )
+
+
+def python_record() -> dict[str, Any]:
+    """libpython, home and site-packages of this interpreter (what the FMU will start)."""
+    if not sysconfig.get_config_var("Py_ENABLE_SHARED"):
+        raise BuildError(
+            f"{sys.executable} has no shared libpython (built without --enable-shared): the FMUs "
+            "need one to start Python in a host process"
+        )
+    libdir = Path(sysconfig.get_config_var("LIBDIR"))
+    libpython = libdir / (sysconfig.get_config_var("INSTSONAME") or "")
+    if not libpython.is_file():
+        raise BuildError(f"libpython not found at {libpython}")
+    paths = sysconfig.get_paths()
+    sites = list(dict.fromkeys([paths["purelib"], paths["platlib"]]))
+    return {
+        "version": f"{sys.version_info.major}.{sys.version_info.minor}",
+        "libpython": str(libpython),
+        "home": sys.base_prefix,
+        "site": sites,
+        "include": paths["include"],
+    }
+
+
+def runtime_file(record: dict[str, Any]) -> str:
+    """``resources/drillstring_fmu_python.cfg``: read by the front layer before Python exists."""
+    lines = [
+        "# The Python that built this FMU (written by build_fmus.py; read by its front layer).",
+        f"# On another machine: {OVERRIDES['libpython']}, {OVERRIDES['home']} and "
+        f"{OVERRIDES['site']} (':'-separated) override these lines.",
+        f"version {record['version']}",
+        f"libpython {record['libpython']}",
+        f"home {record['home']}",
+    ]
+    lines += [f"site {s}" for s in record["site"]]
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------------------
 # staging and building
 # ------------------------------------------------------------------------------------------------
 
@@ -138,102 +226,158 @@ def _package_version() -> str:
         return "unknown"
 
 
-def _stage(staging: Path, config: dict[str, Any]) -> list[Path]:
-    """Write the project files bundled into ``resources/``; returns their paths."""
-    package = staging / "drillstring"
-    shutil.copytree(PACKAGE, package, ignore=_IGNORE)
-    support = staging / SUPPORT.name
-    shutil.copyfile(SUPPORT, support)
-    cfg = staging / CONFIG_NAME
-    cfg.write_text(json.dumps(config, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    req = staging / "requirements.txt"
-    req.write_text(REQUIREMENTS, encoding="utf-8")
-    return [package, support, cfg, req]
+def entry_module(spec: FmuSpec) -> tuple[str, str]:
+    """Name and text of the entry module named in ``slavemodule.txt``.
+
+    pythonfmu 0.7.0 compiles and executes the file of that module anew at every ``fmi2Instantiate``
+    and keeps a list referencing every class it defines (the class and its functions are never
+    freed: ~64 KB per instance). This module only imports the class, so each instantiation
+    defines nothing new; the script itself is imported once per process.
+    """
+    name = f"{spec.script.stem}_entry"
+    text = (
+        f'"""Entry module of {spec.model}.fmu for pythonfmu\'s library, written by\n'
+        "build_fmus.py: executed at every fmi2Instantiate, so it only imports the class (see\n"
+        'build_fmus.py, `entry_module`)."""\n\n'
+        f"from {spec.script.stem} import {spec.model}  # noqa: F401\n"
+    )
+    return name, text
 
 
-def _load_script(spec: FmuSpec, staging: Path) -> tuple[Any, Any]:
-    """The script module and an instance of its class, resources = the staging folder."""
+def _stage(spec: FmuSpec, staging: Path, config: dict[str, Any], record: dict[str, Any]) -> Path:
+    """Write the files bundled into ``resources/``; returns the staged script."""
+    shutil.copytree(PACKAGE, staging / "drillstring", ignore=_IGNORE)
+    for path in (SUPPORT, BOOT, spec.script):
+        shutil.copyfile(path, staging / path.name)
+    name, text = entry_module(spec)
+    (staging / f"{name}.py").write_text(text, encoding="utf-8")
+    cfg = json.dumps(config, indent=2, sort_keys=True) + "\n"
+    (staging / CONFIG_NAME).write_text(cfg, encoding="utf-8")
+    (staging / RUNTIME_NAME).write_text(runtime_file(record), encoding="utf-8")
+    (staging / "requirements.txt").write_text(REQUIREMENTS, encoding="utf-8")
+    return staging / spec.script.name
+
+
+def _load_script(spec: FmuSpec, script: Path) -> tuple[Any, Any]:
+    """The staged script's module and an instance of its class (resources = the staging folder)."""
     name = f"_build_fmus_{spec.script.stem}"
-    module_spec = importlib.util.spec_from_file_location(name, spec.script)
+    module_spec = importlib.util.spec_from_file_location(name, script)
     assert module_spec is not None and module_spec.loader is not None
     module = importlib.util.module_from_spec(module_spec)
     module_spec.loader.exec_module(module)
-    instance = getattr(module, spec.model)(instance_name="build_fmus", resources=str(staging))
+    cls = getattr(module, spec.model)
+    instance = cls(instance_name="build_fmus", resources=str(script.parent))
+    if instance.log_queue:
+        raise BuildError(f"{spec.model}: {[m.msg for m in instance.log_queue]}")
     return module, instance
 
 
-def _pythonfmu_build(spec: FmuSpec, staging: Path, files: list[Path], dest: Path) -> Path:
+def _pythonfmu_build(script: Path, dest: Path, documentation: Path) -> Path:
     from pythonfmu import FmuBuilder
 
+    staging = script.parent
+    files = [p for p in sorted(staging.iterdir()) if p != script]
     saved = list(sys.path)
     try:
         return Path(
             FmuBuilder.build_FMU(
-                spec.script,
+                script,
                 dest=dest,
                 project_files=files,
+                documentation_folder=documentation,
                 canGetAndSetFMUstate=True,
                 canSerializeFMUstate=True,
             )
         )
     finally:
         sys.path[:] = saved
-        sys.modules.pop(spec.script.stem, None)
+        for name in (script.stem, "drillstring_fmu_support"):
+            sys.modules.pop(name, None)
 
 
 # ------------------------------------------------------------------------------------------------
 # modelDescription.xml post-processing
 # ------------------------------------------------------------------------------------------------
 
+#: Attribute order of the type elements in the FMI 2.0 schema (kept for readability).
+_ATTRIBUTE_ORDER = ("declaredType", "unit", "min", "max", "start")
 
-def _fix_model_description(
-    root: ET.Element, dependencies: dict[str, tuple[str, ...]], starts: dict[str, float]
-) -> None:
-    """Units, exact start values and the true ModelStructure (see the module docstring)."""
-    model_variables = root.find("ModelVariables")
-    assert model_variables is not None
-    variables = list(model_variables)
-    index = {sv.get("name"): i + 1 for i, sv in enumerate(variables)}
-    for sv in variables:
-        real = sv.find("Real")
-        if real is None:
-            continue
-        real.set("unit", "1")
-        if real.get("start") is not None:
-            real.set("start", repr(float(starts[sv.get("name")])))
 
+def _format_start(value: Any, kind: str) -> str:
+    if kind == "Real":
+        return repr(float(value))
+    if kind == "Boolean":
+        return "true" if value else "false"
+    return str(int(value))
+
+
+def _format_bound(value: float, kind: str) -> str:
+    return repr(float(value)) if kind == "Real" else str(int(value))
+
+
+def _fix_model_description(root: ET.Element, variables: Sequence[Any], starts: dict[str, Any]):
+    """Types, units, ranges, exact start values and the true ModelStructure (module docstring)."""
+    svs = list(root.find("ModelVariables") or [])
+    index = {sv.get("name"): i + 1 for i, sv in enumerate(svs)}
+    by_name = {v.name: v for v in variables}
+    if set(index) != set(by_name):
+        raise BuildError(f"variables {sorted(by_name)} but modelDescription has {sorted(index)}")
+    enumerations: dict[str, Any] = {}
+    for sv in svs:
+        var = by_name[sv.get("name")]
+        for child in list(sv):
+            sv.remove(child)
+        sv.set("causality", var.causality)
+        sv.set("variability", var.variability)
+        if var.initial is None:
+            sv.attrib.pop("initial", None)
+        else:
+            sv.set("initial", var.initial)
+        attrib: dict[str, str] = {}
+        if var.type == "Enumeration":
+            attrib["declaredType"] = var.type_name
+            enumerations[var.type_name] = var
+        if var.type == "Real":
+            attrib["unit"] = "1"
+        if var.min is not None:
+            attrib["min"] = _format_bound(var.min, var.type)
+        if var.max is not None:
+            attrib["max"] = _format_bound(var.max, var.type)
+        if var.causality != "output":
+            attrib["start"] = _format_start(starts[var.name], var.type)
+        ordered = {k: attrib[k] for k in _ATTRIBUTE_ORDER if k in attrib}
+        ET.SubElement(sv, var.type, ordered)
+
+    position = list(root).index(root.find("CoSimulation")) + 1
     units = ET.Element("UnitDefinitions")
     ET.SubElement(units, "Unit", name="1")
-    children = list(root)
-    position = children.index(root.find("CoSimulation")) + 1
     root.insert(position, units)
+    if enumerations:
+        types = ET.Element("TypeDefinitions")
+        for name, var in sorted(enumerations.items()):
+            simple = ET.SubElement(types, "SimpleType", name=name)
+            enum = ET.SubElement(simple, "Enumeration")
+            for i, (item, desc) in enumerate(var.items):
+                ET.SubElement(enum, "Item", name=item, value=str(i + 1), description=desc)
+        root.insert(position + 1, types)
 
-    outputs = [sv for sv in variables if sv.get("causality") == "output"]
-    declared = set(dependencies)
-    names = {sv.get("name") for sv in outputs}
-    if declared != names:
-        raise BuildError(
-            f"OUTPUT_DEPENDENCIES declares {sorted(declared)} but the outputs are {sorted(names)}"
-        )
     structure = root.find("ModelStructure")
     assert structure is not None
     for child in list(structure):
         structure.remove(child)
+    outputs = [v for v in variables if v.causality == "output"]
     out_node = ET.SubElement(structure, "Outputs")
-    initial_unknowns = []
-    for sv in outputs:
-        name = sv.get("name")
-        deps = dependencies[name]
-        attrib = {"index": str(index[name]), "dependencies": " ".join(str(index[d]) for d in deps)}
+    for var in sorted(outputs, key=lambda v: index[v.name]):
+        deps = [index[d] for d in var.depends_on]
+        attrib = {"index": str(index[var.name]), "dependencies": " ".join(map(str, deps))}
         if deps:
             attrib["dependenciesKind"] = " ".join("dependent" for _ in deps)
         ET.SubElement(out_node, "Unknown", attrib)
-        if sv.get("initial") in (None, "calculated", "approx"):
-            initial_unknowns.append(index[name])
-    if initial_unknowns:  # may depend on inputs and parameters: no dependencies attribute
-        node = ET.SubElement(structure, "InitialUnknowns")
-        for i in initial_unknowns:
-            ET.SubElement(node, "Unknown", index=str(i))
+    # initial="calculated": computed from the parameters (and inputs) in initialization mode; no
+    # dependencies attribute = may depend on all of them
+    node = ET.SubElement(structure, "InitialUnknowns")
+    for var in sorted(outputs, key=lambda v: index[v.name]):
+        ET.SubElement(node, "Unknown", index=str(index[var.name]))
 
 
 def _xml_bytes(root: ET.Element) -> bytes:
@@ -248,28 +392,18 @@ def _generation_time(source_date_epoch: int | None) -> str | None:
     return t.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def _rewrite(
-    fmu: Path,
-    dest: Path,
-    dependencies: dict[str, tuple[str, ...]],
-    starts: dict[str, float],
-    source_date_epoch: int | None,
-) -> None:
-    """Post-process modelDescription.xml and write a deterministic archive to ``dest``."""
-    with zipfile.ZipFile(fmu) as z:
-        entries = {info.filename: z.read(info.filename) for info in z.infolist()}
-    root = ET.fromstring(entries.pop("modelDescription.xml"))
-    _fix_model_description(root, dependencies, starts)
-
-    stamp = _generation_time(source_date_epoch)
-    if stamp is not None:
-        root.set("generationDateAndTime", stamp)
+def _set_guid(root: ET.Element, entries: dict[str, bytes], extra: bytes) -> None:
+    """GUID from the model description (without GUID and date), the non-binary entries and
+    ``extra`` (the front layer's source and pythonfmu's library): the binaries are made from
+    exactly these, and the front layer's binary contains the GUID, so it cannot be hashed."""
     generated = root.get("generationDateAndTime")
     root.set("guid", "")
     root.attrib.pop("generationDateAndTime", None)
     digest = hashlib.sha256(_xml_bytes(root))
     for name in sorted(entries):
-        digest.update(name.encode("utf-8") + b"\0" + hashlib.sha256(entries[name]).digest())
+        if not name.startswith("binaries/"):
+            digest.update(name.encode("utf-8") + b"\0" + hashlib.sha256(entries[name]).digest())
+    digest.update(extra)
     root.set("guid", "{" + str(uuid.uuid5(_GUID_NAMESPACE, digest.hexdigest())) + "}")
     if generated is not None:  # keep the attribute order of the FMI schema's listing
         attrib = dict(root.attrib)
@@ -278,8 +412,184 @@ def _rewrite(
             root.set(key, value)
             if key == "generationTool":
                 root.set("generationDateAndTime", generated)
-    entries["modelDescription.xml"] = _xml_bytes(root)
 
+
+# ------------------------------------------------------------------------------------------------
+# the front layer
+# ------------------------------------------------------------------------------------------------
+
+_TYPE_CODE = {"Real": "R", "Integer": "I", "Enumeration": "E", "Boolean": "B", "String": "S"}
+_CAUSALITY_CODE = {"parameter": "DS_PARAMETER", "input": "DS_INPUT", "output": "DS_OUTPUT"}
+
+
+def model_header(root: ET.Element, entry: str) -> str:
+    """``model_data.h`` of the front layer, from the final modelDescription.xml."""
+    cs = root.find("CoSimulation")
+    assert cs is not None
+    svs = list(root.find("ModelVariables") or [])
+    rows = {}
+    for sv in svs:
+        kind = sv[0].tag
+        causality = sv.get("causality", "local")
+        if causality not in _CAUSALITY_CODE:
+            raise BuildError(f"variable {sv.get('name')}: causality {causality} not supported")
+        vr = int(sv.get("valueReference", "-1"))
+        rows[vr] = (sv.get("name"), _TYPE_CODE[kind], _CAUSALITY_CODE[causality])
+    if not rows or min(rows) < 0 or max(rows) > 100_000:
+        raise BuildError(f"value references {sorted(rows)} out of the supported range")
+    categories = [c.get("name") for c in root.find("LogCategories") or []]
+    lines = [
+        f"/* model_data.h of {cs.get('modelIdentifier')}: generated by build_fmus.py from its",
+        "   modelDescription.xml; do not edit. */",
+        f"#define DS_MODEL_IDENTIFIER {json.dumps(cs.get('modelIdentifier'))}",
+        f"#define DS_GUID {json.dumps(root.get('guid'))}",
+        f"#define DS_ENTRY_MODULE {json.dumps(entry)}",
+        f"#define DS_N_VR {max(rows) + 1}",
+        "static const ds_variable DS_VARIABLES[DS_N_VR] = {",
+    ]
+    for vr in sorted(rows):
+        name, code, causality = rows[vr]
+        lines.append(f"    [{vr}] = {{{json.dumps(name)}, '{code}', {causality}}},")
+    lines += [
+        "};",
+        f"#define DS_N_LOG_CATEGORIES {len(categories)}",
+        "static const char *const DS_LOG_CATEGORIES[DS_N_LOG_CATEGORIES + 1] = {",
+        *[f"    {json.dumps(c)}," for c in categories],
+        "    NULL,",
+        "};",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def compile_front_layer(header: str, out: Path, include: str, work: Path) -> None:
+    """Compile ``drillstring_fmi2.c`` with ``header`` as ``model_data.h`` into ``out``."""
+    if not (Path(include) / "Python.h").is_file():
+        raise BuildError(
+            f"no Python.h in {include}: the front layer needs the headers of the Python that "
+            "builds the FMUs (Debian: the python3-dev package of that Python)"
+        )
+    gen = work / "gen"
+    gen.mkdir(parents=True, exist_ok=True)
+    (gen / "model_data.h").write_text(header, encoding="utf-8")
+    src = gen / FRONT_LAYER.name
+    shutil.copyfile(FRONT_LAYER, src)
+    cmd = [
+        *find_compiler(),
+        *CFLAGS,
+        *CFLAGS_STRICT,
+        f"-ffile-prefix-map={gen}=.",
+        "-I",
+        str(gen),
+        "-I",
+        include,
+        "-o",
+        str(out),
+        str(src),
+        *LDLIBS,
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=gen)
+    if proc.returncode != 0:
+        raise BuildError(
+            f"compiling the front layer failed ({shlex.join(cmd)}):\n{proc.stdout}{proc.stderr}"
+        )
+
+
+# ------------------------------------------------------------------------------------------------
+# documentation/
+# ------------------------------------------------------------------------------------------------
+
+
+def documentation(cls: Any, variables: Sequence[Any], starts: dict[str, Any]) -> str:
+    """``documentation/index.html`` of one FMU (FMI 2.0, section 2.1: the documentation's entry)."""
+    esc = html.escape
+    rows = []
+    for v in variables:
+        start = "" if v.causality == "output" else _format_start(starts[v.name], v.type)
+        if v.type == "Enumeration":
+            start += " (" + v.item(int(starts[v.name])) + ")"
+            kind = f"Enumeration {v.type_name}: " + ", ".join(
+                f"{i + 1} = {n}" for i, (n, _) in enumerate(v.items)
+            )
+        else:
+            kind = v.type
+        lo = "" if v.min is None else _format_bound(v.min, v.type)
+        hi = "" if v.max is None else _format_bound(v.max, v.type)
+        rng = f"[{lo or '-inf'}, {hi or 'inf'}]" if (lo or hi) else ""
+        rows.append(
+            f"<tr><td><code>{esc(v.name)}</code></td><td>{v.causality}</td><td>{esc(kind)}</td>"
+            f"<td>{esc(start)}</td><td>{esc(rng)}</td><td>{esc(v.description)}</td></tr>"
+        )
+    validity = "".join(f"<p>{esc(p)}</p>" for p in cls.VALIDITY)
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{esc(cls.MODEL)}</title></head>
+<body>
+<h1>{esc(cls.MODEL)}</h1>
+<p>{esc(cls.description)}. FMI 2.0 co-simulation FMU built by the drillstring project
+(<code>build_fmus.py</code>): a front layer in plain C
+(<code>binaries/linux64/{cls.MODEL}.so</code>) in front of pythonfmu's library
+(<code>binaries/linux64/{cls.MODEL}_pythonfmu.so</code>), which runs the Python model in
+<code>resources/</code>.</p>
+
+<h2>Time base and units</h2>
+<p>All quantities are the paper's scaled, dimensionless quantities (unit "1"); time is the scaled
+time tau. The start time must be 0 (<code>fmi2SetupExperiment</code>): the model's history for
+tau &lt;= 0 is the nominal motion. Any step size &gt; 0 is accepted and need not be constant; the
+communication point of <code>fmi2DoStep</code> must be the FMU's current time. Inputs are held
+constant over each step.</p>
+
+<h2>Variables</h2>
+<table border="1" cellspacing="0" cellpadding="3">
+<tr><th>name</th><th>causality</th><th>type</th><th>start</th><th>range</th><th>description</th></tr>
+{chr(10).join(rows)}
+</table>
+<p>Outputs are computed from the parameters (<code>initial="calculated"</code>): they can be read
+from <code>fmi2EnterInitializationMode</code> on.</p>
+
+<h2>Validity of the model</h2>
+{validity}
+
+<h2>Statuses</h2>
+<p><code>fmi2Error</code> comes from the very call that received a bad value (a parameter out of
+range or an inconsistent combination at <code>fmi2ExitInitializationMode</code>, a non-finite
+number, an unknown value reference, a variable of another type, a parameter set after
+initialization, a step size &lt;= 0, a communication point that is not the FMU's time, an FMU
+state of another FMU or corrupted bytes, an illegal call sequence); the value is not applied and
+the instance goes on as before the call. <code>fmi2Warning</code> comes with a logged warning.
+<code>fmi2Discard</code> only when the model leaves its validity inside a step: then
+<code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> is the time reached and the outputs hold
+the state there; restore an earlier state (<code>fmi2SetFMUstate</code>) or terminate. Errors,
+discards and warnings are always logged; information only with logging on (categories
+<code>logInfo</code>, <code>logAll</code>).</p>
+
+<h2>What the host needs</h2>
+<p>Linux x86-64 and, on the machine that built the FMU, nothing else: the FMU loads the recorded
+libpython itself and starts it with the recorded home and site-packages
+(<code>resources/{RUNTIME_NAME}</code>); a host that already runs Python (fmpy, libcosimpy) lends
+its interpreter, which then needs numpy. No <code>LD_PRELOAD</code>, <code>PYTHONPATH</code> or
+<code>PYTHONHOME</code>. On another machine set</p>
+<ul>
+<li><code>{OVERRIDES["libpython"]}</code>: the <code>libpython3.11.so</code> of a CPython 3.11
+(built with <code>--enable-shared</code>);</li>
+<li><code>{OVERRIDES["home"]}</code>: its installation prefix (with
+<code>lib/python3.11</code>);</li>
+<li><code>{OVERRIDES["site"]}</code>: ':'-separated site-packages with numpy (and numba for the
+compiled kernel).</li>
+</ul>
+<p>The drillstring package is copied once into <code>$DRILLSTRING_FMU_CACHE</code>, else
+<code>$XDG_CACHE_HOME/drillstring</code>, else <code>~/.cache/drillstring</code>, where numba keeps
+the compiled kernel: the first run on a machine compiles it (logged at info level, 10-20 s), every
+later run of the same build, in any unpack folder, loads it. <code>DRILLSTRING_JIT=0</code> runs
+the plain-Python kernel instead (bit-identical results, slower).</p>
+</body></html>
+"""
+
+
+# ------------------------------------------------------------------------------------------------
+# the archive
+# ------------------------------------------------------------------------------------------------
+
+
+def _write_zip(entries: dict[str, bytes], dest: Path, source_date_epoch: int | None) -> None:
     date_time = _ZIP_EPOCH
     if source_date_epoch is not None:
         t = _dt.datetime.fromtimestamp(max(source_date_epoch, 315532800), tz=_dt.UTC)
@@ -289,10 +599,49 @@ def _rewrite(
         for name in sorted(entries):
             info = zipfile.ZipInfo(name, date_time=date_time)
             info.compress_type = zipfile.ZIP_DEFLATED
-            info.external_attr = 0o644 << 16
+            mode = 0o755 if name.endswith(".so") else 0o644
+            info.external_attr = mode << 16
             info.create_system = 3  # unix, so external_attr is read as permissions
             z.writestr(info, entries[name])
     tmp.replace(dest)
+
+
+def _postprocess(
+    raw: Path,
+    dest: Path,
+    spec: FmuSpec,
+    cls: Any,
+    starts: dict[str, Any],
+    record: dict[str, Any],
+    source_date_epoch: int | None,
+    work: Path,
+) -> None:
+    """modelDescription.xml, the binaries, the entry module; then a deterministic archive."""
+    with zipfile.ZipFile(raw) as z:
+        entries = {info.filename: z.read(info.filename) for info in z.infolist()}
+    root = ET.fromstring(entries.pop("modelDescription.xml"))
+    _fix_model_description(root, cls.VARIABLES, starts)
+    stamp = _generation_time(source_date_epoch)
+    if stamp is not None:
+        root.set("generationDateAndTime", stamp)
+
+    pythonfmu_lib = entries.pop(f"binaries/linux64/{spec.model}.so", None)
+    if pythonfmu_lib is None:
+        raise BuildError(f"pythonfmu built no linux64 binary for {spec.model}")
+    for name in [n for n in entries if n.startswith("binaries/")]:
+        del entries[name]  # other platforms: not built and tested here
+    entry, _ = entry_module(spec)
+    entries["resources/slavemodule.txt"] = entry.encode("utf-8")
+    extra = hashlib.sha256(FRONT_LAYER.read_bytes()).digest()
+    extra += hashlib.sha256(pythonfmu_lib).digest() + " ".join(CFLAGS).encode("utf-8")
+    _set_guid(root, entries, extra)
+
+    layer = work / f"{spec.model}.so"
+    compile_front_layer(model_header(root, entry), layer, record["include"], work)
+    entries[f"binaries/linux64/{spec.model}.so"] = layer.read_bytes()
+    entries[f"binaries/linux64/{spec.model}_pythonfmu.so"] = pythonfmu_lib
+    entries["modelDescription.xml"] = _xml_bytes(root)
+    _write_zip(entries, dest, source_date_epoch)
 
 
 def validate(fmu: Path) -> None:
@@ -316,23 +665,29 @@ def build_fmu(
     spec: FmuSpec, out_dir: Path, config: dict[str, Any], source_date_epoch: int | None = None
 ) -> Path:
     """Build, post-process and validate one FMU into ``out_dir``; returns its path."""
+    find_compiler()  # before any work: a missing compiler fails at once
+    record = python_record()
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="build_fmus_") as tmp:
-        staging = Path(tmp) / "staging"
+        work = Path(tmp)
+        staging = work / "staging"
         staging.mkdir()
-        files = _stage(staging, config)
+        script = _stage(spec, staging, config, record)
         saved = list(sys.path)
         sys.path.insert(0, str(staging))
         try:
-            module, instance = _load_script(spec, staging)
+            module, instance = _load_script(spec, script)
         finally:
             sys.path[:] = saved
-        from pythonfmu import Real
-
-        starts = {v.name: float(v.getter()) for v in instance.vars.values() if isinstance(v, Real)}
-        raw = _pythonfmu_build(spec, staging, files, Path(tmp) / "raw")
+        cls = getattr(module, spec.model)
+        starts = dict(instance.values)
+        docs = work / "documentation"
+        docs.mkdir()
+        text = documentation(cls, cls.VARIABLES, starts)
+        (docs / "index.html").write_text(text, encoding="utf-8")
+        raw = _pythonfmu_build(script, work / "raw", docs)
         dest = out_dir / f"{spec.model}.fmu"
-        _rewrite(raw, dest, module.OUTPUT_DEPENDENCIES, starts, source_date_epoch)
+        _postprocess(raw, dest, spec, cls, starts, record, source_date_epoch, work)
     validate(dest)
     return dest
 

@@ -1,53 +1,92 @@
-"""Runtime support shared by the drillstring FMUs (bundled into each FMU's ``resources/``).
+"""The lifecycle shared by every drillstring FMU (bundled into each FMU's ``resources/``).
 
-Both FMU scripts (``drillstring_plant.py``, ``torsional_controller.py``) import this module. It
-holds no model code: the physics lives in the ``drillstring`` package that ``build_fmus.py``
-bundles next to it. What it provides:
+An FMU script of the project holds only its variables and its physics call: it subclasses
+:class:`FmuModel`, lists its :class:`Variable` s in ``VARIABLES`` and implements four methods,
 
-* :func:`read_config` -- the build configuration ``resources/drillstring_fmu.json`` written by
-  ``build_fmus.py`` (package version, controller gains and where they came from);
-* :func:`get_values` / :func:`set_values` -- fmi2Get*/fmi2Set* by value reference with clear
-  errors (a wrong type, an unknown reference, a variable that cannot be set);
-* :func:`pack_state` / :func:`unpack_state` -- the byte format of serialized FMU states;
-* :func:`guard_process_exit` -- the workaround for the abort at process exit of pythonfmu FMUs in
-  non-Python hosts (pythonfmu issue #228, see the function and ``docs/fmu_usage.md``).
+* ``configure(values)`` -- build the model from the parameter values (raise ``ValueError`` for
+  an inconsistent combination),
+* ``output_values()`` -- the current outputs by name,
+* ``advance(t, h)`` -- one communication step, returning a :class:`StepResult`,
+* ``save()`` / ``restore(...)`` -- the model's part of an FMU state.
+
+Everything else is here, written once: registration with pythonfmu, the checks of each value
+(finite numbers, ranges, enumeration items, via :mod:`drillstring.validation` and the model's
+own validators), the phases (instantiated, initialization, stepping, terminated), the step wrapper
+(finite time and step, step size > 0, communication point = the FMU's time), FMU states and how
+errors are reported.
+
+**Division of labour with the front layer.** The FMU's binary ``binaries/linux64/<id>.so`` is the
+project's C layer ``drillstring_fmi2.c`` in front of pythonfmu's library; it checks the call
+sequence of FMI 2.0 (section 4.2.4), value references, types and which variables may be set in
+which state, before anything reaches Python. This module checks *values*. It never raises into
+pythonfmu (that would be ``fmi2Fatal`` and destroy the instance): a rejected call logs a message
+with status ``fmi2Error``, applies nothing and returns normally; the layer learns the call's
+status from the log records of that call and returns ``fmi2Error`` from it. ``fmi2Warning`` and
+``fmi2Discard`` (the model left its validity inside a step) work the same way. After a discarded
+step an internal record (category :data:`RECORD_CATEGORY`, never shown to the host) tells the
+layer the time the FMU reached, for ``fmi2GetRealStatus(fmi2LastSuccessfulTime)``.
 
 Both FMUs run in one interpreter when a host loads them together; the first imported copy of this
-module serves both, so it must stay backwards compatible within one build of the two FMUs.
+module serves both, so it must stay backwards compatible within one build of the FMUs.
 """
 
 from __future__ import annotations
 
-import ctypes
+import contextlib
 import json
 import math
 import os
 import struct
-import sys
+import time as _time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
-from pythonfmu import Boolean, Integer, Real, String
+from pythonfmu import (
+    Boolean,
+    DefaultExperiment,
+    Fmi2Causality,
+    Fmi2Initial,
+    Fmi2Slave,
+    Fmi2Variability,
+    Integer,
+    Real,
+)
+from pythonfmu.enums import Fmi2Status
+
+from drillstring.model.kernel import jit as _jit
+from drillstring.validation import check_int, check_real
 
 CONFIG_FILE = "drillstring_fmu.json"
-STATE_MAGIC = b"DSFMUSTATE\x00"
-STATE_FORMAT = 1
+#: Category of the records meant for the front layer only (never forwarded to the host).
+RECORD_CATEGORY = "drillstringRecord"
+#: Log categories of every drillstring FMU (modelDescription.xml ``LogCategories``).
+LOG_CATEGORIES: dict[str, str] = {
+    "logStatusWarning": "Warnings (status fmi2Warning); always reported",
+    "logStatusDiscard": "A step that left the model's validity (fmi2Discard); always reported",
+    "logStatusError": "Rejected calls and values (status fmi2Error); always reported",
+    "logStatusFatal": "Failures of the FMU itself (status fmi2Fatal); always reported",
+    "logInfo": "Information: the Python that runs the FMU, the package cache, kernel compilation",
+    "logAll": "All of the above",
+}
+PHASES = ("instantiated", "initialization", "stepping", "terminated")
+_STATE_FORMAT = 2
 
 __all__ = [
     "CONFIG_FILE",
-    "StateError",
-    "get_values",
-    "guard_process_exit",
-    "is_finite_real",
-    "pack_state",
+    "FmuModel",
+    "FmuState",
+    "LOG_CATEGORIES",
+    "RECORD_CATEGORY",
+    "StepResult",
+    "Variable",
+    "enumeration",
+    "input_real",
+    "output",
+    "parameter",
     "read_config",
-    "set_values",
-    "unpack_state",
 ]
-
-
-class StateError(ValueError):
-    """A serialized FMU state that cannot be read (wrong model, format or corrupted bytes)."""
 
 
 def read_config(resources: str | os.PathLike[str] | None) -> dict[str, Any]:
@@ -72,182 +111,473 @@ def read_config(resources: str | os.PathLike[str] | None) -> dict[str, Any]:
     return data
 
 
-def is_finite_real(value: Any) -> bool:
-    """True for a finite real number (bool excluded)."""
-    if isinstance(value, bool):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except (TypeError, ValueError):
-        return False
+# ------------------------------------------------------------------------------------------------
+# variables
+# ------------------------------------------------------------------------------------------------
+
+_PYTHONFMU_TYPE = {"Real": Real, "Integer": Integer, "Enumeration": Integer, "Boolean": Boolean}
+_CAUSALITY = {c.name: c for c in Fmi2Causality}
+#: Smallest positive double: the ``min`` of a parameter that must be > 0 (FMI's min is inclusive).
+POSITIVE = math.ulp(0.0)
 
 
-def _variable(slave: Any, kind: type, vr: int) -> Any:
-    var = slave.vars.get(vr)
-    if var is None or not isinstance(var, kind):
-        raise ValueError(f"no {kind.__name__} variable with value reference {vr}")
-    return var
+@dataclass(frozen=True)
+class Variable:
+    """One FMU variable; ``build_fmus.py`` writes ``min``, ``max``, ``items`` and the
+    dependencies into modelDescription.xml, the lifecycle checks values with ``check``.
 
-
-_CONVERT = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
-
-
-def get_values(slave: Any, kind: type, vrs: list[int]) -> list[Any]:
-    """Values of the variables ``vrs`` of type ``kind`` (pythonfmu Real/Integer/Boolean/String),
-    converted to the Python type the pythonfmu C++ layer reads."""
-    convert = _CONVERT[kind.__name__]
-    return [convert(_variable(slave, kind, vr).getter()) for vr in vrs]
-
-
-def set_values(slave: Any, kind: type, vrs: list[int], values: list[Any]) -> None:
-    """Call the setters of the variables ``vrs``; a variable without a setter is an error."""
-    for vr, value in zip(vrs, values, strict=True):
-        var = _variable(slave, kind, vr)
-        if var.setter is None:
-            causality = getattr(var.causality, "name", var.causality)
-            raise ValueError(f"variable {var.name} (causality {causality}) cannot be set")
-        var.setter(value)
-
-
-def pack_state(model: str, fields: dict[str, Any], payload: bytes = b"") -> bytes:
-    """Serialize an FMU state: magic, header length, JSON header, then the engine's own bytes.
-
-    ``fields`` must be JSON-serializable; Python's JSON writes floats with ``repr`` so they round
-    trip bit for bit. ``payload`` is opaque (the engine's ``serialize_state()``).
+    ``type`` is ``"Real"``, ``"Integer"``, ``"Enumeration"`` (values 1..n of ``items``, accessed
+    with fmi2Get/SetInteger) or ``"Boolean"``; ``causality`` is ``"parameter"`` (fixed, initial
+    exact), ``"input"`` or ``"output"`` (initial calculated, listed in InitialUnknowns).
+    ``check(value)`` returns the value to store or raises ``ValueError`` naming the rule;
+    ``depends_on`` lists the inputs an output depends on directly (ModelStructure).
     """
+
+    name: str
+    type: str
+    causality: str
+    description: str
+    start: Any = None
+    min: float | None = None
+    max: float | None = None
+    items: tuple[tuple[str, str], ...] = ()
+    type_name: str | None = None
+    check: Callable[[Any], Any] | None = None
+    depends_on: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.type not in _PYTHONFMU_TYPE:
+            raise ValueError(f"variable {self.name}: unknown type {self.type!r}")
+        if self.causality not in ("parameter", "input", "output"):
+            raise ValueError(f"variable {self.name}: unknown causality {self.causality!r}")
+        if (self.start is None) != (self.causality == "output"):
+            raise ValueError(f"variable {self.name}: parameters and inputs need a start value")
+        if self.type == "Enumeration" and not (self.items and self.type_name):
+            raise ValueError(f"variable {self.name}: an Enumeration needs items and type_name")
+
+    @property
+    def variability(self) -> str:
+        if self.causality == "parameter":
+            return "fixed"
+        return "continuous" if self.type == "Real" else "discrete"
+
+    @property
+    def initial(self) -> str | None:
+        return {"parameter": "exact", "output": "calculated"}.get(self.causality)
+
+    def item(self, code: int) -> str:
+        """Name of the Enumeration item with value ``code`` (1-based)."""
+        return self.items[code - 1][0]
+
+    def validate(self, value: Any) -> Any:
+        """The value to store for ``value``, or ``ValueError`` naming the rule it breaks."""
+        if self.type == "Real":
+            x = check_real(self.name, value)
+        elif self.type == "Boolean":
+            x = bool(value)
+        else:
+            x = check_int(self.name, value)
+            if self.type == "Enumeration" and not 1 <= x <= len(self.items):
+                names = ", ".join(f"{i + 1} ({n})" for i, (n, _) in enumerate(self.items))
+                raise ValueError(f"{self.name} must be one of {names}, got {x!r}")
+        if self.check is not None:
+            x = self.check(x)
+        if (self.min is not None and x < self.min) or (self.max is not None and x > self.max):
+            lo = "-inf" if self.min is None else repr(self.min)
+            hi = "inf" if self.max is None else repr(self.max)
+            raise ValueError(f"{self.name} must be in its declared range [{lo}, {hi}], got {x!r}")
+        return x
+
+
+def parameter(name: str, type: str, start: Any, description: str, **kw: Any) -> Variable:
+    """A fixed parameter (``initial="exact"``)."""
+    return Variable(name, type, "parameter", description, start=start, **kw)
+
+
+def enumeration(
+    name: str, type_name: str, items: Sequence[tuple[str, str]], start: str, description: str
+) -> Variable:
+    """A fixed Enumeration parameter; ``start`` is the name of its start item."""
+    names = [n for n, _ in items]
+    return Variable(
+        name,
+        "Enumeration",
+        "parameter",
+        description,
+        start=names.index(start) + 1,
+        items=tuple(items),
+        type_name=type_name,
+    )
+
+
+def input_real(name: str, start: float, description: str) -> Variable:
+    """A continuous Real input."""
+    return Variable(name, "Real", "input", description, start=start)
+
+
+def output(name: str, type: str, description: str, depends_on: Sequence[str] = ()) -> Variable:
+    """An output computed from parameters, inputs and state (``initial="calculated"``)."""
+    return Variable(name, type, "output", description, depends_on=tuple(depends_on))
+
+
+# ------------------------------------------------------------------------------------------------
+# steps and states
+# ------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Outcome of ``advance``: the time reached and, if any, a warning or the reason the model
+    stopped inside the step (then ``reached`` is the time of the stop)."""
+
+    reached: float
+    warning: str | None = None
+    stop: str | None = None
+
+
+@dataclass
+class FmuState:
+    """An FMU state as pythonfmu stores it: the lifecycle's fields, the model's fields, an
+    in-memory snapshot of the model (None for a deserialized state) and its bytes on demand."""
+
+    fields: dict[str, Any]
+    snapshot: Any = None
+    make_payload: Callable[[], bytes] | None = None
+    payload: bytes | None = None
+    error: str | None = None
+
+    def payload_bytes(self) -> bytes:
+        if self.payload is None:
+            self.payload = self.make_payload() if self.make_payload is not None else b""
+        return self.payload
+
+
+def pack_state(state: FmuState) -> bytes:
+    """Header length, JSON header (floats written by ``repr``: bit exact), then model bytes."""
     header = json.dumps(
-        {"model": model, "format": STATE_FORMAT, "fields": fields},
-        sort_keys=True,
-        separators=(",", ":"),
+        {"format": _STATE_FORMAT, "fields": state.fields}, sort_keys=True, separators=(",", ":")
     ).encode("utf-8")
-    return STATE_MAGIC + struct.pack("<Q", len(header)) + header + bytes(payload)
+    return struct.pack("<Q", len(header)) + header + state.payload_bytes()
 
 
-def unpack_state(model: str, data: bytes) -> tuple[dict[str, Any], bytes]:
-    """Inverse of :func:`pack_state`; raises :class:`StateError` naming what is wrong."""
-    data = bytes(data)
-    n_magic = len(STATE_MAGIC)
-    if len(data) < n_magic + 8 or data[:n_magic] != STATE_MAGIC:
-        raise StateError(f"not a serialized drillstring FMU state ({len(data)} bytes)")
-    (n_header,) = struct.unpack("<Q", data[n_magic : n_magic + 8])
-    start = n_magic + 8
-    if start + n_header > len(data):
-        raise StateError(f"truncated FMU state: header of {n_header} bytes, {len(data)} in total")
-    try:
-        header = json.loads(data[start : start + n_header].decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise StateError(f"corrupted FMU state header: {exc}") from exc
-    if not isinstance(header, dict) or header.get("format") != STATE_FORMAT:
-        raise StateError(f"unsupported FMU state format {header.get('format')!r}")
-    if header.get("model") != model:
-        raise StateError(f"FMU state of model {header.get('model')!r} given to model {model!r}")
-    fields = header.get("fields")
-    if not isinstance(fields, dict):
-        raise StateError("FMU state header lacks its fields")
-    return fields, data[start + n_header :]
+def unpack_state(data: bytes) -> FmuState:
+    """Inverse of :func:`pack_state`; a state with ``error`` set if the bytes are not one.
 
-
-# ------------------------------------------------------------------------------------------------
-# pythonfmu issue #228: abort at process exit in non-Python hosts
-# ------------------------------------------------------------------------------------------------
-
-_GUARDED: set[str] = set()
-
-
-def guard_process_exit(resources: str | os.PathLike[str] | None, model_identifier: str) -> str:
-    """Make the pythonfmu export library of this FMU safe at process exit (pythonfmu issue #228).
-
-    Cause (pythonfmu 0.7.0, ``pythonfmu-export``): the library keeps its Python-interpreter guard in
-    a namespace-scope ``std::shared_ptr`` and also resets that pointer from an ELF destructor
-    (``__attribute__((destructor))``). When the host process exits without really unloading the
-    library, ``exit()`` first runs the C++ static destructors (which free the shared pointer's
-    control block and finalize Python) and only then the ELF destructors, so the reset decrements a
-    freed control block. That corrupts the heap; the next ``free()`` that checks the bin aborts the
-    process ("free(): corrupted unsorted chunks"). numpy's bundled libgfortran frees memory in its
-    own destructor, which is why the abort shows when the FMU imports numpy. A host cannot avoid
-    it by ``dlclose()``: the first loaded copy of the library binds C++ unique symbols and glibc
-    never unloads it.
-
-    Workaround, from inside the FMU: pin the library (``RTLD_NODELETE``, so it stays mapped) and
-    register its exported ``finalizePythonInterpreter`` with ``__cxa_atexit``. Handlers run in
-    reverse order of registration, so this one runs before the library's static destructors and
-    resets the pointer while it is still alive; what runs after it then finds an empty pointer.
-
-    Returns a short note of what was done, for the FMU's log. Linux only; a no-op elsewhere, at
-    build time (library not loaded) and for a library without the hook (another pythonfmu).
+    The front layer has checked the bytes' origin (GUID) and integrity (checksum) already.
     """
-    if not sys.platform.startswith("linux") or resources is None:
-        return "exit guard: not needed on this platform"
-    binary = Path(resources).resolve().parent / "binaries" / "linux64" / f"{model_identifier}.so"
-    key = str(binary)
-    if key in _GUARDED:
-        return f"exit guard: already installed for {binary}"
-    mode = os.RTLD_NOW | os.RTLD_NOLOAD | os.RTLD_NODELETE
+    data = bytes(data)
     try:
-        lib = ctypes.CDLL(key, mode=mode)
-    except OSError:
-        return f"exit guard: {binary} is not loaded in this process (build time?)"
-    try:
-        hook = lib["finalizePythonInterpreter"]
-    except AttributeError:
-        return f"exit guard: {binary} has no finalizePythonInterpreter; nothing to do"
-    libc = ctypes.CDLL(None)
-    cxa_atexit = libc["__cxa_atexit"]
-    cxa_atexit.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
-    cxa_atexit.restype = ctypes.c_int
-    if cxa_atexit(ctypes.cast(hook, ctypes.c_void_p), None, None) != 0:
-        return f"exit guard: __cxa_atexit failed for {binary}"
-    _GUARDED.add(key)
-    return f"exit guard: installed for {binary}"
+        (n,) = struct.unpack("<Q", data[:8])
+        header = json.loads(data[8 : 8 + n].decode("utf-8"))
+        if header.get("format") != _STATE_FORMAT or not isinstance(header.get("fields"), dict):
+            raise ValueError(f"unsupported state format {header.get('format')!r}")
+    except (struct.error, UnicodeDecodeError, ValueError, AttributeError) as exc:
+        return FmuState({}, error=f"cannot read the FMU state ({len(data)} bytes): {exc}")
+    return FmuState(header["fields"], payload=data[8 + n :])
 
 
-class GuardedAccessors:
-    """fmi2Get*/fmi2Set* for a pythonfmu slave that never raise into pythonfmu (which would turn
-    any exception into fmi2Fatal): a failure is logged as an error and remembered in
-    ``self._call_error``; the next fmi2DoStep refuses with fmi2Discard. The slave provides
-    ``_error(msg)``; ``_before_get()`` is a hook run before every read."""
+# ------------------------------------------------------------------------------------------------
+# numba compile log
+# ------------------------------------------------------------------------------------------------
 
-    _call_error: str | None
+_COMPILED: list[tuple[str, float]] = []
 
-    def _error(self, msg: str) -> None:  # pragma: no cover - provided by the slave
+
+def _install_compile_listener() -> None:
+    """Record numba compilations (not cache loads) so the FMU can log the first compile."""
+    if not _jit.numba_available():
+        return
+    from numba.core import event
+
+    class _Listener(event.Listener):
+        depth = 0
+        started = 0.0
+        name = ""
+
+        def on_start(self, ev: Any) -> None:
+            if self.depth == 0:
+                self.started = _time.perf_counter()
+                func = getattr(ev.data.get("dispatcher"), "py_func", None)
+                self.name = getattr(func, "__qualname__", "?")
+            self.depth += 1
+
+        def on_end(self, ev: Any) -> None:
+            self.depth -= 1
+            if self.depth == 0:
+                _COMPILED.append((self.name, _time.perf_counter() - self.started))
+
+    event.register("numba:compile", _Listener())
+
+
+_install_compile_listener()
+
+
+# ------------------------------------------------------------------------------------------------
+# the lifecycle
+# ------------------------------------------------------------------------------------------------
+
+
+class _Rejected(Exception):
+    """A call rejected by a check: its message is logged with status fmi2Error."""
+
+
+class FmuModel(Fmi2Slave):
+    """pythonfmu slave with the project's lifecycle; see the module docstring."""
+
+    MODEL: ClassVar[str] = ""
+    VARIABLES: ClassVar[tuple[Variable, ...]] = ()
+    #: Time origin of every FMU of the project (the plant's history for tau <= 0 is the
+    #: nominal motion, so the scaled time starts at 0).
+    START_TIME: ClassVar[float] = 0.0
+    #: Paragraphs of ``documentation/index.html``, "Validity of the model".
+    VALIDITY: ClassVar[tuple[str, ...]] = ()
+    log_categories = LOG_CATEGORIES
+    author = "drillstring project"
+    license = "MIT"
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=20.0, step_size=0.01)
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.config = read_config(self.resources)
+        self.version = str(self.config.get("version", "unknown"))
+        self.phase = "instantiated"
+        self.time = self.START_TIME
+        self.values: dict[str, Any] = {
+            v.name: v.start for v in self.VARIABLES if v.causality != "output"
+        }
+        self.dirty = True  # parameters changed since configure()
+        self._by_vr: dict[int, Variable] = {}
+        self._by_name: dict[str, Variable] = {}
+        for var in self.VARIABLES:
+            self._register(var)
+        self._set(self.initial_values())
+
+    # ----------------------------------------------------------------- model hooks
+    def initial_values(self) -> Mapping[str, Any]:
+        """Start values that come from the FMU's build configuration (``self.config``) rather
+        than from ``VARIABLES``; they are the start values written to modelDescription.xml."""
+        return {}
+
+    def configure(self, values: Mapping[str, Any]) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _guarded(self, what: str, fn: Any, *args: Any) -> Any:
+    def output_values(self) -> Mapping[str, Any]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def advance(self, t: float, h: float) -> StepResult:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def save(self) -> tuple[dict[str, Any], Any, Callable[[], bytes]]:  # pragma: no cover
+        """(JSON-able fields, in-memory snapshot, function making the bytes) of the model."""
+        raise NotImplementedError
+
+    def restore(self, fields: Mapping[str, Any], snapshot: Any, payload: bytes | None) -> None:
+        """Inverse of :meth:`save` (``snapshot`` None: restore from ``payload``)."""
+        raise NotImplementedError  # pragma: no cover
+
+    # ----------------------------------------------------------------- registration
+    def _register(self, var: Variable) -> None:
+        kind = _PYTHONFMU_TYPE[var.type]
+        kwargs: dict[str, Any] = {
+            "causality": _CAUSALITY[var.causality],
+            "variability": Fmi2Variability[var.variability],
+            "description": var.description,
+        }
+        if var.initial is not None:
+            kwargs["initial"] = Fmi2Initial[var.initial]
+        if var.causality != "output":  # pythonfmu reads start values through the getter
+            kwargs["getter"] = lambda: self.values[var.name]
+        pf_var = kind(var.name, **kwargs)
+        self.register_variable(pf_var)
+        self._by_vr[pf_var.value_reference] = var
+        self._by_name[var.name] = var
+
+    # ----------------------------------------------------------------- reporting
+    def _error(self, msg: str) -> None:
+        self.log(msg, Fmi2Status.error, "logStatusError")
+
+    def _info(self, msg: str) -> None:
+        self.log(msg, Fmi2Status.ok, "logInfo")
+
+    @contextlib.contextmanager
+    def _call(self, what: str) -> Iterator[None]:
+        """Run one FMI call: a rejection or any exception becomes an fmi2Error log message."""
         try:
-            return fn(*args)
-        except Exception as exc:
-            self._call_error = f"{what} failed: {exc}"
-            self._error(self._call_error)
-            return None
+            yield
+        except _Rejected as exc:
+            self._error(f"{what}: {exc}")
+        except Exception as exc:  # never into pythonfmu: that would be fmi2Fatal
+            self._error(f"{what} failed: {type(exc).__name__}: {exc}")
+        finally:
+            if _COMPILED:
+                total = sum(s for _, s in _COMPILED)
+                names = ", ".join(sorted({n for n, _ in _COMPILED}))
+                self._info(
+                    f"{what}: numba compiled {len(_COMPILED)} kernel function(s) in {total:.1f} s "
+                    f"({names}); they are cached under {Path(_jit.__file__).parents[2]} for later "
+                    "processes"
+                )
+                _COMPILED.clear()
 
-    def _before_get(self) -> None:
-        return None
+    # ----------------------------------------------------------------- values
+    def _set(self, updates: Mapping[str, Any]) -> None:
+        """Check every value first, then apply all of them (or none)."""
+        checked = {}
+        for name, value in updates.items():
+            var = self._by_name[name]
+            try:
+                checked[name] = var.validate(value)
+            except ValueError as exc:
+                raise _Rejected(
+                    f"{var.causality} {name} = {value!r} rejected: {exc}; the value is not applied"
+                ) from None
+        self.values.update(checked)
+        if any(self._by_name[n].causality == "parameter" for n in checked):
+            self.dirty = True
 
-    def _get(self, kind: type, vrs: list[int], fallback: Any) -> list[Any]:
-        self._before_get()
-        out = self._guarded(f"fmi2Get{kind.__name__}", get_values, self, kind, vrs)
-        return out if out is not None else [fallback] * len(vrs)
+    def _setter(self, what: str, vrs: list[int], values: list[Any]) -> None:
+        with self._call(what):
+            self._set({self._by_vr[vr].name: x for vr, x in zip(vrs, values, strict=True)})
+
+    def _ensure_configured(self) -> None:
+        if self.dirty:
+            try:
+                self.configure(self.values)
+            except (ValueError, TypeError) as exc:
+                raise _Rejected(f"the parameters are inconsistent: {exc}") from None
+            self.dirty = False
+
+    def _getter(self, what: str, vrs: list[int], convert: type, fallback: Any) -> list[Any]:
+        out = [fallback] * len(vrs)
+        with self._call(what):
+            vars_ = [self._by_vr[vr] for vr in vrs]
+            outputs: Mapping[str, Any] = {}
+            if any(v.causality == "output" for v in vars_):
+                self._ensure_configured()
+                outputs = self.output_values()
+            out = [
+                convert((outputs if v.causality == "output" else self.values)[v.name])
+                for v in vars_
+            ]
+        return out
 
     def get_real(self, vrs: list[int]) -> list[float]:
-        return self._get(Real, vrs, math.nan)
+        return self._getter("fmi2GetReal", vrs, float, math.nan)
 
     def get_integer(self, vrs: list[int]) -> list[int]:
-        return self._get(Integer, vrs, 0)
+        return self._getter("fmi2GetInteger", vrs, int, 0)
 
     def get_boolean(self, vrs: list[int]) -> list[bool]:
-        return self._get(Boolean, vrs, False)
+        return self._getter("fmi2GetBoolean", vrs, bool, False)
 
     def get_string(self, vrs: list[int]) -> list[str]:
-        return self._get(String, vrs, "")
+        return self._getter("fmi2GetString", vrs, str, "")
 
     def set_real(self, vrs: list[int], values: list[float]) -> None:
-        self._guarded("fmi2SetReal", set_values, self, Real, vrs, values)
+        self._setter("fmi2SetReal", vrs, values)
 
     def set_integer(self, vrs: list[int], values: list[int]) -> None:
-        self._guarded("fmi2SetInteger", set_values, self, Integer, vrs, values)
+        self._setter("fmi2SetInteger", vrs, values)
 
     def set_boolean(self, vrs: list[int], values: list[bool]) -> None:
-        self._guarded("fmi2SetBoolean", set_values, self, Boolean, vrs, values)
+        self._setter("fmi2SetBoolean", vrs, values)
 
     def set_string(self, vrs: list[int], values: list[str]) -> None:
-        self._guarded("fmi2SetString", set_values, self, String, vrs, values)
+        self._setter("fmi2SetString", vrs, values)
+
+    # ----------------------------------------------------------------- phases
+    def setup_experiment(self, start_time: float, stop_time: Any = None, tolerance: Any = None):
+        with self._call("fmi2SetupExperiment"):
+            if start_time != self.START_TIME:
+                raise _Rejected(
+                    f"start time must be {self.START_TIME!r} (the model's time origin: the "
+                    f"history for tau <= 0 is the nominal motion), got {start_time!r}"
+                )
+
+    def enter_initialization_mode(self) -> None:
+        with self._call("fmi2EnterInitializationMode"):
+            self.phase = "initialization"
+
+    def exit_initialization_mode(self) -> None:
+        with self._call("fmi2ExitInitializationMode"):
+            try:
+                self._ensure_configured()
+            except _Rejected as exc:
+                raise _Rejected(
+                    f"{exc}; the FMU stays in initialization mode: set valid values and call "
+                    "fmi2ExitInitializationMode again"
+                ) from None
+            self.phase = "stepping"
+            self.time = self.START_TIME
+
+    def terminate(self) -> None:
+        with self._call("fmi2Terminate"):
+            self.phase = "terminated"
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        """The step wrapper: checks, the model's ``advance``, and what the layer must know."""
+        t, h = current_time, step_size
+        ok = True
+        with self._call("fmi2DoStep"):
+            if not (math.isfinite(t) and math.isfinite(h)):
+                raise _Rejected(f"time and step size must be finite, got t = {t!r}, h = {h!r}")
+            if h <= 0.0:
+                raise _Rejected(f"step size must be > 0, got {h!r} at t = {t!r}")
+            if abs(t - self.time) > 1e-9 * max(1.0, abs(self.time)):
+                raise _Rejected(
+                    f"communication point t = {t!r} is not the FMU's time {self.time!r}; "
+                    "nothing was computed"
+                )
+            result = self.advance(t, h)
+            self.time = result.reached
+            if result.warning is not None:
+                self.log(f"fmi2DoStep: {result.warning}", Fmi2Status.warning, "logStatusWarning")
+            if result.stop is not None:
+                self.log(
+                    f"fmi2DoStep: {result.stop}; the step [{t!r}, {t + h!r}] stopped at "
+                    f"{result.reached!r} and the outputs hold the state there",
+                    Fmi2Status.discard,
+                    "logStatusDiscard",
+                )
+                self.log(f"time {result.reached!r}", Fmi2Status.ok, RECORD_CATEGORY)
+                ok = False
+        return ok
+
+    # ----------------------------------------------------------------- FMU state
+    def _get_fmu_state(self) -> FmuState:
+        state = FmuState({})
+        with self._call("fmi2GetFMUstate"):
+            model, snapshot, make = self.save()
+            fields = {
+                "phase": self.phase,
+                "time": self.time,
+                "values": dict(self.values),
+                "dirty": self.dirty,
+                "model": model,
+            }
+            state = FmuState(fields, snapshot=snapshot, make_payload=make)
+        return state
+
+    def _set_fmu_state(self, state: Any) -> None:
+        with self._call("fmi2SetFMUstate"):
+            if not isinstance(state, FmuState):
+                raise _Rejected(f"not an FMU state of {self.MODEL}: {type(state).__name__}")
+            if state.error is not None:
+                raise _Rejected(state.error)
+            f = state.fields
+            values = dict(self.values)
+            self.values.update(f["values"])
+            try:
+                self.restore(f["model"], state.snapshot, state.payload)
+            except Exception:
+                self.values = values
+                raise
+            self.phase, self.time, self.dirty = f["phase"], f["time"], f["dirty"]
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: FmuState) -> bytes:
+        return pack_state(state)
+
+    @staticmethod
+    def _fmu_state_from_bytes(data: bytes) -> FmuState:
+        return unpack_state(data)

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.model.control import AffineFeedback
-from drillstring.model.engine import EngineOptions, InitialState
+from drillstring.model.control import LATCH_MODES, AffineFeedback
+from drillstring.model.engine import ON_INVALID_CHOICES, EngineOptions, InitialState
 from drillstring.model.experiments import Experiment
 from drillstring.model.params import ScaledParams
 from drillstring.model.simulate import SimulationResult
@@ -203,7 +203,8 @@ def experiment_start_values(experiment: Experiment) -> dict[str, dict[str, Start
         },
         "controller": {
             "t_on": float(experiment.t_on),
-            "latch": str(experiment.latch),
+            # an Enumeration of the FMU: item values 1, 2, 3 in the order of LATCH_MODES
+            "latch": LATCH_MODES.index(experiment.latch) + 1,
             "enabled": bool(experiment.enabled),
         },
     }
@@ -269,7 +270,7 @@ def loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> LoopM
     options = EngineOptions(
         h=plant["h"],
         torsional_stick=bool(plant["torsional_stick_model"]),
-        on_invalid=plant["on_invalid"],
+        on_invalid=_item(ON_INVALID_CHOICES, plant["on_invalid"]),
         event_tol=plant["event_tol"],
     )
     control: AffineFeedback | float = AffineFeedback(
@@ -277,11 +278,20 @@ def loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> LoopM
         K0=controller["K0"],
         R_ff=controller["R_ff"],
         t_on=controller["t_on"],
-        latch=controller["latch"],
+        latch=_item(LATCH_MODES, controller["latch"]),
     )
     if not controller["enabled"]:
         control = control.R_ff
     return LoopModel(params, initial, options, control)
+
+
+def _item(names: Sequence[str], value: StartValue) -> str:
+    """The name of an FMU Enumeration item (values 1, 2, ... in the order of ``names``)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= len(names):
+        raise ValueError(f"enumeration value {value!r} is not one of 1..{len(names)} ({names})")
+    return names[value - 1]
 
 
 def read_loop_model(

@@ -3,7 +3,8 @@
 * :func:`built_fmus` builds both FMUs once per test session with the real command
   (``python build_fmus.py --gains ... --out ...`` in a subprocess, so the test process is not
   touched by pythonfmu's builder) from a gains file made here;
-* :class:`Slave` drives one FMU instance with fmpy and records its log messages;
+* :class:`Slave` drives one FMU instance with fmpy, records its log messages (formatted as a C
+  host formats them) and returns raw statuses;
 * :func:`jacobi_fmpy`, :func:`run_libcosim` and :func:`run_c_host` run the same fixed-step Jacobi
   co-simulation of plant and controller in three independent masters. All three follow libcosim's
   ``fixed_step_algorithm``: time in integer nanoseconds, ``t_k = k*H_ns/1e9`` and
@@ -11,17 +12,23 @@
   is read; then outputs are transferred to the pending inputs of the next step. Initialization:
   read outputs after ``fmi2EnterInitializationMode``, then N (number of FMUs) rounds of set inputs
   / read outputs / transfer, then set inputs, ``fmi2ExitInitializationMode``, read, transfer.
+  ``jacobi_fmpy(..., grid=ecos_grid)`` uses the time grid of the Ecos engine instead
+  (``t_{k+1} = t_k + H`` accumulated in double);
+* :func:`clean_env` is the environment of the "independent host" tests: ``env -i`` with only
+  ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's ``OPENBLAS_*`` settings;
+  :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import shutil
 import subprocess
 import sys
 import sysconfig
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +36,7 @@ from typing import Any
 import numpy as np
 import pythonfmu  # noqa: F401
 from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
@@ -47,6 +55,7 @@ CONTROLLER = "TorsionalController"
 #: Plant outputs fed back to the controller inputs of the same name, and the torque back.
 FEEDBACK = ("phi", "dphi", "theta", "dtheta")
 RECORD_PLANT = ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n")
+OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 
 _CACHE: dict[str, Any] = {}
 
@@ -61,6 +70,7 @@ class Unit:
     guid: str
     vr: dict[str, int]
     types: dict[str, str]
+    causality: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -76,12 +86,12 @@ class Built:
 
 @contextlib.contextmanager
 def kept_sys_path() -> Iterator[None]:
-    """Undo the ``sys.path`` entries pythonfmu adds (one per instantiation: the FMU's resources).
+    """Restore ``sys.path`` after the block (a second line of defence: the FMUs' front layer
+    leaves it unchanged, which tests/test_fmu_lifecycle.py checks).
 
-    Without this, processes spawned later by other tests (dask workers) would import the FMUs'
-    bundled ``drillstring`` instead of the repository's. The modules the FMUs import
-    (``drillstring``, ``pythonfmu``) are imported from the repository and the environment when
-    this module loads, so the bundled copies never replace them in the test process itself.
+    The modules the FMUs import (``drillstring``, ``pythonfmu``) are imported from the repository
+    and the environment when this module loads, so the bundled copies never replace them in the
+    test process itself.
     """
     saved = list(sys.path)
     try:
@@ -141,13 +151,19 @@ def run_build(
     return proc
 
 
+#: Folder of the session's unpacked FMUs, which every in-process fmpy test uses: its file URI
+#: needs percent-encoding (fmpy encodes it), "%20" included.
+UNPACKED = "unpacked ü#%[x] 100%20"
+
+
 def _unit(model: str, fmu: Path, root: Path) -> Unit:
-    unzipped = root / f"{model}_unzipped"
+    unzipped = root / UNPACKED / model
     extract(str(fmu), str(unzipped))
     md = read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     types = {v.name: v.type for v in md.modelVariables}
-    return Unit(model, fmu, unzipped, md.guid, vr, types)
+    causality = {v.name: v.causality for v in md.modelVariables}
+    return Unit(model, fmu, unzipped, md.guid, vr, types, causality)
 
 
 def built_fmus(tmp_path_factory: Any) -> Built:
@@ -174,28 +190,45 @@ def built_fmus(tmp_path_factory: Any) -> Built:
 
 
 class Slave:
-    """One FMU instance driven by fmpy; ``logs`` collects (status, message) of its log calls."""
+    """One FMU instance driven by fmpy.
 
-    def __init__(self, unit: Unit, name: str) -> None:
+    ``logs`` collects (status, category, message) of its log calls, formatted by fmpy's logger
+    proxy like a C host formats them; :meth:`call` returns the raw status of an FMI function
+    (fmpy raises for statuses worse than fmi2Warning).
+    """
+
+    def __init__(
+        self,
+        unit: Unit,
+        name: str,
+        *,
+        logging_on: bool = True,
+        guid: str | None = None,
+        resources: str | None = None,
+        fmu_type: int = 1,
+    ) -> None:
         self.unit = unit
-        self.logs: list[tuple[int, str]] = []
-
-        def logger(env: Any, instance: Any, status: int, category: Any, message: bytes) -> None:
-            self.logs.append((int(status), message.decode("utf-8")))
-
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(_calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(_free)
-        self._callbacks = callbacks
+        self.logs: list[tuple[int, str, str]] = []
         self.fmu = FMU2Slave(
-            guid=unit.guid,
+            guid=unit.guid if guid is None else guid,
             unzipDirectory=str(unit.unzipped),
             modelIdentifier=unit.model,
             instanceName=name,
         )
-        with kept_sys_path():
-            self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
+        self._callbacks = make_callbacks(self.logs)
+        uri = resources or Path(unit.unzipped, "resources").as_uri()
+        self.fmu.callbacks = self._callbacks
+        self.fmu.component = self.fmu.fmi2Instantiate(
+            name.encode("utf-8"),
+            fmu_type,
+            self.fmu.guid.encode("utf-8"),
+            uri.encode("utf-8"),
+            ctypes.byref(self._callbacks),
+            0,
+            1 if logging_on else 0,
+        )
+        if self.fmu.component is None:
+            raise InstantiationError(self.logs)
 
     # typed access by variable name
     def set(self, **values: Any) -> None:
@@ -207,11 +240,47 @@ class Slave:
 
     def _setter(self, name: str) -> Any:
         kind = self.unit.types[name]
-        return getattr(self.fmu, f"set{kind}")
+        return getattr(self.fmu, f"set{'Integer' if kind == 'Enumeration' else kind}")
 
     def _getter(self, name: str) -> Any:
         kind = self.unit.types[name]
-        return getattr(self.fmu, f"get{kind}")
+        return getattr(self.fmu, f"get{'Integer' if kind == 'Enumeration' else kind}")
+
+    def call(self, function: str, *args: Any) -> int:
+        """Raw status of ``fmi2<function>(component, *args)``."""
+        try:
+            return int(getattr(self.fmu, f"fmi2{function}")(self.fmu.component, *args))
+        except FMICallException as exc:
+            return int(exc.status)
+
+    def set_raw(self, kind: str, vrs: list[int], values: list[Any]) -> int:
+        """Raw status of fmi2Set<kind> (no type checks here: that is what is tested)."""
+        ctype = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
+        if kind == "String":
+            arr = (ctypes.c_char_p * len(values))(*[str(v).encode() for v in values])
+        else:
+            arr = (ctype[kind] * len(values))(*values)
+        return self.call(f"Set{kind}", (ctypes.c_uint * len(vrs))(*vrs), len(vrs), arr)
+
+    def get_raw(self, kind: str, vrs: list[int]) -> tuple[int, list[Any]]:
+        ctype = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
+        if kind == "String":
+            arr = (ctypes.c_char_p * len(vrs))()
+        else:
+            arr = (ctype[kind] * len(vrs))()
+        st = self.call(f"Get{kind}", (ctypes.c_uint * len(vrs))(*vrs), len(vrs), arr)
+        return st, list(arr)
+
+    def step(self, t: float, h: float) -> int:
+        return self.call("DoStep", ctypes.c_double(t), ctypes.c_double(h), 1)
+
+    def last_successful_time(self) -> float:
+        value = ctypes.c_double(float("nan"))
+        assert self.call("GetRealStatus", 2, ctypes.byref(value)) == OK
+        return value.value
+
+    def messages(self, status: int | None = None) -> list[str]:
+        return [m for s, _, m in self.logs if status is None or s == status]
 
     def init(self, **values: Any) -> Slave:
         self.set(**values)
@@ -221,8 +290,36 @@ class Slave:
         return self
 
     def free(self) -> None:
-        self.fmu.terminate()
-        self.fmu.freeInstance()
+        self.fmu.fmi2FreeInstance(self.fmu.component)
+        self.fmu.freeLibrary()
+
+
+class InstantiationError(Exception):
+    """fmi2Instantiate returned NULL; ``logs`` holds what the FMU said."""
+
+    def __init__(self, logs: list[tuple[int, str, str]]) -> None:
+        super().__init__("fmi2Instantiate returned NULL: " + " | ".join(m for _, _, m in logs))
+        self.logs = logs
+
+
+def make_callbacks(sink: list[tuple[int, str, str]]) -> fmi2CallbackFunctions:
+    """fmi2CallbackFunctions appending (status, category, message) to ``sink``.
+
+    The FMUs pass each message as a printf format without arguments ('%' written as '%%'); this
+    logger formats it as printf would. (fmpy's native logger proxy would do it too, but it keeps
+    one Python logger per process: the last one registered receives every instance's messages.)
+    """
+
+    def logger(env: Any, instance: Any, status: int, category: Any, message: bytes) -> None:
+        cat = category.decode("utf-8") if category else ""
+        text = message.decode("utf-8", "replace").replace("%%", "%")
+        sink.append((int(status), cat, text))
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(_calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(_free)
+    return callbacks
 
 
 _libc = None
@@ -254,6 +351,19 @@ def grid(k: int, step_ns: int) -> tuple[float, float]:
     return t, ((k + 1) * step_ns) / 1e9 - t
 
 
+def libcosim_grid(step_ns: int, n_steps: int) -> list[tuple[float, float]]:
+    return [grid(k, step_ns) for k in range(n_steps)]
+
+
+def ecos_grid(step: float, n_steps: int) -> list[tuple[float, float]]:
+    """The Ecos engine's grid: constant h, t_{k+1} = t_k + h accumulated in double."""
+    points, t = [], 0.0
+    for _ in range(n_steps):
+        points.append((t, step))
+        t = t + step
+    return points
+
+
 # ------------------------------------------------------------------------------------------------
 # three masters of the same closed loop
 # ------------------------------------------------------------------------------------------------
@@ -272,15 +382,25 @@ def _columns(built: Built) -> list[tuple[str, int]]:
 
 
 def jacobi_fmpy(
-    built: Built, step_ns: int, n_steps: int, starts: dict[str, dict[str, float]]
+    built: Built,
+    step_ns: int,
+    n_steps: int,
+    starts: dict[str, dict[str, float]],
+    points: list[tuple[float, float]] | None = None,
+    units: tuple[str, ...] = ("plant", "controller"),
 ) -> np.ndarray:
-    """The closed loop with fmpy, libcosim's exchange (module docstring); rows after each step."""
-    units = {"plant": built.plant, "controller": built.controller}
+    """The closed loop with fmpy, libcosim's exchange (module docstring); rows after each step.
+
+    ``points``: the (t, h) of each step (default: libcosim's grid); ``units=("plant",)`` runs the
+    plant alone with its input at its start value.
+    """
+    points = points or libcosim_grid(step_ns, n_steps)
+    units = {name: getattr(built, name) for name in units}
     slaves = {name: Slave(unit, f"{name}_jacobi") for name, unit in units.items()}
     try:
         for name, values in starts.items():
             slaves[name].set(**values)
-        links = _links(built)
+        links = [link for link in _links(built) if link[0] in units and link[2] in units]
         cache: dict[tuple[str, int], float] = {}
         pending: dict[tuple[str, int], float] = {}
 
@@ -313,10 +433,9 @@ def jacobi_fmpy(
             get_outputs(name)
         transfer()
 
-        cols = _columns(built)
+        cols = [c for c in _columns(built) if c[0] in units]
         rows = []
-        for k in range(n_steps):
-            t, h = grid(k, step_ns)
+        for t, h in points:
             for name, s in slaves.items():
                 set_inputs(name)
                 s.fmu.doStep(t, h)
@@ -371,9 +490,20 @@ def _run_libcosim(
 
 
 def libpython() -> Path:
-    """The shared libpython of this interpreter (what a C host must load, pythonfmu #202)."""
+    """The shared libpython of this interpreter."""
     name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY")
     return Path(sysconfig.get_config_var("LIBDIR")) / name
+
+
+def clean_env(home: Path, **extra: str) -> dict[str, str]:
+    """``env -i`` with only ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's
+    ``OPENBLAS_*`` settings (plus ``extra``): no ``LD_PRELOAD``, ``PYTHONPATH``,
+    ``PYTHONHOME``, ``VIRTUAL_ENV`` or ``DRILLSTRING_*``. ``home`` is a folder of the test
+    session, so the FMUs' package cache (``~/.cache/drillstring``) starts empty once per session."""
+    env = {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": os.environ.get("LANG", "C.UTF-8")}
+    env.update({k: v for k, v in os.environ.items() if k.startswith("OPENBLAS_")})
+    env.update(extra)
+    return env
 
 
 def compile_c_host(out_dir: Path) -> Path:
@@ -393,61 +523,179 @@ def compile_c_host(out_dir: Path) -> Path:
     return exe
 
 
-def c_host_env(preload: bool) -> dict[str, str]:
-    """Environment of the C host: numpy where the embedded Python finds it, no numba JIT.
+def unpack(fmu: Path, folder: Path) -> Path:
+    """Unzip ``fmu`` into ``folder`` (which may need percent-encoding in a URI)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    extract(str(fmu), str(folder))
+    return folder
 
-    ``PYTHONPATH`` points at this environment's site-packages (numpy; ``.pth`` files there, such
-    as the editable install of drillstring, are not processed, so the FMUs use their bundled
-    copy). ``DRILLSTRING_JIT=0``: a fresh FMU folder would recompile the numba kernel (about half a
-    minute); the plain-Python kernel gives the same numbers bit for bit.
-    """
-    env = dict(os.environ)
-    env["PYTHONPATH"] = sysconfig.get_paths()["purelib"]
-    env["DRILLSTRING_JIT"] = "0"
-    env.pop("PYTHONHOME", None)
-    if preload:
-        env["LD_PRELOAD"] = str(libpython())
-    return env
+
+def host_config(
+    built: Built,
+    dirs: dict[str, Path],
+    step_ns: int,
+    n_steps: int,
+    starts: dict[str, dict[str, float]],
+    csv: Path,
+    *,
+    logging: bool = False,
+    extra: tuple[str, ...] = (),
+) -> str:
+    """The C host's configuration for the units in ``dirs`` (name -> unpacked folder)."""
+    units = {name: getattr(built, name) for name in dirs}
+    lines = [*extra]
+    for name, u in units.items():
+        lines.append(f"fmu {name} {u.model} {u.guid} {dirs[name]}")
+    for name, values in starts.items():
+        for var, value in values.items():
+            kind = {"Real": "real", "Integer": "integer", "Enumeration": "integer"}.get(
+                units[name].types[var], "boolean"
+            )
+            lines.append(f"{kind} {name} {units[name].vr[var]} {float(value)!r}")
+    for src, svr, dst, dvr in _links(built):
+        if src in units and dst in units:
+            lines.append(f"connect {src} {svr} {dst} {dvr}")
+    for u, vr in _columns(built):
+        if u in units:
+            lines.append(f"record {u} {vr} {u}.{vr}")
+    lines += [f"step_ns {step_ns}", f"steps {n_steps}", f"csv {csv}", f"logging {int(logging)}"]
+    return "\n".join(lines) + "\n"
 
 
 def run_c_host(
     exe: Path,
-    built: Built,
-    step_ns: int,
-    n_steps: int,
-    starts: dict[str, dict[str, float]],
+    config: str,
     work: Path,
-    *,
-    libpython_directive: bool = True,
-    ld_preload: bool = False,
-    unload: bool = True,
+    env: dict[str, str],
+    csv: Path,
 ) -> tuple[subprocess.CompletedProcess, np.ndarray | None]:
-    """Write a host configuration, run the C host, return the process and its CSV (or None)."""
-    units = {"plant": built.plant, "controller": built.controller}
-    csv = work / "host.csv"
-    lines = []
-    if libpython_directive:
-        lines.append(f"libpython {libpython()}")
-    for name, u in units.items():
-        lines.append(f"fmu {name} {u.unzipped} {u.model} {u.guid}")
-    for name, values in starts.items():
-        for var, value in values.items():
-            lines.append(f"real {name} {units[name].vr[var]} {float(value)!r}")
-    for src, svr, dst, dvr in _links(built):
-        lines.append(f"connect {src} {svr} {dst} {dvr}")
-    for u, vr in _columns(built):
-        lines.append(f"record {u} {vr} {u}.{vr}")
-    lines += [f"step_ns {step_ns}", f"steps {n_steps}", f"csv {csv}", f"unload {int(unload)}"]
-    config = work / "host.cfg"
-    config.write_text("\n".join(lines) + "\n")
+    """Write ``config``, run the C host in ``env``, return the process and its CSV (or None)."""
+    path = work / "host.cfg"
+    path.write_text(config, encoding="utf-8")
     if csv.exists():
         csv.unlink()
     proc = subprocess.run(
-        [str(exe), str(config)],
-        capture_output=True,
-        text=True,
-        env=c_host_env(ld_preload),
-        timeout=600,
+        [str(exe), str(path)], capture_output=True, text=True, env=env, timeout=600
     )
-    data = np.loadtxt(csv, delimiter=",", skiprows=1) if csv.exists() else None
+    data = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2) if csv.exists() else None
     return proc, data
+
+
+# ------------------------------------------------------------------------------------------------
+# Ecos (the ecospy wheel; its binaries need libtbb.so.12 of the tbb wheel)
+# ------------------------------------------------------------------------------------------------
+
+
+def tbb_library_dir() -> Path:
+    """The folder of ``libtbb.so.12``, installed by the ``tbb`` wheel into ``<prefix>/lib``."""
+    for folder in (Path(sys.prefix) / "lib", Path(sys.base_prefix) / "lib"):
+        if (folder / "libtbb.so.12").exists():
+            return folder
+    raise AssertionError("libtbb.so.12 not found: install the test extra (the tbb wheel)")
+
+
+def ecos_command(*args: str) -> list[str]:
+    """``ecos ARGS`` of the ecospy wheel, started through the dynamic loader with the tbb
+    wheel's library folder: the environment stays clean (no ``LD_LIBRARY_PATH``), and the
+    wheel's binary need not be executable (pip installs it without the x bit)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("ecospy")  # not imported: its library needs libtbb first
+    if spec is None or spec.origin is None:
+        raise AssertionError("ecospy is not installed: install the test extra")
+    exe = Path(spec.origin).parent / "binaries" / "ecos"
+    loader = "/lib64/ld-linux-x86-64.so.2"
+    return [loader, "--library-path", str(tbb_library_dir()), str(exe), *args]
+
+
+def load_ecospy() -> Any:
+    """``ecospy`` in this process (its library needs libtbb.so.12 loaded first)."""
+    ctypes.CDLL(str(tbb_library_dir() / "libtbb.so.12"), mode=ctypes.RTLD_GLOBAL)
+    import ecospy
+
+    return ecospy
+
+
+def read_ecos_csv(path: Path) -> tuple[list[str], np.ndarray]:
+    """Header and data of an Ecos CSV (columns ``instance::variable[TYPE]``)."""
+    lines = path.read_text().splitlines()
+    header = [h.strip() for h in lines[0].split(",")]
+    data = np.array([[float(x) for x in line.split(",")] for line in lines[1:] if line.strip()])
+    return header, data
+
+
+def ssp_folder(
+    built: Built, folder: Path, starts: dict[str, dict[str, float]], name: str = "loop"
+) -> Path:
+    """An SSP folder (SystemStructure.ssd) of plant and controller with their connections and
+    a parameter set ``initial`` of ``starts``, for ``ecos simulate --path FOLDER``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    units = {"plant": built.plant, "controller": built.controller}
+    for u in units.values():
+        shutil.copyfile(u.fmu, folder / u.fmu.name)
+    comps = []
+    for cname, u in units.items():
+        connectors = []
+        for src, svr, dst, dvr in _links(built):
+            for unit, vr, kind in ((src, svr, "output"), (dst, dvr, "input")):
+                if unit == cname:
+                    name_ = next(n for n, v in units[unit].vr.items() if v == vr)
+                    connectors.append(
+                        f'<ssd:Connector name="{name_}" kind="{kind}"><ssc:Real/></ssd:Connector>'
+                    )
+        params = "".join(
+            f'<ssv:Parameter name="{var}"><ssv:Real value="{float(value)!r}"/></ssv:Parameter>'
+            for var, value in starts.get(cname, {}).items()
+        )
+        bindings = (
+            f"<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>"
+            f'<ssv:ParameterSet name="initial"><ssv:Parameters>{params}</ssv:Parameters>'
+            f"</ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>"
+            f"</ssd:ParameterBindings>"
+        )
+        comps.append(
+            f'<ssd:Component name="{cname}" source="{u.fmu.name}">'
+            f"<ssd:Connectors>{''.join(sorted(set(connectors)))}</ssd:Connectors>{bindings}"
+            "</ssd:Component>"
+        )
+
+    def var(unit: str, vr: int) -> str:
+        return next(n for n, v in units[unit].vr.items() if v == vr)
+
+    conns = "".join(
+        f'<ssd:Connection startElement="{src}" startConnector="{var(src, svr)}" '
+        f'endElement="{dst}" endConnector="{var(dst, dvr)}"/>'
+        for src, svr, dst, dvr in _links(built)
+    )
+    ssd = (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        '<ssd:SystemStructureDescription version="1.0" name="' + name + '" '
+        'xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+        'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
+        'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">'
+        f'<ssd:System name="{name}"><ssd:Elements>{"".join(comps)}</ssd:Elements>'
+        f"<ssd:Connections>{conns}</ssd:Connections></ssd:System>"
+        "</ssd:SystemStructureDescription>\n"
+    )
+    (folder / "SystemStructure.ssd").write_text(ssd, encoding="utf-8")
+    return folder
+
+
+def fmpy_command(*args: str) -> list[str]:
+    """The ``fmpy`` command line of this environment (``python -m fmpy.cli``)."""
+    return [sys.executable, "-m", "fmpy.cli", *args]
+
+
+def run_clean(
+    cmd: list[str], env: dict[str, str], cwd: Path, timeout: float = 600
+) -> subprocess.CompletedProcess:
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=timeout)
+
+
+def call_sequence(steps: list[tuple[str, Callable[[], Any]]]) -> None:
+    """Run named calls, re-raising with the name of the one that failed."""
+    for name, fn in steps:
+        try:
+            fn()
+        except Exception as exc:
+            raise AssertionError(f"{name} failed: {exc}") from exc

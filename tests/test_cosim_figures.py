@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import fmu_testlib as tl
 import numpy as np
 import pytest
 
@@ -34,16 +33,6 @@ from drillstring.orchestration.closed_loop import (
 from drillstring.orchestration.figures import FIG6_RIPPLE, run_pair, write_fig5, write_fig6
 
 PNG = b"\x89PNG\r\n\x1a\n"
-
-
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
 
 
 def _read(path) -> np.ndarray:
@@ -137,7 +126,7 @@ def test_experiment_passes_only_its_own_start_values(built):
     parameter set (those are the FMUs' own)."""
     assert experiment_start_values(FIG6) == {
         "plant": {"dphi0": -4.9, "h": 5e-4, "torsional_stick_model": True},
-        "controller": {"t_on": 25.0, "latch": "angle", "enabled": True},
+        "controller": {"t_on": 25.0, "latch": 2, "enabled": True},  # Enumeration item "angle"
     }
     with closed_loop_master(built.out, FIG5, overrides={"controller.K0": 0.1}) as m:
         plant, controller = m.system.units

@@ -1,16 +1,21 @@
-"""build_fmus.py and the modelDescription.xml of both FMUs (issue 5).
+"""build_fmus.py and the modelDescription.xml of both FMUs.
 
 Checked against the FMI 2.0 standard (fmpy's validator) and against independent sources of truth:
-the start values against the gains file, the reference set and a direct engine run; the
-ModelStructure against the physics (the plant's outputs are states, the controller's output is
-a static function of its inputs); determinism by rebuilding.
+the start values against the gains file and the reference set, the computed outputs against a
+direct engine run, the declared ranges against the model's own validators, the ModelStructure
+against the physics (the plant's outputs are states, the controller's output is a static function
+of its inputs); the archive's content (front layer, pythonfmu's library, documentation, linux64
+only); determinism by rebuilding.
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib.util
+import math
 import re
+import shutil
+import subprocess
 import sys
 import zipfile
 from pathlib import Path
@@ -23,16 +28,6 @@ from fmpy.validation import validate_fmu
 
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE
-
-
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
 
 
 def _units(built):
@@ -56,18 +51,85 @@ def test_capabilities_default_experiment_and_module_names(built):
         de = md.defaultExperiment
         assert (float(de.startTime), float(de.stopTime), float(de.stepSize)) == (0.0, 20.0, 0.01)
         with zipfile.ZipFile(unit.fmu) as z:
-            names.add(z.read("resources/slavemodule.txt").decode().strip())
+            entry = z.read("resources/slavemodule.txt").decode().strip()
+            names.add(z.read(f"resources/{entry}.py").decode().split("from ")[-1].split()[0])
             assert z.read("resources/requirements.txt").decode().split() == ["numpy>=2.0"]
             files = set(z.namelist())
         # the physics is bundled as a package, not written into the FMU script
         assert {
             "resources/drillstring/model/engine.py",
             "resources/drillstring/model/control.py",
+            "resources/drillstring_fmu_support.py",
+            "resources/drillstring_fmu_boot.py",
+            "documentation/index.html",
         } <= files
-        assert f"binaries/linux64/{unit.model}.so" in files
+        # only the platform that is built and tested: the front layer and pythonfmu's library
+        binaries = sorted(f for f in files if f.startswith("binaries/"))
+        assert binaries == [
+            f"binaries/linux64/{unit.model}.so",
+            f"binaries/linux64/{unit.model}_pythonfmu.so",
+        ]
         assert not [f for f in files if "__pycache__" in f or f.endswith((".pyc", ".nbi"))]
     # both FMUs run in one interpreter: their Python modules need distinct names (pythonfmu #228)
     assert names == {"drillstring_plant", "torsional_controller"}
+
+
+def test_front_layer_is_not_linked_to_python(built, tmp_path):
+    """The layer must load in a process without libpython: it resolves Python's C API at run
+    time. Its exports are the FMI 2.0 functions only."""
+    nm = shutil.which("nm")
+    assert nm is not None
+    for unit in _units(built).values():
+        lib = unit.unzipped / "binaries" / "linux64" / f"{unit.model}.so"
+        undefined = subprocess.run(
+            [nm, "-D", "--undefined-only", str(lib)], capture_output=True, text=True, check=True
+        ).stdout.split()
+        assert not [s for s in undefined if s.startswith(("Py", "_Py"))], undefined
+        exported = subprocess.run(
+            [nm, "-D", "--defined-only", str(lib)], capture_output=True, text=True, check=True
+        ).stdout.split()
+        symbols = {s for s in exported if s.startswith("fmi2")}
+        assert len(symbols) == 34 and "fmi2DoStep" in symbols and "fmi2Instantiate" in symbols
+        # and the lock all copies of the layer in a process share (a unique symbol)
+        others = [s for s in exported[2::3] if not s.startswith(("fmi2", "_"))]
+        assert others == ["drillstring_fmi2_process_lock"], exported
+        assert "u drillstring_fmi2_process_lock" in " ".join(exported)
+
+
+def test_python_record_names_this_interpreter(built):
+    import sysconfig
+
+    for unit in _units(built).values():
+        text = (unit.unzipped / "resources" / "drillstring_fmu_python.cfg").read_text()
+        rec = dict(line.split(" ", 1) for line in text.splitlines() if not line.startswith("#"))
+        assert rec["version"] == f"{sys.version_info.major}.{sys.version_info.minor}"
+        assert Path(rec["libpython"]).resolve() == tl.libpython().resolve()
+        assert rec["home"] == sys.base_prefix
+        assert rec["site"] == sysconfig.get_paths()["purelib"]
+        for var in ("DRILLSTRING_FMU_LIBPYTHON", "DRILLSTRING_FMU_PYTHONHOME"):
+            assert var in text
+
+
+def test_documentation_says_what_a_host_needs(built):
+    for unit in _units(built).values():
+        doc = (unit.unzipped / "documentation" / "index.html").read_text()
+        for needed in (
+            "Time base and units",
+            "start time must be 0",
+            "Validity of the model",
+            "What the host needs",
+            "DRILLSTRING_FMU_LIBPYTHON",
+            "DRILLSTRING_FMU_PYTHONHOME",
+            "DRILLSTRING_FMU_SITE_PACKAGES",
+            "DRILLSTRING_FMU_CACHE",
+            "DRILLSTRING_JIT=0",
+        ):
+            assert needed in doc, (unit.model, needed)
+        md = read_model_description(str(unit.fmu))
+        for v in md.modelVariables:
+            assert f"<code>{v.name}</code>" in doc
+    plant = (built.plant.unzipped / "documentation" / "index.html").read_text()
+    assert "bit bouncing" in plant and "dphi0 &gt; -omega0" in plant
 
 
 def test_every_variable_has_description_and_unit(built):
@@ -82,18 +144,25 @@ def test_every_variable_has_description_and_unit(built):
                 assert v.start is not None, v.name
 
 
-def test_plant_outputs_exact_and_independent_of_input(built):
+def test_outputs_are_calculated_initial_unknowns(built):
+    for unit in _units(built).values():
+        md = read_model_description(str(unit.fmu))
+        outputs = [v for v in md.modelVariables if v.causality == "output"]
+        assert outputs and all(v.initial == "calculated" and v.start is None for v in outputs)
+        assert [u.variable.name for u in md.initialUnknowns] == [v.name for v in outputs]
+        assert all(u.dependencies is None for u in md.initialUnknowns)  # on all knowns
+
+
+def test_plant_outputs_independent_of_input(built):
     md = read_model_description(str(built.plant.fmu))
     outputs = [v for v in md.modelVariables if v.causality == "output"]
     assert [v.name for v in outputs] == [
         "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n",
         "mode", "stick_events", "bit_bounce", "torsional_stick",
     ]  # fmt: skip
-    assert all(v.initial == "exact" for v in outputs)
     # dependencies="" (no direct feedthrough), not absent (which would mean "all inputs")
     assert [u.variable.name for u in md.outputs] == [v.name for v in outputs]
     assert all(u.dependencies == [] for u in md.outputs)
-    assert md.initialUnknowns == []
 
 
 def test_controller_output_depends_on_its_four_inputs(built):
@@ -104,7 +173,67 @@ def test_controller_output_depends_on_its_four_inputs(built):
     assert out.variable.name == "R_minus_R0"
     assert out.dependencies == inputs
     assert out.dependenciesKind == ["dependent"] * 4
-    assert [u.variable.name for u in md.initialUnknowns] == ["R_minus_R0"]
+
+
+def test_enumerations_of_on_invalid_and_latch(built):
+    from drillstring.model.control import LATCH_MODES
+
+    for unit, name, type_name, items in (
+        (built.plant, "on_invalid", "OnInvalid", ("stop", "continue")),
+        (built.controller, "latch", "Latch", LATCH_MODES),
+    ):
+        md = read_model_description(str(unit.fmu))
+        var = next(v for v in md.modelVariables if v.name == name)
+        assert var.type == "Enumeration" and var.declaredType.name == type_name
+        assert [(i.name, int(i.value)) for i in var.declaredType.items] == [
+            (n, k + 1) for k, n in enumerate(items)
+        ]
+        start = {"on_invalid": "stop", "latch": "angle"}[name]
+        assert int(var.start) == items.index(start) + 1
+
+
+def _ranges(unit):
+    md = read_model_description(str(unit.fmu))
+    return {
+        v.name: (v.type, v.min, v.max)
+        for v in md.modelVariables
+        if v.min is not None or v.max is not None
+    }
+
+
+def test_declared_ranges_are_the_validators(built):
+    """Every parameter with a range declares it, and the model's own validator agrees at both
+    ends: the bound itself is accepted, the next representable value outside is refused."""
+    from drillstring.model.engine import EngineOptions
+    from drillstring.model.params import ScaledParams
+
+    ranges = _ranges(built.plant)
+    assert set(ranges) == {
+        "n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0", "h", "event_tol",
+    }  # fmt: skip
+    fields = {"lambda": "lam"}
+
+    def accepted(name, value):
+        try:
+            if name in ("h", "event_tol"):
+                EngineOptions(**{name: value})
+            else:
+                ScaledParams(**{**REFERENCE.__dict__, fields.get(name, name): value})
+        except ValueError:
+            return False
+        return True
+
+    for name, (kind, lo, hi) in ranges.items():
+        for bound, outward in ((lo, -math.inf), (hi, math.inf)):
+            if bound is None:
+                continue
+            x = int(bound) if kind == "Integer" else float(bound)
+            beyond = (
+                x + (1 if outward > 0 else -1) if kind == "Integer" else math.nextafter(x, outward)
+            )
+            assert accepted(name, x), (name, x)
+            assert not accepted(name, beyond), (name, beyond)
+    assert _ranges(built.controller) == {}  # gains and t_on: any finite number
 
 
 def _starts(unit):
@@ -119,15 +248,24 @@ def test_start_values_are_exact(built):
         assert float(plant[name]) == float(getattr(REFERENCE, fields.get(name, name))), name
     assert float(plant["dphi0"]) == -2.5
     assert float(plant["h"]) == EngineOptions().h
-    # exact outputs: the engine's own initial outputs, bit for bit (17 significant digits)
-    eng = Engine(REFERENCE, options=EngineOptions(), initial={"dphi": -2.5})
-    for name, value in eng.outputs().items():
-        assert float(plant[name]) == value, name
     ctrl = _starts(built.controller)
     g = built.gains_values
     assert [float(ctrl[f"F[{i}]"]) for i in range(1, 5)] == g["F"]
     assert (float(ctrl["K0"]), float(ctrl["R_ff"])) == (g["K0"], g["R_ff"])
-    assert ctrl["latch"] == "angle" and float(ctrl["t_on"]) == 0.0
+    assert int(ctrl["latch"]) == 2 and float(ctrl["t_on"]) == 0.0
+
+
+def test_calculated_outputs_at_initialization_are_the_engines(built):
+    """Read in initialization mode, bit for bit the engine's initial outputs."""
+    s = tl.Slave(built.plant, "init_outputs")
+    try:
+        s.fmu.setupExperiment(startTime=0.0)
+        s.fmu.enterInitializationMode()
+        eng = Engine(REFERENCE, options=EngineOptions(), initial={"dphi": -2.5})
+        for name, value in eng.outputs().items():
+            assert s.get(name)[0] == value, name
+    finally:
+        s.free()
 
 
 def _xml(fmu: Path) -> bytes:
@@ -177,9 +315,7 @@ def test_validation_failure_fails_the_build(built, tmp_path):
     with zipfile.ZipFile(broken, "w") as z:
         for name, data in entries.items():
             z.writestr(name, data)
-    with pytest.raises(
-        bf.BuildError, match=r"(?s)validate_fmu reports 1 problem.*ModelStructure/Outputs"
-    ):
+    with pytest.raises(bf.BuildError, match=r"(?s)validate_fmu reports \d+ problem.*Outputs"):
         bf.validate(broken)
     bf.validate(built.plant.fmu)  # the real one passes
 
@@ -203,3 +339,14 @@ def test_missing_gains_file_runs_the_synthesis(tmp_path):
     starts = {v.name: float(v.start) for v in md.modelVariables if v.type == "Real" and v.start}
     assert [starts[f"F[{i}]"] for i in range(1, 5)] == list(designed.F)
     assert (starts["K0"], starts["R_ff"]) == (designed.K0, designed.R_ff)
+
+
+def test_missing_compiler_fails_the_build_with_the_reason(tmp_path, monkeypatch):
+    bf = _build_module()
+    monkeypatch.setenv("PATH", str(tmp_path))  # no cc, gcc or clang there
+    monkeypatch.delenv("CC", raising=False)
+    with pytest.raises(bf.BuildError, match=r"no C compiler found .*install one"):
+        bf.find_compiler()
+    monkeypatch.setenv("CC", "no-such-compiler")
+    with pytest.raises(bf.BuildError, match=r"CC='no-such-compiler': no-such-compiler not found"):
+        bf.find_compiler()

@@ -55,6 +55,7 @@ class DemoSummary:
     seconds: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
+        """The summary as plain JSON types (paths as strings, numpy scalars as numbers)."""
         return _jsonable(asdict(self))
 
 
@@ -167,7 +168,13 @@ def _jsonable(obj: Any) -> Any:
 
 
 def print_summary(summary: DemoSummary) -> None:
-    """Print the design, the agreement of co-simulation and monolithic solver, the checks."""
+    """Print the design, the agreement of co-simulation and monolithic solver, the checks.
+
+    Parameters
+    ----------
+    summary : DemoSummary
+        A result of :func:`run_demo`.
+    """
     d = summary.design
     print(
         f"   design: A = {d['A']:.5f}, taubar_crit = {d['taubar_crit']:.5f}, "
@@ -192,7 +199,21 @@ def print_summary(summary: DemoSummary) -> None:
 
 
 def demo_main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``demo`` subcommand; exit code 0 (ok) or 2 (missing design or FMUs)."""
+    """Run the ``demo`` subcommand; exit code 0 (ok) or 2 (missing design or FMUs).
+
+    Runs :func:`run_demo` with ``--design``, ``--fmus``, ``--out`` and ``--H``, then prints
+    the summary.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after the subcommand (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     ap = argparse.ArgumentParser(prog="drillstring demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out"))
     ap.add_argument(

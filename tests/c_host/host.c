@@ -4,7 +4,7 @@
  * Loads the linux64 binaries of unpacked FMI 2.0 co-simulation FMUs with dlopen(), couples their
  * real-valued outputs and inputs with a fixed macro step and writes the recorded outputs as CSV.
  * It is the "non-Python host" of the drillstring project's FMU tests (tests/test_fmu_cosim.py) and
- * an example for tool users (docs/fmu_usage.md).
+ * the example of README.md, "Using the FMUs in other tools".
  *
  * The exchange follows libcosim's fixed_step_algorithm (Jacobi), so that the results can be compared
  * with libcosim bit for bit:
@@ -15,20 +15,24 @@
  *   macro step k (t_k = k*H_ns/1e9 s, h_k = t_{k+1} - t_k, H_ns the step in integer nanoseconds):
  *     for every FMU: write pending inputs, fmi2DoStep(t_k, h_k), read outputs; then transfer.
  *
- * Python-based FMUs (pythonfmu) need libpython in the global symbol namespace (pythonfmu issue #202):
- * the directive `libpython PATH` makes the host dlopen() it with RTLD_GLOBAL before any FMU.
+ * The resource location passed to fmi2Instantiate is a proper RFC 3986 file URI: every byte of the
+ * folder's path other than unreserved characters and '/' is percent-encoded.
  *
- * Usage: host CONFIG_FILE. Exit status 0 on success, 1 if an FMU call fails, 2 on a usage or
- * configuration error. The configuration is one directive per line ('#' starts a comment):
- *   libpython PATH                      optional, see above
- *   fmu NAME UNZIPDIR MODELIDENTIFIER GUID
+ * Usage: host CONFIG_FILE. Exit status 0 on success, 1 if an FMU call fails (the FMU's log says
+ * why), 2 on a usage or configuration error. The configuration is one directive per line (a line
+ * starting with '#' is a comment); paths are the rest of their line and may contain spaces:
+ *   fmu NAME MODELIDENTIFIER GUID UNZIPDIR
  *   real NAME VR VALUE | integer NAME VR VALUE | boolean NAME VR 0|1   start/parameter values
  *   connect SRCNAME SRCVR DSTNAME DSTVR real output -> real input
  *   record NAME VR COLUMN               a real variable written to the CSV after every macro step
  *   step_ns H_NS                        macro step in nanoseconds (libcosim's time base)
  *   steps N                             number of macro steps
  *   csv PATH                            output file
+ *   logging 0|1                         loggingOn of fmi2Instantiate (default 1)
  *   unload 0|1                          dlclose() the FMU binaries before exit (default 1)
+ *   libpython PATH                      optional: dlopen() PATH with RTLD_GLOBAL before the FMUs
+ *                                       (the drillstring FMUs do not need it: they load libpython
+ *                                       themselves and then use the one found here)
  */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
@@ -73,6 +77,7 @@ typedef fmi2Status (*SetInteger_t)(fmi2Component, const fmi2ValueReference *, si
 typedef fmi2Status (*SetBoolean_t)(fmi2Component, const fmi2ValueReference *, size_t,
                                    const fmi2Boolean *);
 typedef fmi2Status (*DoStep_t)(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
+typedef fmi2Status (*GetRealStatus_t)(fmi2Component, int, fmi2Real *);
 
 /* ---- host data ------------------------------------------------------------------------------- */
 #define MAX_FMUS 8
@@ -95,6 +100,7 @@ typedef struct {
     SetInteger_t set_integer;
     SetBoolean_t set_boolean;
     DoStep_t do_step;
+    GetRealStatus_t get_real_status;
 } Fmu;
 
 typedef struct { int fmu; char kind; fmi2ValueReference vr; double value; } Start;
@@ -107,7 +113,7 @@ static Link links[MAX_ITEMS];
 static Record records[MAX_ITEMS];
 static int n_fmus, n_starts, n_links, n_records;
 static long long step_ns = 0, n_steps = 0;
-static int unload = 1;
+static int unload = 1, logging = 1;
 static char libpython[MAX_TOKEN], csv_path[MAX_TOKEN];
 
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
@@ -150,6 +156,23 @@ static void check(fmi2Status s, const Fmu *f, const char *what)
     }
 }
 
+/* the rest of the line after n blank-separated words, without the newline */
+static const char *rest(const char *line, int n)
+{
+    const char *p = line;
+    for (int i = 0; i < n; ++i) {
+        p += strspn(p, " \t");
+        p += strcspn(p, " \t\n");
+    }
+    return p + strspn(p, " \t");
+}
+
+static void copy_rest(char *out, size_t n, const char *line, int words)
+{
+    snprintf(out, n, "%s", rest(line, words));
+    out[strcspn(out, "\r\n")] = '\0';
+}
+
 static void read_config(const char *path)
 {
     char line[3 * MAX_TOKEN], a[MAX_TOKEN], b[MAX_TOKEN], c[MAX_TOKEN], d[MAX_TOKEN], e[MAX_TOKEN];
@@ -159,18 +182,17 @@ static void read_config(const char *path)
         exit(2);
     }
     while (fgets(line, sizeof line, fp)) {
-        char *hash = strchr(line, '#');
-        if (hash) *hash = '\0';
+        if (line[strspn(line, " \t")] == '#') continue;
         int n = sscanf(line, "%4095s %4095s %4095s %4095s %4095s", a, b, c, d, e);
         if (n <= 0) continue;
-        if (strcmp(a, "libpython") == 0 && n == 2) {
-            snprintf(libpython, sizeof libpython, "%s", b);
+        if (strcmp(a, "libpython") == 0 && n >= 2) {
+            copy_rest(libpython, sizeof libpython, line, 1);
         } else if (strcmp(a, "fmu") == 0 && n == 5 && n_fmus < MAX_FMUS) {
             Fmu *f = &fmus[n_fmus++];
             snprintf(f->name, sizeof f->name, "%s", b);
-            snprintf(f->dir, sizeof f->dir, "%s", c);
-            snprintf(f->id, sizeof f->id, "%s", d);
-            snprintf(f->guid, sizeof f->guid, "%s", e);
+            snprintf(f->id, sizeof f->id, "%s", c);
+            snprintf(f->guid, sizeof f->guid, "%s", d);
+            copy_rest(f->dir, sizeof f->dir, line, 4);
         } else if ((strcmp(a, "real") == 0 || strcmp(a, "integer") == 0 ||
                     strcmp(a, "boolean") == 0) && n == 4 && n_starts < MAX_ITEMS) {
             Start *s = &starts[n_starts++];
@@ -193,10 +215,12 @@ static void read_config(const char *path)
             step_ns = strtoll(b, NULL, 10);
         } else if (strcmp(a, "steps") == 0 && n == 2) {
             n_steps = strtoll(b, NULL, 10);
-        } else if (strcmp(a, "csv") == 0 && n == 2) {
-            snprintf(csv_path, sizeof csv_path, "%s", b);
+        } else if (strcmp(a, "csv") == 0 && n >= 2) {
+            copy_rest(csv_path, sizeof csv_path, line, 1);
         } else if (strcmp(a, "unload") == 0 && n == 2) {
             unload = atoi(b);
+        } else if (strcmp(a, "logging") == 0 && n == 2) {
+            logging = atoi(b);
         } else {
             fprintf(stderr, "host: bad config line: %s", line);
             exit(2);
@@ -209,9 +233,27 @@ static void read_config(const char *path)
     }
 }
 
+/* "file://" + the percent-encoded absolute path (RFC 3986: unreserved characters and '/' stay) */
+static void file_uri(char *out, size_t n, const char *path)
+{
+    static const char hex[] = "0123456789ABCDEF";
+    size_t k = (size_t)snprintf(out, n, "file://");
+    for (const unsigned char *p = (const unsigned char *)path; *p && k + 4 < n; ++p) {
+        if ((*p >= 'A' && *p <= 'Z') || (*p >= 'a' && *p <= 'z') || (*p >= '0' && *p <= '9') ||
+            strchr("-._~/", *p)) {
+            out[k++] = (char)*p;
+        } else {
+            out[k++] = '%';
+            out[k++] = hex[*p >> 4];
+            out[k++] = hex[*p & 15];
+        }
+    }
+    out[k] = '\0';
+}
+
 static void load(Fmu *f)
 {
-    char path[3 * MAX_TOKEN], uri[3 * MAX_TOKEN];
+    char path[3 * MAX_TOKEN], uri[9 * MAX_TOKEN];
     snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", f->dir, f->id);
     f->lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
     if (!f->lib) {
@@ -229,10 +271,13 @@ static void load(Fmu *f)
     f->set_integer = (SetInteger_t)sym(f, "fmi2SetInteger");
     f->set_boolean = (SetBoolean_t)sym(f, "fmi2SetBoolean");
     f->do_step = (DoStep_t)sym(f, "fmi2DoStep");
+    f->get_real_status = (GetRealStatus_t)sym(f, "fmi2GetRealStatus");
 
     static const fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
-    snprintf(uri, sizeof uri, "file://%s/resources", f->dir);
-    f->c = f->instantiate(f->name, fmi2CoSimulation, f->guid, uri, &callbacks, 0, 1);
+    char resources[3 * MAX_TOKEN];
+    snprintf(resources, sizeof resources, "%s/resources", f->dir);
+    file_uri(uri, sizeof uri, resources);
+    f->c = f->instantiate(f->name, fmi2CoSimulation, f->guid, uri, &callbacks, 0, logging);
     if (!f->c) {
         fprintf(stderr, "host: fmi2Instantiate failed for %s\n", f->name);
         exit(1);
@@ -348,7 +393,16 @@ int main(int argc, char **argv)
         const double h = (double)((k + 1) * step_ns) / 1e9 - t;
         for (int i = 0; i < n_fmus; ++i) {
             set_inputs(i);
-            check(fmus[i].do_step(fmus[i].c, t, h, 1), &fmus[i], "fmi2DoStep");
+            const fmi2Status s = fmus[i].do_step(fmus[i].c, t, h, 1);
+            if (s == fmi2Discard) {
+                double reached = t;
+                fmus[i].get_real_status(fmus[i].c, 2 /* fmi2LastSuccessfulTime */, &reached);
+                fprintf(stderr, "host: fmi2DoStep(%.17g, %.17g) of %s returned fmi2Discard; "
+                        "fmi2LastSuccessfulTime = %.17g\n", t, h, fmus[i].name, reached);
+                fclose(out);
+                return 1;
+            }
+            check(s, &fmus[i], "fmi2DoStep");
             get_outputs(i);
         }
         transfer();

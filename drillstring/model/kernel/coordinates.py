@@ -13,9 +13,10 @@ from drillstring.model.kernel.jit import jit_for
 from drillstring.model.kernel.state import P_OMEGA0, P_V0
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 
-@jit
+@inline
 def to_perturbation(
     P: np.ndarray, tau: float, U: float, V: float, Phi: float, W: float, Theta: float, Wt: float
 ) -> tuple[float, float, float, float, float, float]:

@@ -34,9 +34,10 @@ from drillstring.model.kernel.state import (
 )
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 
-@jit
+@inline
 def rhs(
     P: np.ndarray,
     freeze: bool,

@@ -71,6 +71,7 @@ from drillstring.model.kernel.state import (
 )
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 EVF_V_DOWN = 0
 EVF_V_UP = 1
@@ -140,17 +141,34 @@ ACT_BOUNCING = np.array([KEEP, KEEP, KEEP, KEEP, KEEP, 1, 0, KEEP, KEEP])
 ACT_COUNT = np.array([NONE, NONE, NONE, NONE, NONE, I_NBOUNCE, NONE, NONE, NONE])
 
 
-@jit
-def watched(ev: int, mode: int, bouncing: int, frozen: bool) -> bool:
-    """Whether event function ``ev`` is watched in ``mode`` (tables above)."""
-    if (EVF_MODES[ev] >> mode) & 1 == 0:
-        return False
-    if EVF_BOUNCING[ev] != ANY and EVF_BOUNCING[ev] != bouncing:
-        return False
-    return EVF_FROZEN[ev] == 1 or not frozen
+def _watched_masks() -> np.ndarray:
+    """WATCHED[mode, bouncing, frozen]: bit ev set when event function ev is watched there."""
+    masks = np.zeros((4, 2, 2), dtype=np.int64)
+    for mode in range(4):
+        for bouncing in range(2):
+            for frozen in range(2):
+                for ev in range(N_EVF):
+                    if (
+                        (EVF_MODES[ev] >> mode) & 1
+                        and EVF_BOUNCING[ev] in (ANY, bouncing)
+                        and (EVF_FROZEN[ev] == 1 or not frozen)
+                    ):
+                        masks[mode, bouncing, frozen] |= 1 << ev
+    return masks
 
 
-@jit
+#: The event functions watched in each mode, bouncing state and frozen-torsion setting, from
+#: the tables above (a bit per event function).
+WATCHED = _watched_masks()
+
+
+@inline
+def watched(mode: int, bouncing: int, frozen: bool) -> int:
+    """The event functions watched in ``mode``, as a bit mask (bit ev: function ev)."""
+    return WATCHED[mode, bouncing, 1 if frozen else 0]
+
+
+@inline
 def event_value(ev: int, Y: np.ndarray, D: np.ndarray) -> float:
     """Event function ``ev`` at state Y with diagnostics D (positive before the event)."""
     q = Y[EVF_INDEX[ev]] if EVF_SOURCE[ev] == Q_STATE else D[EVF_INDEX[ev]]

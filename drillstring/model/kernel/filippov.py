@@ -28,9 +28,10 @@ from drillstring.model.kernel.state import (
 )
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 
-@jit
+@inline
 def g_star(P: np.ndarray, tau: float, U: float, d: float) -> float:
     """The contact multiplier that keeps dV/dtau = 0 at V = 0.
 
@@ -45,7 +46,7 @@ def g_star(P: np.ndarray, tau: float, U: float, d: float) -> float:
     return np.inf if num > 0.0 else -np.inf
 
 
-@jit
+@inline
 def contact(mode: int, gstar: float) -> float:
     """g of (17) in a mode: 0 slipping down, 1 moving up, g* in axial stick."""
     if mode == MODE_SLIP:
@@ -67,19 +68,19 @@ def mode_at_zero_velocity(gstar: float) -> int:
     return MODE_STICK
 
 
-@jit
+@inline
 def max_bit_torque(P: np.ndarray, d: float) -> float:
     """T_max = n*d + n*beta*lambda, the largest torque on bit while stuck."""
     return P[P_N] * (d + P[P_BETA] * P[P_LAM])
 
 
-@jit
+@inline
 def twist_torque(P: np.ndarray, Phi: float, Theta: float) -> float:
     """Scaled twist torque of the string S = R0 + Theta - Phi (R0 the nominal twist, eq. (8))."""
     return P[P_R0] + Theta - Phi
 
 
-@jit
+@inline
 def torque_on_bit(P: np.ndarray, mode: int, d: float, g: float, twist: float) -> float:
     """Scaled torque on bit T = n*d + n*beta*lambda*(1 - g); T = S while torsionally stuck."""
     if mode == MODE_TSTICK:

@@ -32,6 +32,7 @@ from drillstring.model.kernel.state import (
 )
 
 jit = jit_for(__name__)
+inline = jit_for(__name__, inline=True)
 
 #: Newton on the cubic is quadratic: after a Newton step shorter than this (in the interval's
 #: unit) the next one would be below rounding, so the iteration stops there (iterating further
@@ -40,7 +41,7 @@ NEWTON_STEP_TOL = 1e-9
 NEWTON_MAX = 60
 
 
-@jit
+@inline
 def hermite(y0: float, y1: float, m0: float, m1: float, dt: float, s: float) -> float:
     """Cubic Hermite interpolant on one interval at local coordinate s in [0, 1]."""
     s2 = s * s
@@ -53,7 +54,7 @@ def hermite(y0: float, y1: float, m0: float, m1: float, dt: float, s: float) -> 
     )
 
 
-@jit
+@inline
 def hermite_slope(y0: float, y1: float, m0: float, m1: float, dt: float, s: float) -> float:
     """d/dtau of :func:`hermite` (note: per unit time, not per unit s)."""
     s2 = s * s
@@ -66,7 +67,7 @@ def hermite_slope(y0: float, y1: float, m0: float, m1: float, dt: float, s: floa
     return ds / dt
 
 
-@jit
+@inline
 def find_interval(H: np.ndarray, start: int, end: int, k_hint: int, row: int, value: float) -> int:
     """Largest node index k in [start, end) with H[row, k] <= value (row non-decreasing).
 
@@ -89,7 +90,7 @@ def find_interval(H: np.ndarray, start: int, end: int, k_hint: int, row: int, va
     return k
 
 
-@jit
+@inline
 def delay_lookup(
     H: np.ndarray, start: int, end: int, k_hint: int, phi_now: float, blade: float
 ) -> tuple[int, float, float]:
@@ -139,7 +140,7 @@ def delay_lookup(
     return k, t0 + s * dt, u_past
 
 
-@jit
+@inline
 def append_node(
     H: np.ndarray, end: int, tau: float, U: float, V: float, Phi: float, W: float, flag: float
 ) -> int:
@@ -153,7 +154,7 @@ def append_node(
     return end + 1
 
 
-@jit
+@inline
 def push_node(H: np.ndarray, I: np.ndarray, tau: float, Y: np.ndarray, flag: float) -> None:
     """Append the accepted state as a history node; a torsional-stick stretch keeps two nodes.
 
@@ -185,7 +186,7 @@ def push_node(H: np.ndarray, I: np.ndarray, tau: float, Y: np.ndarray, flag: flo
         I[I_HSTART] = keep
 
 
-@jit
+@inline
 def next_discontinuity(
     H: np.ndarray, start: int, end: int, k_hint: int, s0: float, s1: float
 ) -> float:

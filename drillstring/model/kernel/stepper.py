@@ -65,11 +65,8 @@ from drillstring.model.kernel.state import (
     D_GSTAR,
     D_QG,
     D_R,
-    D_RELEASE,
-    D_S,
     D_SIZE,
     D_TAUN,
-    D_TOB,
     EV_SWITCH_ON,
     I_BOUNCING,
     I_ENUM,
@@ -81,7 +78,6 @@ from drillstring.model.kernel.state import (
     I_NSTEPS,
     I_NTRIALS,
     I_STATUS,
-    K_END,
     K_NOW,
     O_EVTOL,
     O_FREEZE,
@@ -106,17 +102,6 @@ from drillstring.model.kernel.state import (
     ST_NONFINITE,
     ST_OK,
     ST_ZENO,
-    W_DBEST,
-    W_DEV,
-    W_DNEW,
-    W_DTRY,
-    W_KBEST,
-    W_KEV,
-    W_KNEW,
-    W_YBEST,
-    W_YEV,
-    W_YNEW,
-    W_YTRY,
     X_GINT,
     X_TAU,
     Y_PHI,
@@ -142,8 +127,60 @@ MAX_TRIALS = 100
 #: Steps in a row that do not advance time before the run is stopped as Zeno behaviour.
 ZENO_LIMIT = 64
 
+# The hot path (stage, rk4, locate) works on tuples: the parameters and the control law as
+# tuples of floats (indexed like the arrays, ``P[P_ETA]``), the state, its derivative and its
+# diagnostics as tuples; the history is its only array. Passing arrays between compiled
+# functions costs reference counting, which cost more than the arithmetic.
+
 
 @jit
+def as_tuple_14(a):
+    """The 14 entries of ``a`` as a tuple (the parameter array, ``P_SIZE``)."""
+    return (
+        a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12], a[13]
+    )  # fmt: skip
+
+
+@jit
+def as_tuple_13(a):
+    """The 13 entries of ``a`` as a tuple (the control array, ``C_SIZE``)."""
+    return (
+        a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12]
+    )  # fmt: skip
+
+
+@inline
+def as_tuple_6(a):
+    """The 6 entries of ``a`` (a state or a derivative) as a tuple."""
+    return a[0], a[1], a[2], a[3], a[4], a[5]
+
+
+@inline
+def row_tuple_6(a, r):
+    """The 6 entries of row ``r`` of ``a`` as a tuple (no view of the row is made)."""
+    return a[r, 0], a[r, 1], a[r, 2], a[r, 3], a[r, 4], a[r, 5]
+
+
+@inline
+def as_tuple_9(a):
+    """The 9 entries of ``a`` (diagnostics, ``D_SIZE``) as a tuple."""
+    return a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8]
+
+
+@inline
+def axpy6(y, a, k):
+    """y + a*k for 6-tuples (the RK stage update, written once)."""
+    return (
+        y[0] + a * k[0],
+        y[1] + a * k[1],
+        y[2] + a * k[2],
+        y[3] + a * k[3],
+        y[4] + a * k[4],
+        y[5] + a * k[5],
+    )
+
+
+@inline
 def control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext):
     """R - R0 at (tau, Y): held value, affine feedback (29)-(31) or an external callable."""
     kind = int(C[C_KIND])
@@ -162,29 +199,12 @@ def control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext):
     )
 
 
-#: A zero derivative, returned with a failed stage.
-_ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-
-
 @inline
-def axpy6(y, a, k):
-    """y + a*k for 6-tuples (the RK stage update, written once)."""
-    return (
-        y[0] + a * k[0],
-        y[1] + a * k[1],
-        y[2] + a * k[2],
-        y[3] + a * k[3],
-        y[4] + a * k[4],
-        y[5] + a * k[5],
-    )
-
-
-@inline
-def stage(P, O, C, H, hs, he, hint, mode, tau, y, ext):
+def stage(P, C, H, hs, he, hint, mode, frozen, tau, y, ext):
     """One evaluation of the vector field at (tau, y): delay, depth of cut, contact, torque.
 
-    ``y`` is the state as a 6-tuple; ``hs``, ``he``, ``hint`` the history window and the
-    look-up hint. Returns (status, hint, dy/dtau, d, tau_n, g, g*, R - R0).
+    ``hs``, ``he``, ``hint`` are the history window and the look-up hint. Returns (status,
+    hint, dy/dtau, d, tau_n, g, g*, R - R0).
     """
     U, V, Phi, W, Theta, Wt = y
     k, s, u_past = delay_lookup(H, hs, he, hint, Phi, P[P_BLADE])
@@ -196,90 +216,75 @@ def stage(P, O, C, H, hs, he, hint, mode, tau, y, ext):
     r = control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext)
     if not math.isfinite(r):
         return ST_NONFINITE, k, _ZERO6, d, tau - s, g, gs, r
-    dy = rhs(P, O[O_FREEZE] > 0.0, mode, tau, U, V, Phi, W, Theta, Wt, d, g, r)
+    dy = rhs(P, frozen, mode, tau, U, V, Phi, W, Theta, Wt, d, g, r)
     return ST_OK, k, dy, d, tau - s, g, gs, r
 
 
-@jit
-def write_diagnostics(P, mode, y, d, taun, g, gs, r, Drow):
-    """The diagnostics of a state into ``Drow`` (all but ``D_QG``)."""
+@inline
+def diagnostics(P, mode, y, d, taun, g, gs, r, qg):
+    """The diagnostics of a state as a tuple in the order of the ``D_*`` columns."""
     S = twist_torque(P, y[Y_PHI], y[Y_THETA])
-    Drow[D_D] = d
-    Drow[D_TAUN] = taun
-    Drow[D_G] = g
-    Drow[D_GSTAR] = gs
-    Drow[D_S] = S
-    Drow[D_TOB] = torque_on_bit(P, mode, d, g, S)
-    Drow[D_R] = r
-    Drow[D_RELEASE] = max_bit_torque(P, d) - S
+    return d, taun, g, gs, S, torque_on_bit(P, mode, d, g, S), r, qg, max_bit_torque(P, d) - S
+
+
+#: A zero derivative and empty diagnostics, returned with a failed stage or trial.
+_ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+_ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @jit
-def rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, h, yrow, drow, ext):
-    """Classical RK4 step of size h from (tau, Y) into ``Wk[yrow]``, diagnostics ``Wk[drow]``.
+def rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, ext):
+    """Classical RK4 step of size h from (tau, y0), whose derivative is k0 and contact g0.
 
-    ``K[K_NOW]`` and ``D`` must hold the derivative and diagnostics at (tau, Y); the end state's
-    derivative lands in ``K[K_END]``. ``Wk[drow, D_QG]`` is the RK4 quadrature of g. The stages
-    run on scalars; only the end state is written.
+    Returns (status, hint, y, dy/dtau, diagnostics) of the end state; the diagnostics'
+    ``D_QG`` is the RK4 quadrature of g over the step. The end state's derivative serves the
+    event functions and, when the step is accepted, as the next step's first stage.
     """
-    y0 = (Y[0], Y[1], Y[2], Y[3], Y[4], Y[5])
-    k = (K[K_NOW, 0], K[K_NOW, 1], K[K_NOW, 2], K[K_NOW, 3], K[K_NOW, 4], K[K_NOW, 5])
-    acc = k
-    qg = D[D_G]
-    hs = I[I_HSTART]
-    he = I[I_HEND]
-    hint = I[I_KHINT]
+    k = k0
+    acc = k0
+    qg = g0
     for i in range(3):
         yt = axpy6(y0, RK_A[i] * h, k)
         st, hint, k, d, taun, g, gs, r = stage(
-            P, O, C, H, hs, he, hint, mode, tau + RK_C[i] * h, yt, ext
+            P, C, H, hs, he, hint, mode, frozen, tau + RK_C[i] * h, yt, ext
         )
         if st != ST_OK:
-            I[I_KHINT] = hint
-            return st
+            return st, hint, y0, _ZERO6, _ZERO9
         acc = axpy6(acc, RK_B6[i + 1], k)
         qg += RK_B6[i + 1] * g
     yn = axpy6(y0, h / 6.0, acc)
     for j in range(Y_SIZE):
         if not math.isfinite(yn[j]):
-            I[I_KHINT] = hint
-            return ST_NONFINITE
-    # the end state's derivative and diagnostics: for the event functions, and the next stage 1
-    st, hint, k, d, taun, g, gs, r = stage(P, O, C, H, hs, he, hint, mode, tau + h, yn, ext)
-    I[I_KHINT] = hint
+            return ST_NONFINITE, hint, y0, _ZERO6, _ZERO9
+    st, hint, k, d, taun, g, gs, r = stage(P, C, H, hs, he, hint, mode, frozen, tau + h, yn, ext)
     if st != ST_OK:
-        return st
-    Yn = Wk[yrow]
-    Dn = Wk[drow]
-    for j in range(Y_SIZE):
-        Yn[j] = yn[j]
-        K[K_END, j] = k[j]
-    write_diagnostics(P, mode, yn, d, taun, g, gs, r, Dn)
-    Dn[D_QG] = h / 6.0 * qg
-    return ST_OK
+        return st, hint, y0, _ZERO6, _ZERO9
+    return ST_OK, hint, yn, k, diagnostics(P, mode, yn, d, taun, g, gs, r, h / 6.0 * qg)
 
 
 @jit
-def locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext):
-    """Step fraction of the event of function ``ev`` in (0, 1]; -1 on a failed trial.
+def locate(ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, f0, f1, tdisc, tol,
+           far, ext):  # fmt: skip
+    """The event of function ``ev`` inside a step of size h from (tau, y0).
 
     Regula falsi with the Illinois modification on the bracket [lo, hi] (f(lo) > 0 >= f(hi)),
     each trial a genuine RK4 step of size theta*h from the step start. When the estimate comes
     within half the tolerance of an end of the bracket, the trial is put half a tolerance past
     that end, which closes the bracket from the other side; so the far side is reached in a few
-    trials instead of by bisection. Returns the far-side fraction ``hi``, whose time lies within
-    ``O[O_EVTOL]`` after the root; its state, diagnostics and end derivative are left in
-    ``Wk[W_YEV]``, ``Wk[W_DEV]``, ``Wk[W_KEV]``. Trial steps are ``(tau + theta*h) - tau``, so
-    the state of a trial belongs exactly to the time ``tau + theta*h`` it is labelled with.
+    trials instead of by bisection. Trial steps are ``(tau + theta*h) - tau``, so the state of
+    a trial belongs exactly to the time ``tau + theta*h`` it is labelled with. ``far`` is the
+    end of the step, (y, dy/dtau, diagnostics), the far side until a trial finds a nearer one.
+
+    Returns (status, hint, theta, trials, far side): theta in (0, 1] lies within ``tol`` (in
+    time) after the root.
     """
     lo = 0.0
     hi = 1.0
     flo = f0
     fhi = f1
     side = 0
-    tol = O[O_EVTOL]
     half = 0.5 * tol / h
-    I[I_NLOCATE] += 1
+    trials = 0
     for _ in range(MAX_TRIALS):
         if (hi - lo) * h <= tol:
             break
@@ -294,20 +299,18 @@ def locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext):
         elif hi - th < half:
             th = hi - half
         t = tau + th * h
-        st = rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, t - tau, W_YTRY, W_DTRY, ext)
-        I[I_NTRIALS] += 1
+        st, hint, y, k, dg = rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, t - tau, ext)
+        trials += 1
         if st != ST_OK:
-            return -1.0
+            return st, hint, -1.0, trials, far
         if ev == EVF_DELAY:
-            f = tdisc - (t - Wk[W_DTRY, D_TAUN])
+            f = tdisc - (t - dg[D_TAUN])
         else:
-            f = event_value(ev, Wk[W_YTRY], Wk[W_DTRY])
+            f = event_value(ev, y, dg)
         if f <= 0.0:
             hi = th
             fhi = f
-            Wk[W_YEV, :] = Wk[W_YTRY]
-            Wk[W_DEV, :] = Wk[W_DTRY]
-            Wk[W_KEV, :Y_SIZE] = K[K_END]
+            far = (y, k, dg)
             if side == -1:
                 flo *= 0.5
             side = -1
@@ -319,24 +322,36 @@ def locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext):
             if side == 1:
                 fhi *= 0.5
             side = 1
-    return hi
+    return ST_OK, hint, hi, trials, far
+
+
+@inline
+def store(s: KernelState, y, k, dg) -> None:
+    """Make (y, dy/dtau, diagnostics) the current state of ``s``."""
+    Y, K, D = s.y, s.stages, s.diag
+    for j in range(Y_SIZE):
+        Y[j] = y[j]
+        K[K_NOW, j] = k[j]
+    for j in range(D_SIZE):
+        D[j] = dg[j]
 
 
 @jit
 def refresh(s: KernelState, ext) -> int:
     """Recompute the derivative and diagnostics at the current state (new mode or input)."""
-    I, Y = s.ints, s.y
+    I = s.ints  # noqa: E741
+    P = as_tuple_14(s.params)
     mode = I[I_MODE]
-    y = (Y[0], Y[1], Y[2], Y[3], Y[4], Y[5])
+    y = as_tuple_6(s.y)
     st, hint, k, d, taun, g, gs, r = stage(
-        s.params,
-        s.options,
-        s.control,
+        P,
+        as_tuple_13(s.control),
         s.history,
         I[I_HSTART],
         I[I_HEND],
         I[I_KHINT],
         mode,
+        s.options[O_FREEZE] > 0.0,
         s.clock[X_TAU],
         y,
         ext,
@@ -344,88 +359,89 @@ def refresh(s: KernelState, ext) -> int:
     I[I_KHINT] = hint
     if st != ST_OK:
         return st
-    for j in range(Y_SIZE):
-        s.stages[K_NOW, j] = k[j]
-    write_diagnostics(s.params, mode, y, d, taun, g, gs, r, s.diag)
+    store(s, y, k, diagnostics(P, mode, y, d, taun, g, gs, r, s.diag[D_QG]))
     return ST_OK
 
 
-@jit
-def step(s: KernelState, h: float, t_end: float, ext) -> int:
-    """One step to t_end = tau + h, or to the first event inside it; returns a status."""
-    P, O, C, H, I, K, Wk = s.params, s.options, s.control, s.history, s.ints, s.stages, s.work
-    Y, D, X = s.y, s.diag, s.clock
+@inline
+def step(s: KernelState, P, C, h: float, t_end: float, ext) -> int:
+    """One step to t_end = tau + h, or to the first event inside it; returns a status.
+
+    ``P``, ``C`` are the parameters and the control law as tuples (:func:`as_tuple_14`).
+    """
+    H, I, X = s.history, s.ints, s.clock
     tau = X[X_TAU]
     mode = I[I_MODE]
-    st = rk4(P, O, C, H, I, K, Wk, mode, tau, Y, D, h, W_YNEW, W_DNEW, ext)
+    frozen = s.options[O_FREEZE] > 0.0
+    tol = s.options[O_EVTOL]
+    hs = I[I_HSTART]
+    he = I[I_HEND]
+    y0 = as_tuple_6(s.y)
+    k0 = row_tuple_6(s.stages, K_NOW)
+    d0 = as_tuple_9(s.diag)
+    g0 = d0[D_G]
+    st, hint, yn, kn, dn = rk4(P, C, H, hs, he, I[I_KHINT], mode, frozen, tau, y0, k0, g0, h, ext)
     if st != ST_OK:
+        I[I_KHINT] = hint
         return st
-    Ynew = Wk[W_YNEW]
-    Dnew = Wk[W_DNEW]
-    # the end derivative of the main trial, kept while events are located
-    Wk[W_KNEW, :Y_SIZE] = K[K_END]
     best = 2.0
     best_ev = -1
-    frozen = O[O_FREEZE] > 0.0
+    far = (yn, kn, dn)
+    mask = watched(mode, I[I_BOUNCING], frozen)
     for ev in range(N_EVF):
-        if not watched(ev, mode, I[I_BOUNCING], frozen):
+        if (mask >> ev) & 1 == 0:
             continue
-        f1 = event_value(ev, Ynew, Dnew)
-        f0 = event_value(ev, Y, D)
+        f1 = event_value(ev, yn, dn)
+        f0 = event_value(ev, y0, d0)
         if f1 < 0.0 or (f1 == 0.0 and f0 > 0.0):
-            Wk[W_YEV, :] = Ynew
-            Wk[W_DEV, :] = Dnew
-            Wk[W_KEV, :] = Wk[W_KNEW]
-            th = locate(ev, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, 0.0, ext)
-            if th < 0.0:
+            st, hint, th, trials, found = locate(
+                ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, f0, f1, 0.0, tol,
+                (yn, kn, dn), ext,
+            )  # fmt: skip
+            I[I_NTRIALS] += trials
+            I[I_NLOCATE] += 1
+            if st != ST_OK:
+                I[I_KHINT] = hint
                 return ST_DELAY
             if th < best:
                 best = th
                 best_ev = ev
-                Wk[W_YBEST, :] = Wk[W_YEV]
-                Wk[W_DBEST, :] = Wk[W_DEV]
-                Wk[W_KBEST, :] = Wk[W_KEV]
+                far = found
     # a stored discontinuity passed by the delayed instant ends the step there (order of RK4)
-    s0 = tau - D[D_TAUN]
-    s1 = t_end - Dnew[D_TAUN]
-    tdisc = next_discontinuity(H, I[I_HSTART], I[I_HEND], I[I_KHINT], s0, s1)
-    if tdisc > s0:
-        f0 = tdisc - s0
-        f1 = tdisc - s1
-        if f1 < 0.0:
-            Wk[W_YEV, :] = Ynew
-            Wk[W_DEV, :] = Dnew
-            Wk[W_KEV, :] = Wk[W_KNEW]
-            th = locate(EVF_DELAY, P, O, C, H, I, K, Wk, mode, tau, Y, D, h, f0, f1, tdisc, ext)
-            if th < 0.0:
-                return ST_DELAY
-            if th < best:
-                best = th
-                best_ev = EVF_DELAY
-                Wk[W_YBEST, :] = Wk[W_YEV]
-                Wk[W_DBEST, :] = Wk[W_DEV]
-                Wk[W_KBEST, :] = Wk[W_KEV]
+    s0 = tau - d0[D_TAUN]
+    s1 = t_end - dn[D_TAUN]
+    tdisc = next_discontinuity(H, hs, he, hint, s0, s1)
+    if tdisc > s0 and tdisc - s1 < 0.0:
+        st, hint, th, trials, found = locate(
+            EVF_DELAY, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, tdisc - s0,
+            tdisc - s1, tdisc, tol, (yn, kn, dn), ext,
+        )  # fmt: skip
+        I[I_NTRIALS] += trials
+        I[I_NLOCATE] += 1
+        if st != ST_OK:
+            I[I_KHINT] = hint
+            return ST_DELAY
+        if th < best:
+            best = th
+            best_ev = EVF_DELAY
+            far = found
+    I[I_KHINT] = hint
     I[I_NSTEPS] += 1
+    y, k, dg = far
+    store(s, y, k, dg)
+    X[X_GINT] += dg[D_QG]
     if best_ev < 0:
-        Y[:] = Ynew[:Y_SIZE]
-        D[:] = Dnew[:D_SIZE]
-        K[K_NOW] = Wk[W_KNEW, :Y_SIZE]
-        X[X_GINT] += Dnew[D_QG]
         X[X_TAU] = t_end
-        push_node(H, I, t_end, Y, 0.0)
+        push_node(H, I, t_end, s.y, 0.0)
         return ST_OK
-    Y[:] = Wk[W_YBEST, :Y_SIZE]
-    D[:] = Wk[W_DBEST, :D_SIZE]
-    K[K_NOW] = Wk[W_KBEST, :Y_SIZE]
-    X[X_GINT] += D[D_QG]
     X[X_TAU] = t_end if best == 1.0 else tau + best * h
     if best_ev == EVF_DELAY:
-        push_node(H, I, X[X_TAU], Y, 0.0)
+        push_node(H, I, X[X_TAU], s.y, 0.0)
         return ST_OK
-    st = apply_event(best_ev, P, O, X, Y, I, D, s.events)
+    st = apply_event(best_ev, s.params, s.options, X, s.y, I, s.diag, s.events)
     if st == ST_OK:
         st = refresh(s, ext)
-    push_node(H, I, X[X_TAU], Y, 1.0)
+    push_node(H, I, X[X_TAU], s.y, 1.0)
     return st
 
 
@@ -452,10 +468,12 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
     Returns early with ST_EVLOG_FULL / ST_HIST_FULL when a buffer must be drained or grown by
     the caller, and with the model's status codes when the run must stop.
     """
-    C, I, X, E, H = s.control, s.ints, s.clock, s.events, s.history
+    I, X, E, H = s.ints, s.clock, s.events, s.history
     h_nom = s.options[O_H]
+    P = as_tuple_14(s.params)
     zeno = 0
     while True:
+        C = s.control
         tau = X[X_TAU]
         # the feedback acts from the first instant at or after t_on (also a run's first sample)
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau >= C[C_TON]:
@@ -490,7 +508,7 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau < C[C_TON] < t_end:
             t_end = C[C_TON]
             h = t_end - tau
-        st = step(s, h, t_end, ext)
+        st = step(s, P, as_tuple_13(C), h, t_end, ext)
         if st != ST_OK:
             I[I_STATUS] = st
             return st
@@ -543,4 +561,46 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
     return ST_OK, i1
 
 
-__all__ = ["advance", "advance_sampled", "locate", "refresh", "rk4", "stage", "step", "switch_on"]
+# --- entry points from Python ----------------------------------------------------------------
+# numba dispatches a call with arrays in its C fast path but types a named tuple in Python (a few
+# microseconds a call, which is the cost of a whole FMU step); so Python calls these with the
+# arrays of a KernelState, in the order of its fields, and they rebuild the named tuple.
+
+
+@jit
+def advance_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+                 to_tau, ext):  # fmt: skip
+    """:func:`advance` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    return advance(s, to_tau, ext)
+
+
+@jit
+def advance_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
+                         work, times, rows, i0, i1, ext):  # fmt: skip
+    """:func:`advance_sampled` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    return advance_sampled(s, times, rows, i0, i1, ext)
+
+
+@jit
+def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+                 ext):  # fmt: skip
+    """:func:`refresh` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    return refresh(s, ext)
+
+
+__all__ = [
+    "advance",
+    "advance_from",
+    "advance_sampled",
+    "advance_sampled_from",
+    "locate",
+    "refresh",
+    "refresh_from",
+    "rk4",
+    "stage",
+    "step",
+    "switch_on",
+]

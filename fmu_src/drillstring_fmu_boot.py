@@ -1,0 +1,203 @@
+"""Start-up of a drillstring FMU's Python side, run by the FMU's front layer in ``fmi2Instantiate``.
+
+Standard library only: this module runs before anything else of the FMU is imported. The front
+layer (``fmu_src/fmi_front/drillstring_fmi2.c``) has loaded and configured the interpreter; it
+saves ``sys.path`` before calling :func:`prepare` and restores it after pythonfmu's library has
+instantiated the slave, so nothing here is left behind in the host's interpreter.
+
+:func:`prepare` does three things and reports each as a log record for the layer to forward:
+
+1. **The drillstring package from a per-user cache.** numba caches compiled code next to the
+   source files and keys it by their path and modification time, so importing the package from
+   each fresh unpack folder of the FMU would recompile the kernel (10-16 s) every time a tool
+   unpacks the FMU anew. The bundled package is therefore copied once into a content-addressed
+   folder ``<cache>/pkg-<sha256 of its files>/`` (written under a temporary name, files stamped
+   with a fixed time, then renamed atomically) and imported from there: every unpack of the same
+   build finds the same folder and numba's cache in it. ``<cache>`` is ``$DRILLSTRING_FMU_CACHE``,
+   else ``$XDG_CACHE_HOME/drillstring``, else ``~/.cache/drillstring``. If the package is
+   already imported (a Python host that uses the project itself), that one is used.
+2. **A resources path pythonfmu can take.** pythonfmu 0.7.0 turns every ``%20`` of the location
+   it is given into a space; a folder whose name really contains ``%20`` is given to it through a
+   symbolic link in ``<cache>/links/``.
+3. **The FMU's Python modules imported here**, so that a missing dependency (numpy, pythonfmu) is
+   reported with its traceback instead of pythonfmu's bare "Fatal py exception".
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import os
+import sys
+import tempfile
+import traceback
+from pathlib import Path
+
+#: fmi2Status codes of the records returned to the front layer
+OK, WARNING, ERROR = 0, 1, 3
+#: Modification time given to every cached file (numba keys its cache by it).
+FIXED_MTIME = 315532800  # 1980-01-01, the earliest time a zip entry can hold
+PACKAGE = "drillstring"
+_IGNORED_PARTS = {"__pycache__"}
+
+Record = tuple[int, str, str]
+
+
+def cache_root() -> Path:
+    """The per-user cache folder of the FMUs (see the module docstring)."""
+    explicit = os.environ.get("DRILLSTRING_FMU_CACHE")
+    if explicit:
+        return Path(explicit)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg) if xdg else Path.home() / ".cache"
+    return base / "drillstring"
+
+
+def _package_files(root: Path) -> list[Path]:
+    files = []
+    for path in sorted(root.rglob("*")):
+        rel = path.relative_to(root)
+        if path.is_file() and not _IGNORED_PARTS & set(rel.parts) and path.suffix != ".pyc":
+            files.append(rel)
+    return files
+
+
+def package_digest(root: Path) -> str:
+    """SHA-256 over the relative names and contents of the package's files."""
+    digest = hashlib.sha256()
+    for rel in _package_files(root):
+        digest.update(rel.as_posix().encode("utf-8") + b"\0")
+        digest.update(hashlib.sha256((root / rel).read_bytes()).digest())
+    return digest.hexdigest()
+
+
+def _copy_package(source: Path, dest_parent: Path) -> None:
+    """Copy the package into ``dest_parent/drillstring`` with fixed modification times."""
+    target = dest_parent / PACKAGE
+    for rel in _package_files(source):
+        out = target / rel
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes((source / rel).read_bytes())
+        os.utime(out, (FIXED_MTIME, FIXED_MTIME))
+    for folder in sorted({p for p in target.rglob("*") if p.is_dir()} | {target}):
+        os.utime(folder, (FIXED_MTIME, FIXED_MTIME))
+
+
+def cached_package(source: Path, root: Path) -> tuple[Path, bool]:
+    """The cache folder holding a copy of ``source`` (created if needed); True if created now.
+
+    A folder whose files do not match its name (edited, half deleted) is replaced.
+    """
+    digest = package_digest(source)
+    final = root / f"pkg-{digest[:24]}"
+    if final.is_dir() and package_digest(final / PACKAGE) == digest:
+        return final, False
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".pkg-{digest[:24]}-", dir=root))
+    try:
+        _copy_package(source, tmp)
+        if package_digest(tmp / PACKAGE) != digest:
+            raise OSError(f"the copy of {source} in {tmp} does not match its source")
+        if final.exists():  # stale: move it away first, then take its place
+            stale = Path(tempfile.mkdtemp(prefix=f".stale-{digest[:24]}-", dir=root))
+            os.replace(final, stale / "old")
+            _remove_tree(stale)
+        try:
+            os.replace(tmp, final)
+        except OSError:
+            if not (final.is_dir() and package_digest(final / PACKAGE) == digest):
+                raise  # not another process that won the race
+        return final, True
+    finally:
+        if tmp.exists():
+            _remove_tree(tmp)
+
+
+def _remove_tree(path: Path) -> None:
+    for sub in sorted(path.rglob("*"), reverse=True):
+        if sub.is_dir() and not sub.is_symlink():
+            sub.rmdir()
+        else:
+            sub.unlink()
+    path.rmdir()
+
+
+def pythonfmu_safe_path(resources: Path, root: Path) -> Path:
+    """``resources`` itself, or a symbolic link to it if its name contains ``%20``."""
+    if "%20" not in str(resources):
+        return resources
+    links = root / "links"
+    links.mkdir(parents=True, exist_ok=True)
+    name = hashlib.sha256(os.fsencode(resources)).hexdigest()[:24]
+    link = links / name
+    if link.is_symlink() and Path(os.readlink(link)) == resources:
+        return link
+    tmp = links / f".{name}-{os.getpid()}"
+    if tmp.is_symlink():
+        tmp.unlink()
+    os.symlink(resources, tmp)
+    os.replace(tmp, link)
+    return link
+
+
+def _import_package(resources: Path, records: list[Record]) -> None:
+    loaded = sys.modules.get(PACKAGE)
+    if loaded is not None:
+        where = list(getattr(loaded, "__path__", [])) or [getattr(loaded, "__file__", "?")]
+        records.append((OK, "logInfo", f"using the {PACKAGE} package already imported: {where[0]}"))
+        return
+    source = resources / PACKAGE
+    root = cache_root()
+    try:
+        folder, created = cached_package(source, root)
+    except OSError as exc:
+        records.append(
+            (
+                WARNING,
+                "logStatusWarning",
+                f"cannot cache the {PACKAGE} package in {root} ({exc}); importing it from "
+                f"{source}: the numba kernel is compiled anew for every unpack folder (set "
+                "DRILLSTRING_FMU_CACHE to a writable folder)",
+            )
+        )
+        folder = resources
+    else:
+        how = "copied there now" if created else "found there"
+        records.append((OK, "logInfo", f"{PACKAGE} package from the cache {folder} ({how})"))
+    sys.path.insert(0, str(folder))
+    importlib.import_module(PACKAGE)
+
+
+def prepare(resources: str, module: str) -> tuple[str | None, list[Record]]:
+    """Make the FMU's Python side importable; returns (path for pythonfmu or None, records).
+
+    Never raises: a failure is an error record (with the traceback) and ``None``.
+    """
+    records: list[Record] = []
+    step = "checking the resources folder"
+    try:
+        res = Path(resources)
+        step = f"importing the {PACKAGE} package"
+        _import_package(res, records)
+        step = f"importing the FMU's module {module}"
+        sys.path.insert(0, str(res))
+        importlib.import_module(module)
+        step = "preparing a resources path for pythonfmu"
+        safe = pythonfmu_safe_path(res, cache_root())
+    except BaseException as exc:  # reported to the host, never raised into the C layer
+        text = "".join(traceback.format_exception(exc)).rstrip()
+        records.append(
+            (
+                ERROR,
+                "logStatusError",
+                f"fmi2Instantiate: {step} failed: {type(exc).__name__}: {exc} "
+                f"(Python {sys.version.split()[0]}, sys.path = {sys.path})\n{text}",
+            )
+        )
+        return None, _printable(records)
+    return str(safe), _printable(records)
+
+
+def _printable(records: list[Record]) -> list[Record]:
+    """Records whose text is valid UTF-8 (file names may carry undecodable bytes)."""
+    return [(s, c, m.encode("utf-8", "backslashreplace").decode("utf-8")) for s, c, m in records]
