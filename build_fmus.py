@@ -1,11 +1,15 @@
-"""Build the drillstring FMUs: the plant and the torsional controller (FMI 2.0 co-simulation).
+"""Build the drillstring FMUs: the plant and the torsional controller (FMI 2.0 co-simulation),
+each in the paper's scaled quantities and in SI units, and the closed loop as SSP 1.0 packages.
 
 Usage::
 
     python build_fmus.py [--gains out/design/gains.json] [--out build/]
 
-For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
-``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``):
+For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``),
+``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``) and their SI variants
+``fmu_src/drillstring_plant_si.py`` (``DrillStringPlantSI.fmu``) and
+``fmu_src/torsional_controller_si.py`` (``TorsionalControllerSI.fmu``, thin subclasses: the scaled
+script they derive from is bundled beside them; ``docs/si_fmus.md``):
 
 1. stage the files bundled into the FMU's ``resources/``: the ``drillstring`` package (the physics;
    no model code is in the FMU scripts), the shared lifecycle ``drillstring_fmu_support.py``, the
@@ -18,8 +22,10 @@ For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
 3. post-process ``modelDescription.xml`` where pythonfmu cannot express the truth: outputs
    ``initial="calculated"`` without start values, listed in ``InitialUnknowns``; the true
    ``ModelStructure`` (each variable's ``depends_on``); ``min``/``max`` of every parameter with a
-   range; Enumeration types (``TypeDefinitions``) for the enumeration parameters; unit "1" on every
-   Real with its ``UnitDefinitions``; start values written exactly (17 digits); a GUID derived from
+   range; Enumeration types (``TypeDefinitions``) for the enumeration parameters; each Real's unit
+   and display unit, with ``UnitDefinitions`` giving their SI base-unit exponents and display
+   units (``drillstring.model.units.UNITS``; "1" throughout the scaled FMUs); start values
+   written exactly (17 digits); a GUID derived from
    the content and a pinned ``generationDateAndTime`` when ``SOURCE_DATE_EPOCH`` is set;
 4. replace pythonfmu's binaries by the project's front layer: pythonfmu's ``linux64`` library is
    kept as ``binaries/linux64/<id>_pythonfmu.so`` and ``binaries/linux64/<id>.so`` is
@@ -28,6 +34,11 @@ For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``) and
    ``win64`` DLL is dropped (only built and tested platforms are shipped);
 5. rewrite the archive deterministically (sorted entries, fixed timestamps) and run
    ``fmpy.validate_fmu``; any problem fails the build with the list of problems.
+
+Then ``DrillStringClosedLoop.ssp`` and ``DrillStringClosedLoopSI.ssp``
+(:mod:`drillstring.orchestration.loop_ssp`): both FMUs of a unit system, their connections and
+units, the parameter sets ``fig5``, ``fig6``, ``reference`` and ``gains``, the default experiment
+with a fixed step, validated against the SSP 1.0 schemas that fmpy ships.
 
 Building twice gives identical ``modelDescription.xml`` apart from ``generationDateAndTime``, and
 identical FMUs byte for byte when ``SOURCE_DATE_EPOCH`` is set.
@@ -98,14 +109,26 @@ class BuildError(RuntimeError):
 
 @dataclass(frozen=True)
 class FmuSpec:
-    """One FMU: its pythonfmu script and the name of its class (= model identifier)."""
+    """One FMU: its pythonfmu script, the name of its class (= model identifier) and the
+    scripts it derives from (bundled beside it: an SI variant is a thin subclass)."""
 
     script: Path
     model: str
+    bases: tuple[Path, ...] = ()
 
 
 PLANT = FmuSpec(FMU_SRC / "drillstring_plant.py", "DrillStringPlant")
 CONTROLLER = FmuSpec(FMU_SRC / "torsional_controller.py", "TorsionalController")
+#: The same FMUs in SI units (time in seconds, torque in N m): the unit system is the class.
+PLANT_SI = FmuSpec(FMU_SRC / "drillstring_plant_si.py", "DrillStringPlantSI", (PLANT.script,))
+CONTROLLER_SI = FmuSpec(
+    FMU_SRC / "torsional_controller_si.py", "TorsionalControllerSI", (CONTROLLER.script,)
+)
+#: The Python modules of the FMUs, dropped from ``sys.modules`` around each build so that every
+#: build imports its own staged copies.
+_FMU_MODULES = ("drillstring_fmu_support", "drillstring_fmu_boot") + tuple(
+    spec.script.stem for spec in (PLANT, CONTROLLER, PLANT_SI, CONTROLLER_SI)
+)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -247,7 +270,7 @@ def entry_module(spec: FmuSpec) -> tuple[str, str]:
 def _stage(spec: FmuSpec, staging: Path, config: dict[str, Any], record: dict[str, Any]) -> Path:
     """Write the files bundled into ``resources/``; returns the staged script."""
     shutil.copytree(PACKAGE, staging / "drillstring", ignore=_IGNORE)
-    for path in (SUPPORT, BOOT, spec.script):
+    for path in (SUPPORT, BOOT, *spec.bases, spec.script):
         shutil.copyfile(path, staging / path.name)
     name, text = entry_module(spec)
     (staging / f"{name}.py").write_text(text, encoding="utf-8")
@@ -291,8 +314,12 @@ def _pythonfmu_build(script: Path, dest: Path, documentation: Path) -> Path:
         )
     finally:
         sys.path[:] = saved
-        for name in (script.stem, "drillstring_fmu_support"):
-            sys.modules.pop(name, None)
+        _forget_fmu_modules()
+
+
+def _forget_fmu_modules() -> None:
+    for name in _FMU_MODULES:
+        sys.modules.pop(name, None)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -300,7 +327,7 @@ def _pythonfmu_build(script: Path, dest: Path, documentation: Path) -> Path:
 # ------------------------------------------------------------------------------------------------
 
 #: Attribute order of the type elements in the FMI 2.0 schema (kept for readability).
-_ATTRIBUTE_ORDER = ("declaredType", "unit", "min", "max", "start")
+_ATTRIBUTE_ORDER = ("declaredType", "unit", "displayUnit", "min", "max", "start")
 
 
 def _format_start(value: Any, kind: str) -> str:
@@ -338,7 +365,9 @@ def _fix_model_description(root: ET.Element, variables: Sequence[Any], starts: d
             attrib["declaredType"] = var.type_name
             enumerations[var.type_name] = var
         if var.type == "Real":
-            attrib["unit"] = "1"
+            attrib["unit"] = var.unit
+            if var.display_unit is not None:
+                attrib["displayUnit"] = var.display_unit
         if var.min is not None:
             attrib["min"] = _format_bound(var.min, var.type)
         if var.max is not None:
@@ -349,9 +378,7 @@ def _fix_model_description(root: ET.Element, variables: Sequence[Any], starts: d
         ET.SubElement(sv, var.type, ordered)
 
     position = list(root).index(root.find("CoSimulation")) + 1
-    units = ET.Element("UnitDefinitions")
-    ET.SubElement(units, "Unit", name="1")
-    root.insert(position, units)
+    root.insert(position, unit_definitions(variables))
     if enumerations:
         types = ET.Element("TypeDefinitions")
         for name, var in sorted(enumerations.items()):
@@ -378,6 +405,35 @@ def _fix_model_description(root: ET.Element, variables: Sequence[Any], starts: d
     node = ET.SubElement(structure, "InitialUnknowns")
     for var in sorted(outputs, key=lambda v: index[v.name]):
         ET.SubElement(node, "Unknown", index=str(index[var.name]))
+
+
+def unit_definitions(variables: Sequence[Any]) -> ET.Element:
+    """``UnitDefinitions`` of the units the Real variables use, with their ``BaseUnit``
+    exponents and the display units they name (:data:`drillstring.model.units.UNITS`)."""
+    from drillstring.model.units import BASE_UNITS, UNITS
+
+    used: dict[str, set[str]] = {}
+    for var in variables:
+        if var.type == "Real":
+            if var.unit not in UNITS:
+                raise BuildError(f"variable {var.name}: unit {var.unit!r} is not defined")
+            shown = used.setdefault(var.unit, set())
+            if var.display_unit is not None:
+                UNITS[var.unit].display_unit(var.display_unit)  # raises if it is not defined
+                shown.add(var.display_unit)
+    node = ET.Element("UnitDefinitions")
+    for name in sorted(used):
+        unit = UNITS[name]
+        elem = ET.SubElement(node, "Unit", name=name)
+        exponents = {k: str(unit.exponents[k]) for k in BASE_UNITS if unit.exponents.get(k)}
+        ET.SubElement(elem, "BaseUnit", exponents)
+        for display in unit.display:
+            if display.name in used[name]:
+                attrib = {"name": display.name, "factor": repr(display.factor)}
+                if display.offset:
+                    attrib["offset"] = repr(display.offset)
+                ET.SubElement(elem, "DisplayUnit", attrib)
+    return node
 
 
 def _xml_bytes(root: ET.Element) -> bytes:
@@ -515,9 +571,13 @@ def documentation(cls: Any, variables: Sequence[Any], starts: dict[str, Any]) ->
         lo = "" if v.min is None else _format_bound(v.min, v.type)
         hi = "" if v.max is None else _format_bound(v.max, v.type)
         rng = f"[{lo or '-inf'}, {hi or 'inf'}]" if (lo or hi) else ""
+        unit = v.unit if v.type == "Real" else ""
+        if v.display_unit is not None:
+            unit += f" (shown in {v.display_unit})"
         rows.append(
             f"<tr><td><code>{esc(v.name)}</code></td><td>{v.causality}</td><td>{esc(kind)}</td>"
-            f"<td>{esc(start)}</td><td>{esc(rng)}</td><td>{esc(v.description)}</td></tr>"
+            f"<td>{esc(unit)}</td><td>{esc(start)}</td><td>{esc(rng)}</td>"
+            f"<td>{esc(v.description)}</td></tr>"
         )
     validity = "".join(f"<p>{esc(p)}</p>" for p in cls.VALIDITY)
     return f"""<!DOCTYPE html>
@@ -531,15 +591,15 @@ def documentation(cls: Any, variables: Sequence[Any], starts: dict[str, Any]) ->
 <code>resources/</code>.</p>
 
 <h2>Time base and units</h2>
-<p>All quantities are the paper's scaled, dimensionless quantities (unit "1"); time is the scaled
-time tau. The start time must be 0 (<code>fmi2SetupExperiment</code>): the model's history for
-tau &lt;= 0 is the nominal motion. Any step size &gt; 0 is accepted and need not be constant; the
-communication point of <code>fmi2DoStep</code> must be the FMU's current time. Inputs are held
-constant over each step.</p>
+<p>{esc(cls.TIME_AND_UNITS)} The start time must be 0 (<code>fmi2SetupExperiment</code>): the
+model's history before it is the nominal motion. Any step size &gt; 0 is accepted and need not
+be constant; the communication point of <code>fmi2DoStep</code> must be the FMU's current time.
+Inputs are held constant over each step.</p>
 
 <h2>Variables</h2>
 <table border="1" cellspacing="0" cellpadding="3">
-<tr><th>name</th><th>causality</th><th>type</th><th>start</th><th>range</th><th>description</th></tr>
+<tr><th>name</th><th>causality</th><th>type</th><th>unit</th><th>start</th><th>range</th>
+<th>description</th></tr>
 {chr(10).join(rows)}
 </table>
 <p>Outputs are computed from the parameters (<code>initial="calculated"</code>): they can be read
@@ -675,6 +735,7 @@ def build_fmu(
         script = _stage(spec, staging, config, record)
         saved = list(sys.path)
         sys.path.insert(0, str(staging))
+        _forget_fmu_modules()
         try:
             module, instance = _load_script(spec, script)
         finally:
@@ -717,10 +778,38 @@ def build_fmus(
             ) from None
     gains = load_gains(gains_file)  # before building anything: a bad file fails at once
     base = {"version": _package_version(), "format": 1}
-    return {
-        PLANT.model: build_fmu(PLANT, out, base, source_date_epoch),
-        CONTROLLER.model: build_fmu(CONTROLLER, out, {**base, "gains": gains}, source_date_epoch),
+    control = {**base, "gains": gains}
+    built = {
+        spec.model: build_fmu(spec, out, config, source_date_epoch)
+        for spec, config in (
+            (PLANT, base),
+            (CONTROLLER, control),
+            (PLANT_SI, base),
+            (CONTROLLER_SI, control),
+        )
     }
+    built.update(build_packages(out, source_date_epoch))
+    return built
+
+
+def build_packages(out_dir: Path, source_date_epoch: int | None = None) -> dict[str, Path]:
+    """The SSP 1.0 packages of the closed loop (:mod:`drillstring.orchestration.loop_ssp`) from
+    the FMUs in ``out_dir``, validated against the SSP 1.0 schemas that fmpy ships."""
+    from drillstring.orchestration.closed_loop import SCALED, SI
+    from drillstring.orchestration.loop_ssp import write_loop_package
+    from drillstring.orchestration.ssp import SspError, validate_ssp
+
+    built = {}
+    for variant in (SCALED, SI):
+        try:
+            path = write_loop_package(out_dir, variant, source_date_epoch=source_date_epoch)
+        except SspError as exc:
+            raise BuildError(f"SSP package {variant.ssp}: {exc}") from None
+        problems = validate_ssp(path)
+        if problems:
+            raise BuildError(f"{path.name}: " + "; ".join(problems))
+        built[path.stem] = path
+    return built
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -743,7 +832,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"build_fmus: error: {exc}", file=sys.stderr)
         return 1
     for path in built.values():
-        print(f"{path}: fmpy.validate_fmu: 0 problems")
+        check = "fmpy.validate_fmu" if path.suffix == ".fmu" else "SSP 1.0 schemas (fmpy's)"
+        print(f"{path}: {check}: 0 problems")
     return 0
 
 

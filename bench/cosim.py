@@ -79,6 +79,8 @@ def libcosim_time(fmus: dict[str, Path], starts: dict[str, dict], H: float, n: i
         }
         for name, values in starts.items():
             for kind, ref, value in _typed(mds[name], values):
+                if kind == "Enumeration":
+                    continue  # libcosim sets no Enumeration; the latch does not change the cost
                 if not setters[kind](idx[name], ref, value):
                     raise RuntimeError(f"libcosim: cannot set {name} vr {ref} = {value!r}")
         if not ex.step(n):
@@ -107,7 +109,8 @@ def bare_loop_time(master, H: float, n: int) -> float:
             fmu.instantiate()
             for name, value in unit.start_values.items():
                 ref = sysm.variables[i][name]
-                getattr(fmu, f"set{ref.type}")([ref.vr], [value])
+                setter = "Integer" if ref.type == "Enumeration" else ref.type  # FMI 2.0
+                getattr(fmu, f"set{setter}")([ref.vr], [value])
             fmu.setupExperiment(startTime=0.0)
             fmu.enterInitializationMode()
             fmu.exitInitializationMode()

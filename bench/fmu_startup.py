@@ -26,6 +26,7 @@ import sys
 import tempfile
 import textwrap
 import time
+import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,8 +118,14 @@ def _overhead(built: tl.Built, work: Path, unit: tl.Unit, blocks: int, steps: in
         src = ROOT / "bench" / "fmu_overhead.c"
         cmd = ["cc", "-std=gnu11", "-O2", "-Wall", "-o", str(exe), str(src), "-ldl"]
         subprocess.run(cmd, check=True)
+    # a plain folder name: the direct calls give pythonfmu's library the resource URI as it is,
+    # and it cannot decode a percent-encoded one (one of the things the layer is for)
+    plain = work / "plain" / unit.model
+    if not plain.exists():
+        with zipfile.ZipFile(unit.fmu) as z:
+            z.extractall(plain)
     out = subprocess.run(
-        [str(exe), str(unit.unzipped), unit.model, unit.guid, str(blocks), str(steps)],
+        [str(exe), str(plain), unit.model, unit.guid, str(blocks), str(steps)],
         capture_output=True, text=True, check=True, timeout=900,
     ).stdout.split()  # fmt: skip
     pairs = list(zip(out[::2], out[1::2], strict=True))[2:]  # the first block pair warms up

@@ -15,7 +15,6 @@ time scale), which come from the axial analysis.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -25,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.params import ScaledParams
+from drillstring.validation import check_real
 
 __all__ = [
     "AveragedModel",
@@ -47,16 +47,26 @@ N_ROOTS_DEFAULT = 8
 class AveragedModel:
     """Matrices and constants of the averaged torsional model (29)-(31).
 
-    Attributes:
-        A0, A1: 4x4 matrices of (30) (``docs/model.md``, "Equation (30)").
-        B: input matrix of (30), shape (4, 1).
-        c: ``n*v0/omega0*(beta*A - 1)`` of (28)-(30); negative means velocity weakening.
-        K0: ``n*v0*beta*A*(tau_n0 - tau_n_crit)``, the constant of (27)-(28).
-        R_ff: feed-forward torque ``-K0`` of (31).
-        tau_n0: nominal delay ``2*pi/(n*omega0)``.
-        tau_n_crit: ``taubar_crit/sqrt(n*psi)``, critical delay in the slow time scale.
-        A, taubar_crit: the axial quantities the model was built from.
-        rho: inertia ratio (16).
+    Attributes
+    ----------
+    A0, A1 : ndarray
+        4x4 matrices of (30) (``docs/model.md``, "Equation (30)").
+    B : ndarray
+        Input matrix of (30), shape (4, 1).
+    c : float
+        ``n*v0/omega0*(beta*A - 1)`` of (28)-(30); negative means velocity weakening.
+    K0 : float
+        ``n*v0*beta*A*(tau_n0 - tau_n_crit)``, the constant of (27)-(28).
+    R_ff : float
+        Feed-forward torque ``-K0`` of (31).
+    tau_n0 : float
+        Nominal delay ``2*pi/(n*omega0)``.
+    tau_n_crit : float
+        ``taubar_crit/sqrt(n*psi)``, critical delay in the slow time scale.
+    A, taubar_crit : float
+        The axial quantities the model was built from.
+    rho : float
+        Inertia ratio (16).
     """
 
     A0: NDArray[np.float64]
@@ -72,27 +82,31 @@ class AveragedModel:
     rho: float
 
 
-def _finite(name: str, value: float) -> float:
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
-
-
 def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> AveragedModel:
     """Build the averaged torsional model (29)-(31) for ``params`` and the axial pair.
 
-    Args:
-        params: scaled parameter set.
-        A: slope ``A(gammabar, etabar)`` of the averaged contact force (22); must be > 0.
-        taubar_crit: critical delay of (21) in the fast time ``taubar``; must satisfy
-            ``0 < taubar_crit < taubar_n0``, the validity condition of (25) (Section IV).
+    Parameters
+    ----------
+    params : ScaledParams
+        Scaled parameter set.
+    A : float
+        Slope ``A(gammabar, etabar)`` of the averaged contact force (22); must be > 0.
+    taubar_crit : float
+        Critical delay of (21) in the fast time ``taubar``; must satisfy
+        ``0 < taubar_crit < taubar_n0``, the validity condition of (25) (Section IV).
 
-    Raises:
-        ValueError: for non-finite or out-of-range ``A`` or ``taubar_crit``.
+    Returns
+    -------
+    AveragedModel
+        The matrices (30) and the constants c, K0, R_ff of (28), (31).
+
+    Raises
+    ------
+    ValueError
+        For non-finite or out-of-range ``A`` or ``taubar_crit``.
     """
-    A = _finite("A", A)
-    taubar_crit = _finite("taubar_crit", taubar_crit)
+    A = check_real("A", A)
+    taubar_crit = check_real("taubar_crit", taubar_crit)
     if A <= 0.0:
         raise ValueError(f"A (slope of (22)) must be > 0, got {A!r}")
     if taubar_crit <= 0.0:
@@ -136,7 +150,22 @@ def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> Averag
 def averaged_rhs(
     model: AveragedModel, x: ArrayLike, x_delayed: ArrayLike, R_fb: float = 0.0
 ) -> NDArray[np.float64]:
-    """Right-hand side of (29): ``A0 x + A1 x_delayed + B R_fb``."""
+    """Right-hand side of (29): ``A0 x + A1 x_delayed + B R_fb``.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+    x, x_delayed : array_like
+        The state x(tau) and x(tau - tau_n), 4 entries each.
+    R_fb : float
+        Feedback torque.
+
+    Returns
+    -------
+    ndarray
+        dx/dtau, shape (4,).
+    """
     x = np.asarray(x, dtype=float).reshape(4)
     xd = np.asarray(x_delayed, dtype=float).reshape(4)
     return model.A0 @ x + model.A1 @ xd + model.B[:, 0] * float(R_fb)
@@ -148,6 +177,16 @@ def linearised_ode_matrix(model: AveragedModel) -> NDArray[np.float64]:
     (27): ``phi'' + (phi - theta) = K0 - c*tau_n0*phi'``, since
     ``n*v0*(beta*A - 1)*2*pi/(n*omega0**2) = c*tau_n0``. The angle ``phi`` only enters
     through the twist, so the matrix has the rigid-body eigenvalue 0.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model (its c, tau_n0 and rho are used).
+
+    Returns
+    -------
+    ndarray
+        The 4x4 system matrix.
     """
     c, t0, rho = model.c, model.tau_n0, model.rho
     return np.array(
@@ -161,7 +200,18 @@ def linearised_ode_matrix(model: AveragedModel) -> NDArray[np.float64]:
 
 
 def ode_poles(model: AveragedModel) -> NDArray[np.complex128]:
-    """Poles of the linear ODE (13), (27), sorted by real part, descending."""
+    """Poles of the linear ODE (13), (27), sorted by real part, descending.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+
+    Returns
+    -------
+    ndarray of complex
+        The four eigenvalues of :func:`linearised_ode_matrix`.
+    """
     ev = np.linalg.eigvals(linearised_ode_matrix(model))
     return ev[np.lexsort((-ev.imag, -ev.real))]
 
@@ -200,9 +250,30 @@ def delay_roots(
     ``F = None`` is the open loop (R_fb = 0), ``tau = None`` the nominal delay ``tau_n0``.
     Roots come from :func:`drillstring.analysis.spectrum.dde_roots` (automatic region: every
     root within ``min(1, 2/tau)`` of the rightmost one), applied to a balanced similar system,
-    sorted by real part, descending; at most ``n_roots`` are returned.
+    sorted by real part, descending.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+    F : array_like, optional
+        Gain of R_fb = F x, 4 entries; ``None`` is the open loop (R_fb = 0).
+    tau : float, optional
+        Constant delay > 0; ``None`` is the nominal delay ``tau_n0``.
+    n_roots : int
+        Return at most this many roots.
+
+    Returns
+    -------
+    ndarray of complex
+        The rightmost roots.
+
+    Raises
+    ------
+    ValueError
+        A non-finite or non-positive ``tau``, or an ``F`` that is not 4 finite numbers.
     """
-    tau = model.tau_n0 if tau is None else _finite("tau", tau)
+    tau = model.tau_n0 if tau is None else check_real("tau", tau)
     if tau <= 0.0:
         raise ValueError(f"delay tau must be > 0, got {tau!r}")
     Ab, A1b = _balanced(_closed_loop_A0(model, F), model.A1)
@@ -211,24 +282,82 @@ def delay_roots(
 
 
 def open_loop_roots(model: AveragedModel, n_roots: int = N_ROOTS_DEFAULT) -> NDArray[np.complex128]:
-    """Rightmost roots of the open-loop delay system (29) at ``tau_n0`` (R_fb = 0)."""
+    """Rightmost roots of the open-loop delay system (29) at ``tau_n0`` (R_fb = 0).
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+    n_roots : int
+        Return at most this many roots.
+
+    Returns
+    -------
+    ndarray of complex
+        The roots, by real part descending (see :func:`delay_roots`).
+    """
     return delay_roots(model, None, None, n_roots)
 
 
 def closed_loop_roots(
     model: AveragedModel, F: ArrayLike, tau: float | None = None, n_roots: int = N_ROOTS_DEFAULT
 ) -> NDArray[np.complex128]:
-    """Rightmost roots of (29) with ``R_fb = F x`` at delay ``tau`` (default ``tau_n0``)."""
+    """Rightmost roots of (29) with ``R_fb = F x`` at delay ``tau`` (default ``tau_n0``).
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+    F : array_like
+        Gain, 4 entries.
+    tau : float, optional
+        Constant delay > 0; ``None`` is ``tau_n0``.
+    n_roots : int
+        Return at most this many roots.
+
+    Returns
+    -------
+    ndarray of complex
+        The roots, by real part descending (see :func:`delay_roots`).
+    """
     return delay_roots(model, F, tau, n_roots)
 
 
 def spectral_abscissa_sweep(
     model: AveragedModel, F: ArrayLike | None, taus: Sequence[float] | NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """Spectral abscissa (largest real part of the roots) for each constant delay in ``taus``."""
+    """Spectral abscissa (largest real part of the roots) for each constant delay in ``taus``.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+    F : array_like or None
+        Gain of R_fb = F x; ``None`` is the open loop.
+    taus : sequence of float
+        Constant delays, each > 0.
+
+    Returns
+    -------
+    ndarray
+        One abscissa per delay.
+    """
     return np.array([float(delay_roots(model, F, t, 1)[0].real) for t in taus])
 
 
 def default_delay_sweep(model: AveragedModel, n: int = 25) -> NDArray[np.float64]:
-    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` (first point ``5*tau_n0/n``)."""
+    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` (first point ``5*tau_n0/n``).
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model (its tau_n0 is used).
+    n : int
+        Number of delays.
+
+    Returns
+    -------
+    ndarray
+        The delays, increasing.
+    """
     return np.linspace(5.0 * model.tau_n0 / n, 5.0 * model.tau_n0, n)

@@ -114,6 +114,13 @@ def design_controller(
 def write_design(design: Design, out_dir: str | os.PathLike[str]) -> dict[str, Path]:
     """Write the gains file and (when the design computed it) the axial fit into ``out_dir``.
 
+    Parameters
+    ----------
+    design : Design
+        A result of :func:`design_controller`.
+    out_dir : path-like
+        Output folder; the files are :data:`GAINS_FILE` and :data:`FIT_FILE`, written atomically.
+
     Returns
     -------
     dict

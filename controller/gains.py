@@ -32,6 +32,7 @@ from typing import Any
 from drillstring.controller.averaged import averaged_model
 from drillstring.fileio import write_text
 from drillstring.model.params import ParameterError, ScaledParams
+from drillstring.validation import check_real
 
 __all__ = [
     "DEFAULT_GAINS_PATH",
@@ -84,23 +85,34 @@ def _package_version() -> str:
 
 
 def params_hash(params: ScaledParams) -> str:
-    """SHA-256 (hex) of the canonical JSON of ``params.to_dict()`` (sorted keys, no spaces)."""
+    """SHA-256 (hex) of the canonical JSON of ``params.to_dict()`` (sorted keys, no spaces).
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The parameter set.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+    """
     text = json.dumps(params.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def _real(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise GainsFileError(f"gains file: {name} must be a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise GainsFileError(f"gains file: {name} must be finite, got {value!r}")
-    return x
+    return check_real(f"gains file: {name}", value, error=GainsFileError)
 
 
 @dataclass(frozen=True)
 class GainsFile:
-    """Content of a gains file (see the module docstring for the JSON layout)."""
+    """Content of a gains file (see the module docstring for the JSON layout).
+
+    Validated on construction: finite numbers, 4 entries in ``F``, ``alpha > 0``,
+    ``R_ff = -K0`` (31), and ``K0`` equal to the value of the averaged model built from
+    ``params``, ``A`` and ``taubar_crit``; any violation raises :class:`GainsFileError`.
+    """
 
     F: tuple[float, float, float, float]
     K0: float
@@ -148,9 +160,11 @@ class GainsFile:
 
     @property
     def params_sha256(self) -> str:
+        """:func:`params_hash` of ``params``."""
         return params_hash(self.params)
 
     def to_json_dict(self) -> dict[str, Any]:
+        """The JSON object of the file (module docstring), ready for :func:`json.dumps`."""
         return {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
@@ -171,7 +185,26 @@ class GainsFile:
 
     @classmethod
     def from_json_dict(cls, data: Any, source: str = "gains file") -> GainsFile:
-        """Validate a parsed JSON object (keys, types, hash) and build the dataclass."""
+        """Validate a parsed JSON object (keys, types, hash) and build the dataclass.
+
+        Parameters
+        ----------
+        data : object
+            The parsed JSON document.
+        source : str
+            How error messages name the document (e.g. the file path).
+
+        Returns
+        -------
+        GainsFile
+            The validated content.
+
+        Raises
+        ------
+        GainsFileError
+            Not an object, unknown or missing keys, another format or version, a bad parameter
+            set, a hash mismatch, or a value :class:`GainsFile` rejects.
+        """
         if not isinstance(data, dict):
             raise GainsFileError(f"{source}: expected a JSON object, got {type(data).__name__}")
         unknown = sorted(set(data) - set(_KEYS))
@@ -217,14 +250,44 @@ class GainsFile:
 
 
 def write_gains(gains: GainsFile, path: str | os.PathLike[str]) -> Path:
-    """Write ``gains`` as JSON to ``path`` atomically (temp file + ``os.replace``); return it."""
+    """Write ``gains`` as JSON to ``path`` atomically (temp file + ``os.replace``).
+
+    Parameters
+    ----------
+    gains : GainsFile
+        The content.
+    path : path-like
+        Target file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     text = json.dumps(gains.to_json_dict(), indent=2, allow_nan=False) + "\n"
     return write_text(path, text)
 
 
 def read_gains(path: str | os.PathLike[str]) -> GainsFile:
-    """Read and validate a gains file; :class:`GainsFileError` names what is wrong."""
+    """Read and validate a gains file.
+
+    Parameters
+    ----------
+    path : path-like
+        The JSON gains file.
+
+    Returns
+    -------
+    GainsFile
+        The validated content.
+
+    Raises
+    ------
+    GainsFileError
+        The file cannot be read, is not JSON, or fails :meth:`GainsFile.from_json_dict`; the
+        message names the file and what is wrong.
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

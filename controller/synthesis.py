@@ -22,8 +22,8 @@ kept only if the gain is bounded, ``||F||_2 <= gain_max``. The decay criterion i
 abscissa of the averaged closed loop (29) with ``R_fb = F x`` at the nominal delay ``tau_n0``; the
 best grid point is then refined on :data:`REFINE_POINTS` log-spaced values between its two grid
 neighbours. In this family the decay improves with the gain (at the reference set, min ||X||
-solutions: ||F|| = 111 at alpha = 0.56 with abscissa -0.66, ||F|| = 3.9e3 at alpha = 5.6 with
-abscissa -2.58), so ``gain_max`` is the designer's knob; the default is of the order of the
+solutions: ||F|| = 120 at alpha = 0.56 with abscissa -0.68, ||F|| = 3.95e3 at alpha = 5.6 with
+abscissa -2.57), so ``gain_max`` is the designer's knob; the default is of the order of the
 paper's gain (``||F_paper||_2 = 3.82e3``).
 
 Certificate check (independent of the solver): with ``P = S^-1`` the largest eigenvalue of the block
@@ -157,6 +157,7 @@ class Certificate:
 
     @property
     def passed(self) -> bool:
+        """Both :attr:`lmi_ok` and :attr:`spectrum_ok`."""
         return self.lmi_ok and self.spectrum_ok
 
     def margins(self) -> dict[str, float]:
@@ -202,14 +203,17 @@ class GainEvaluation:
 
     @property
     def stable_nominal(self) -> bool:
+        """Closed-loop spectral abscissa < 0 at tau_n0."""
         return self.abscissa_nominal < 0.0
 
     @property
     def stable_sweep(self) -> bool:
+        """Closed-loop spectral abscissa < 0 at every delay of the sweep."""
         return bool(np.all(self.abscissa < 0.0))
 
     @property
     def has_certificate(self) -> bool:
+        """A Razumikhin certificate (32) was found on the alpha grid."""
         return self.certificate is not None
 
 
@@ -221,7 +225,24 @@ class GainEvaluation:
 def lmi32(
     Abar: NDArray[np.float64], A1: NDArray[np.float64], P: NDArray[np.float64], alpha: float
 ) -> NDArray[np.float64]:
-    """The (symmetrised) block matrix of (32) for ``x' = Abar x + A1 x(t - tau)``."""
+    """The (symmetrised) block matrix of (32) for ``x' = Abar x + A1 x(t - tau)``.
+
+    Parameters
+    ----------
+    Abar : ndarray
+        Closed-loop matrix ``A0 + B F`` (n x n).
+    A1 : ndarray
+        Delayed matrix (n x n).
+    P : ndarray
+        Candidate Razumikhin matrix (n x n, symmetric).
+    alpha : float
+        The scalar of Lemma 1.
+
+    Returns
+    -------
+    ndarray
+        The symmetric 2n x 2n matrix of (32); Lemma 1 asks it to be negative definite.
+    """
     top = np.hstack([P @ Abar + Abar.T @ P + alpha * P, P @ A1])
     bottom = np.hstack([A1.T @ P, -alpha * P])
     M = np.vstack([top, bottom])
@@ -266,7 +287,29 @@ def solve_synthesis_lmi(
     margin: float = LMI_MARGIN,
     solvers: Sequence[str] = SOLVERS,
 ) -> LmiSolution:
-    """Solve (33) at fixed ``alpha``: ``S >= I``, block <= -margin*diag(S, S), min ``||X||_2``."""
+    """Solve (33) at fixed ``alpha``: ``S >= I``, block <= -margin*diag(S, S), min ``||X||_2``.
+
+    Parameters
+    ----------
+    A0, A1, B : ndarray
+        The matrices of (29)-(30): n x n, n x n, n x m.
+    alpha : float
+        The scalar of Theorem 1, finite and > 0.
+    margin : float
+        Relative margin of the strict inequality (module docstring).
+    solvers : sequence of str
+        cvxpy solvers; the next is tried only if one raises a solver error.
+
+    Returns
+    -------
+    LmiSolution
+        Solver, status and, when solved, ``S``, ``X`` and ``F = X S^-1``.
+
+    Raises
+    ------
+    ValueError
+        ``alpha`` not finite or not > 0.
+    """
     alpha = _check_alpha(alpha)
     n, m = A0.shape[0], B.shape[1]
     S = cp.Variable((n, n), symmetric=True)
@@ -296,7 +339,31 @@ def razumikhin_certificate(
     """Feasibility of (32) in ``P`` for a fixed closed-loop ``Abar`` and ``alpha``.
 
     ``P >= I``, block <= -margin*diag(P, P), minimise trace(P).
-    Returns ``(P or None, solver, status)``.
+
+    Parameters
+    ----------
+    Abar : ndarray
+        Closed-loop matrix ``A0 + B F`` (n x n).
+    A1 : ndarray
+        Delayed matrix (n x n).
+    alpha : float
+        The scalar of Lemma 1, finite and > 0.
+    margin : float
+        Relative margin of the strict inequality.
+    solvers : sequence of str
+        cvxpy solvers, as for :func:`solve_synthesis_lmi`.
+
+    Returns
+    -------
+    P : ndarray or None
+        The solution, or None when the LMI was not solved.
+    solver, status : str
+        The solver that answered and its status.
+
+    Raises
+    ------
+    ValueError
+        ``alpha`` not finite or not > 0.
     """
     alpha = _check_alpha(alpha)
     n = Abar.shape[0]
@@ -334,9 +401,34 @@ def check_certificate(
 ) -> Certificate:
     """Check Lemma 1 (32) for ``A0 + B F`` with ``P`` and the closed-loop roots over ``taus``.
 
-    Uses only numpy eigenvalues and the root finder, not the LMI solver. ``taus`` defaults to
-    :func:`~drillstring.controller.averaged.default_delay_sweep` (25 delays in (0, 5*tau_n0]).
-    ``_sweep`` (internal) passes an already computed ``(abscissa at tau_n0, sweep over taus)``.
+    Uses only numpy eigenvalues and the root finder, not the LMI solver.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model.
+    F : array_like
+        The gain, 4 finite numbers.
+    P : array_like
+        Razumikhin matrix (symmetrised before use).
+    alpha : float
+        The scalar of Lemma 1, finite and > 0.
+    taus : sequence of float, optional
+        Constant delays of the spectral sweep; default
+        :func:`~drillstring.controller.averaged.default_delay_sweep` (25 delays in
+        (0, 5*tau_n0]).
+    _sweep : (float, ndarray), optional
+        Internal: an already computed ``(abscissa at tau_n0, sweep over taus)``.
+
+    Returns
+    -------
+    Certificate
+        The margins; :attr:`Certificate.passed` is the verdict.
+
+    Raises
+    ------
+    ValueError
+        A bad ``F`` or ``alpha``.
     """
     Fv = _as_gain(F)
     Pm = np.asarray(P, dtype=float)
@@ -420,9 +512,35 @@ def synthesize(
 
     See the module docstring for the grid, the refinement and the decay criterion.
 
-    Raises:
-        SynthesisInfeasible: no alpha gives a verified gain with ``||F|| <= gain_max``.
-        ValueError: bad ``alphas``, ``gain_max`` or ``margin``.
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model (29)-(31).
+    alphas : sequence of float
+        The coarse grid, each finite and > 0.
+    refine : int
+        Extra alphas between the best grid point's neighbours (0: no refinement).
+    gain_max : float
+        Bound on ||F||_2 of an admissible gain.
+    margin : float
+        Relative margin of the LMIs.
+    solvers : sequence of str
+        cvxpy solvers, as for :func:`solve_synthesis_lmi`.
+    taus : sequence of float, optional
+        Delays of the certificate's spectral sweep (see :func:`check_certificate`).
+
+    Returns
+    -------
+    SynthesisResult
+        The chosen gain with its LMI solution, every attempt and the certificate (whose
+        ``passed`` must still be checked: the sweep over delays is not part of the search).
+
+    Raises
+    ------
+    SynthesisInfeasible
+        No alpha gives a verified gain with ``||F|| <= gain_max``.
+    ValueError
+        Bad ``alphas``, ``gain_max`` or ``margin``.
     """
     grid = np.sort(np.asarray(alphas, dtype=float).reshape(-1))
     if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(grid <= 0.0):
@@ -488,12 +606,46 @@ def _infeasible_message(attempts: Sequence[AlphaAttempt], gain_max: float, margi
 
 
 def design(params: ScaledParams, A: float, taubar_crit: float, **kwargs: object) -> SynthesisResult:
-    """Build the averaged model (29)-(31) and run :func:`synthesize` on it."""
+    """Build the averaged model (29)-(31) and run :func:`synthesize` on it.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The parameter set.
+    A, taubar_crit : float
+        The axial quantities of (22), as for
+        :func:`~drillstring.controller.averaged.averaged_model`.
+    **kwargs
+        Passed to :func:`synthesize`.
+
+    Returns
+    -------
+    SynthesisResult
+        As :func:`synthesize`.
+    """
     return synthesize(averaged_model(params, A, taubar_crit), **kwargs)  # type: ignore[arg-type]
 
 
 def to_gains_file(result: SynthesisResult, params: ScaledParams) -> GainsFile:
-    """The gains-file record of a design (``params`` must be the set the model was built from)."""
+    """The gains-file record of a design.
+
+    Parameters
+    ----------
+    result : SynthesisResult
+        The design.
+    params : ScaledParams
+        The set the model was built from (the record checks K0 against it).
+
+    Returns
+    -------
+    GainsFile
+        Gain, constants, certificate margins and solver of the design.
+
+    Raises
+    ------
+    GainsFileError
+        ``params`` does not give the model's K0.
+    """
     m = result.model
     return GainsFile(
         F=tuple(float(v) for v in result.F),  # type: ignore[arg-type]
@@ -532,6 +684,35 @@ def evaluate_gain(
     Closed-loop roots at ``tau_n0``, the spectral abscissa over the delay sweep, and whether a
     Razumikhin certificate (32) exists for this ``F`` with some ``P`` and an ``alpha`` of the
     grid (LMI in ``P``; the first alpha whose solution passes the numpy check is kept).
+
+    Parameters
+    ----------
+    F : array_like
+        The gain, 4 finite numbers.
+    params : ScaledParams
+        The parameter set.
+    A, taubar_crit : float
+        The axial quantities of (22).
+    alphas : sequence of float
+        Alphas tried for the certificate, in order.
+    margin : float
+        Relative margin of the LMI.
+    solvers : sequence of str
+        cvxpy solvers, as for :func:`solve_synthesis_lmi`.
+    taus : sequence of float, optional
+        Delays of the spectral sweep (default as :func:`check_certificate`).
+    n_roots : int
+        Rightmost roots reported at tau_n0.
+
+    Returns
+    -------
+    GainEvaluation
+        Roots, sweep and the certificate (None when no alpha gave one).
+
+    Raises
+    ------
+    ValueError
+        A bad ``F``, ``A`` or ``taubar_crit``.
     """
     Fv = _as_gain(F)
     model = averaged_model(params, A, taubar_crit)

@@ -14,10 +14,27 @@ from typing import IO, Any
 
 
 def load_table(path: Path) -> Any:
-    """Parse a .toml or .json file by its suffix (the caller has checked the suffix).
+    """Parse a TOML or JSON file, chosen by its suffix.
 
-    Raises OSError, tomllib.TOMLDecodeError or json.JSONDecodeError for the caller to report
-    with its own error type.
+    A ``.toml`` suffix (any case) is read as TOML, anything else as JSON: the caller has checked
+    the suffix, and reports the exceptions below with its own error type.
+
+    Parameters
+    ----------
+    path : Path
+        The file to read.
+
+    Returns
+    -------
+    object
+        The parsed document (a ``dict`` for TOML; whatever the JSON holds otherwise).
+
+    Raises
+    ------
+    OSError
+        The file cannot be read.
+    tomllib.TOMLDecodeError, json.JSONDecodeError
+        The file is not valid TOML or JSON.
     """
     if path.suffix.lower() == ".toml":
         with path.open("rb") as fh:
@@ -27,7 +44,24 @@ def load_table(path: Path) -> Any:
 
 
 def atomic_write(path: str | os.PathLike[str], write: Callable[[IO[bytes]], Any]) -> Path:
-    """Call ``write(fh)`` on a temporary binary file next to ``path``, then rename it."""
+    """Call ``write(fh)`` on a temporary binary file next to ``path``, then rename it.
+
+    The temporary file is flushed and fsynced before :func:`os.replace` puts it in place, so
+    ``path`` holds either its old content or the complete new one. Missing parent folders are
+    created; on any exception the temporary file is removed and the exception propagates.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    write : callable
+        Called once with the open binary file handle; writes the whole content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -48,7 +82,20 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[IO[bytes]], Any]
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> Path:
-    """Write UTF-8 text atomically."""
+    """Write UTF-8 text atomically (see :func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    text : str
+        Its content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     data = text.encode("utf-8")
     return atomic_write(path, lambda fh: fh.write(data))
 
@@ -56,7 +103,23 @@ def write_text(path: str | os.PathLike[str], text: str) -> Path:
 def write_csv(
     path: str | os.PathLike[str], header: Sequence[str], rows: Iterable[Sequence[Any]]
 ) -> Path:
-    """Write a CSV atomically; floats are written with ``repr`` (round-trip exact)."""
+    """Write a CSV atomically; floats are written with ``repr`` (round-trip exact).
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    header : sequence of str
+        The first row.
+    rows : iterable of sequences
+        The data rows; ``float`` cells (numpy floats included) are written with ``repr``, all
+        other cells as the :mod:`csv` module writes them.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -67,10 +130,44 @@ def write_csv(
 
 
 def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
+    """Write ``obj`` as indented JSON with sorted keys, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    obj : object
+        A JSON-serialisable object.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    TypeError
+        ``obj`` is not JSON-serialisable (nothing is written).
+    """
     data = (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode()
     return atomic_write(path, lambda fh: fh.write(data))
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
-    """Save a matplotlib figure as PNG atomically."""
+    """Save a matplotlib figure as PNG atomically.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : path-like
+        The PNG to write.
+    **kwargs
+        Passed to :meth:`~matplotlib.figure.Figure.savefig` (``format`` is always ``"png"``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     return atomic_write(path, lambda fh: fig.savefig(fh, format="png", **kwargs))

@@ -21,7 +21,20 @@ __all__ = ["new_figure", "plot_velocities"]
 
 
 def new_figure(figsize: tuple[float, float] = (7.0, 4.6), dpi: int = 150) -> Figure:
-    """A matplotlib figure on its own Agg canvas (no pyplot)."""
+    """A matplotlib figure on its own Agg canvas (no pyplot).
+
+    Parameters
+    ----------
+    figsize : (float, float)
+        Width and height in inches.
+    dpi : int
+        Resolution.
+
+    Returns
+    -------
+    Figure
+        A figure attached to a fresh :class:`FigureCanvasAgg`.
+    """
     fig = Figure(figsize=figsize, dpi=dpi)
     FigureCanvasAgg(fig)
     return fig

@@ -20,7 +20,18 @@ E = TypeVar("E", bound=ValueError)
 
 
 def is_finite_real(value: Any) -> bool:
-    """True for a finite real number (``bool`` and strings excluded)."""
+    """True for a finite real number (``bool`` and strings excluded).
+
+    Parameters
+    ----------
+    value : object
+        Anything.
+
+    Returns
+    -------
+    bool
+        Whether ``value`` is a :class:`numbers.Real` other than ``bool`` with a finite value.
+    """
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return False
     return math.isfinite(float(value))
@@ -52,6 +63,11 @@ def check_real(
     -------
     float
         The checked value.
+
+    Raises
+    ------
+    error
+        ``value`` is not a real number, not finite or out of bounds.
     """
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise error(f"{name} must be a real number, got {value!r}")
@@ -80,22 +96,49 @@ def check_int(
 ) -> int:
     """Return ``value`` as an int (>= ``lower``), or raise ``error`` naming it.
 
-    ``integral_floats`` accepts a float with an integral value (``4.0``), as FMI hosts and JSON
-    writers deliver integers as reals; ``bool`` is always rejected.
+    Parameters
+    ----------
+    name : str
+        What the value is, as the message should call it.
+    value : object
+        The value to check; ``bool`` is always rejected.
+    lower : int, optional
+        Inclusive lower bound.
+    integral_floats : bool
+        Also accept a real with an integral value (``4.0``), as FMI hosts and JSON writers
+        deliver integers as reals.
+    error : type
+        Exception class raised (a ``ValueError`` subclass).
+
+    Returns
+    -------
+    int
+        The checked value.
+
+    Raises
+    ------
+    error
+        ``value`` is not an integer (or an accepted integral real), or is below ``lower``.
     """
-    bound = "" if lower is None else f" >= {lower}"
+    bound = "" if lower is None else (" positive" if lower == 1 else f" >= {lower}")
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise error(f"{name} must be an integer{bound}, got {value!r}")
+        raise error(_int_message(name, bound, value))
     if isinstance(value, numbers.Integral):
         out = int(value)
     else:
         x = float(value)
         if not (integral_floats and math.isfinite(x) and x == math.floor(x)):
-            raise error(f"{name} must be an integer{bound}, got {value!r}")
+            raise error(_int_message(name, bound, value))
         out = int(x)
     if lower is not None and out < lower:
-        raise error(f"{name} must be an integer{bound}, got {value!r}")
+        raise error(_int_message(name, bound, value))
     return out
+
+
+def _int_message(name: str, bound: str, value: Any) -> str:
+    if bound == " positive":
+        return f"{name} must be a positive integer, got {value!r}"
+    return f"{name} must be an integer{bound}, got {value!r}"
 
 
 def check_choice(
@@ -105,7 +148,29 @@ def check_choice(
     *,
     error: type[E] = ValueError,  # type: ignore[assignment]
 ) -> str:
-    """Return ``value`` if it is one of ``choices``, else raise ``error`` listing them."""
+    """Return ``value`` if it is one of ``choices``, else raise ``error`` listing them.
+
+    Parameters
+    ----------
+    name : str
+        What the value is, as the message should call it.
+    value : object
+        The value to check; it must be a ``str``.
+    choices : sequence of str
+        The allowed values.
+    error : type
+        Exception class raised (a ``ValueError`` subclass).
+
+    Returns
+    -------
+    str
+        ``value``.
+
+    Raises
+    ------
+    error
+        ``value`` is not one of ``choices``.
+    """
     if not isinstance(value, str) or value not in choices:
         raise error(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
     return value

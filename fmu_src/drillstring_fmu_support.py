@@ -130,7 +130,9 @@ class Variable:
     with fmi2Get/SetInteger) or ``"Boolean"``; ``causality`` is ``"parameter"`` (fixed, initial
     exact), ``"input"`` or ``"output"`` (initial calculated, listed in InitialUnknowns).
     ``check(value)`` returns the value to store or raises ``ValueError`` naming the rule;
-    ``depends_on`` lists the inputs an output depends on directly (ModelStructure).
+    ``depends_on`` lists the inputs an output depends on directly (ModelStructure). ``unit`` (a
+    Real's unit, one of :data:`drillstring.model.units.UNITS`; default ``"1"``) and
+    ``display_unit`` (one of that unit's display units) go into modelDescription.xml.
     """
 
     name: str
@@ -144,6 +146,8 @@ class Variable:
     type_name: str | None = None
     check: Callable[[Any], Any] | None = None
     depends_on: tuple[str, ...] = ()
+    unit: str = "1"
+    display_unit: str | None = None
 
     def __post_init__(self) -> None:
         if self.type not in _PYTHONFMU_TYPE:
@@ -154,6 +158,8 @@ class Variable:
             raise ValueError(f"variable {self.name}: parameters and inputs need a start value")
         if self.type == "Enumeration" and not (self.items and self.type_name):
             raise ValueError(f"variable {self.name}: an Enumeration needs items and type_name")
+        if self.type != "Real" and (self.unit != "1" or self.display_unit is not None):
+            raise ValueError(f"variable {self.name}: only a Real has a unit")
 
     @property
     def variability(self) -> str:
@@ -210,14 +216,16 @@ def enumeration(
     )
 
 
-def input_real(name: str, start: float, description: str) -> Variable:
-    """A continuous Real input."""
-    return Variable(name, "Real", "input", description, start=start)
+def input_real(name: str, start: float, description: str, **kw: Any) -> Variable:
+    """A continuous Real input (``kw``: ``unit``, ``display_unit``, ``check``)."""
+    return Variable(name, "Real", "input", description, start=start, **kw)
 
 
-def output(name: str, type: str, description: str, depends_on: Sequence[str] = ()) -> Variable:
+def output(
+    name: str, type: str, description: str, depends_on: Sequence[str] = (), **kw: Any
+) -> Variable:
     """An output computed from parameters, inputs and state (``initial="calculated"``)."""
-    return Variable(name, type, "output", description, depends_on=tuple(depends_on))
+    return Variable(name, type, "output", description, depends_on=tuple(depends_on), **kw)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -331,6 +339,11 @@ class FmuModel(Fmi2Slave):
     START_TIME: ClassVar[float] = 0.0
     #: Paragraphs of ``documentation/index.html``, "Validity of the model".
     VALIDITY: ClassVar[tuple[str, ...]] = ()
+    #: The first paragraph of ``documentation/index.html``, "Time base and units".
+    TIME_AND_UNITS: ClassVar[str] = (
+        'All quantities are the paper\'s scaled, dimensionless quantities (unit "1"); time is the '
+        "scaled time tau."
+    )
     log_categories = LOG_CATEGORIES
     author = "drillstring project"
     license = "MIT"

@@ -11,6 +11,14 @@ inside the step, so communication points never have to land on an event.
 
 The FMU state is the whole engine (history buffer, axial mode, counters, integrator state) plus
 the FMU's variables; restoring it is bit exact.
+
+The unit system is the class's: :class:`DrillStringPlant` speaks the paper's scaled quantities;
+``drillstring_plant_si.py`` derives ``DrillStringPlantSI`` from it, which only replaces the
+variables and the conversions between the FMU's quantities and the engine's
+(:meth:`DrillStringPlant.engine_setup`, :meth:`~DrillStringPlant.engine_input`,
+:meth:`~DrillStringPlant.engine_time` and :meth:`~DrillStringPlant.fmu_time`,
+:meth:`~DrillStringPlant.converted_outputs`, :meth:`~DrillStringPlant.stop_message`;
+``docs/si_fmus.md``); everything else is this class.
 """
 
 from __future__ import annotations
@@ -203,13 +211,11 @@ class DrillStringPlant(fmu.FmuModel):
     engine: Engine | None = None
     _out: Mapping[str, Any] = MappingProxyType({})
 
-    # ----------------------------------------------------------------- physics
-    def configure(self, values: Mapping[str, Any]) -> None:
-        self.engine = self._new_engine(values)
-        self._out = self.engine.outputs()
-
-    @staticmethod
-    def _new_engine(v: Mapping[str, Any]) -> Engine:
+    # ----------------------------------------------------------------- the unit system
+    def engine_setup(
+        self, v: Mapping[str, Any]
+    ) -> tuple[ScaledParams, EngineOptions, Mapping[str, float]]:
+        """The engine's parameters, options and initial perturbation from the FMU's values."""
         params = ScaledParams(n=v["n"], **{f: v[name] for name, f, *_ in _SCALED})
         options = EngineOptions(
             h=v["h"],
@@ -219,6 +225,31 @@ class DrillStringPlant(fmu.FmuModel):
             keep_events=False,
         )
         initial = {key: float(v[name]) for name, key, _, _ in _INITIAL}
+        return params, options, initial
+
+    def engine_input(self) -> float:
+        """The engine's input R - R0 (scaled) from the FMU's input."""
+        return self.values["R_minus_R0"]
+
+    def engine_time(self, t: float) -> float:
+        """The engine's (scaled) time of the FMU's time ``t``."""
+        return t
+
+    def converted_outputs(self, eng: Engine) -> Mapping[str, Any]:
+        """The FMU's outputs from the engine's state."""
+        return eng.outputs()
+
+    def stop_message(self, eng: Engine, message: str) -> str:
+        """The message of a validity stop (the engine's, which names the scaled time)."""
+        return message
+
+    # ----------------------------------------------------------------- physics
+    def configure(self, values: Mapping[str, Any]) -> None:
+        self.engine = self._new_engine(values)
+        self._out = self.converted_outputs(self.engine)
+
+    def _new_engine(self, v: Mapping[str, Any]) -> Engine:
+        params, options, initial = self.engine_setup(v)
         return Engine(params, options=options, initial=initial)
 
     def output_values(self) -> Mapping[str, Any]:
@@ -228,18 +259,23 @@ class DrillStringPlant(fmu.FmuModel):
         eng = self.engine
         assert eng is not None
         bounces = self._out["bit_bounce"]
-        eng.set_input(self.values["R_minus_R0"])
-        status = eng.advance(t + h)
-        self._out = eng.outputs()
+        eng.set_input(self.engine_input())
+        status = eng.advance(self.engine_time(t + h))
+        self._out = self.converted_outputs(eng)
         if not status.ok:
-            return fmu.StepResult(eng.tau, stop=f"{status.code}: {status.message}")
+            stop = self.stop_message(eng, f"{status.code}: {status.message}")
+            return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
         if self._out["bit_bounce"] > bounces:
             return fmu.StepResult(
-                eng.tau,
+                t + h,
                 warning=f"bit bouncing (d < 0, outside the model's validity) in the step "
                 f"[{t!r}, {t + h!r}]; continuing as on_invalid = continue",
             )
-        return fmu.StepResult(eng.tau)
+        return fmu.StepResult(t + h)
+
+    def fmu_time(self, tau: float) -> float:
+        """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
+        return tau
 
     # ----------------------------------------------------------------- FMU state
     def save(self) -> tuple[dict[str, Any], Any, Callable[[], bytes]]:
@@ -271,7 +307,7 @@ class DrillStringPlant(fmu.FmuModel):
             else:
                 eng.deserialize_state(payload or b"")
             self.engine = eng
-        self._out = self.engine.outputs()
+        self._out = self.converted_outputs(self.engine)
 
 
 assert {name for name, _, _ in _OUTPUTS} <= set(OUTPUT_KEYS), "outputs the engine lacks"

@@ -16,6 +16,11 @@ The output depends directly on the inputs (declared in ``ModelStructure`` by ``b
 the FMU has no dynamics, its state is the time, the inputs, the parameters and the latch. The
 start values of ``F``, ``K0``, ``R_ff`` are the gains file of the synthesis, baked in by
 ``build_fmus.py --gains`` into ``resources/drillstring_fmu.json``.
+
+The unit system is the class's: ``torsional_controller_si.py`` derives
+``TorsionalControllerSI`` from :class:`TorsionalController`, replacing the variables, the law's
+parameters (:meth:`TorsionalController.new_law`, :meth:`~TorsionalController.initial_values`) and
+the measured coordinates the law acts on (:meth:`~TorsionalController.measured`).
 """
 
 from __future__ import annotations
@@ -100,19 +105,16 @@ class TorsionalController(fmu.FmuModel):
     latched = False
     refs = (0.0, 0.0)
 
+    #: The output's name.
+    OUTPUT = "R_minus_R0"
+
     def initial_values(self) -> Mapping[str, Any]:
         """F, K0, R_ff of this FMU's own build configuration (not of the class: FMUs of two
         builds share the Python module when a host loads both)."""
         g = self.config["gains"]
         return {**dict(zip(GAIN_NAMES, g["F"], strict=True)), "K0": g["K0"], "R_ff": g["R_ff"]}
 
-    # ----------------------------------------------------------------- law
-    def configure(self, values: Mapping[str, Any]) -> None:
-        self.law = self._new_law(values)
-        self.latched, self.refs = False, (0.0, 0.0)
-
-    @staticmethod
-    def _new_law(v: Mapping[str, Any]) -> AffineFeedback:
+    def new_law(self, v: Mapping[str, Any]) -> Any:
         """The law's parameters, validated like the Python API (AffineFeedback)."""
         return AffineFeedback(
             F=tuple(v[name] for name in GAIN_NAMES),  # type: ignore[arg-type]
@@ -122,22 +124,34 @@ class TorsionalController(fmu.FmuModel):
             latch=LATCH_MODES[v["latch"] - 1],
         )
 
+    def measured(self) -> tuple[float, float, float, float]:
+        """The coordinates (phi, dphi, theta, dtheta) of (29)-(31) of the current inputs."""
+        x = self.values
+        return x["phi"], x["dphi"], x["theta"], x["dtheta"]
+
+    # ----------------------------------------------------------------- law
+    def configure(self, values: Mapping[str, Any]) -> None:
+        self.law = self.new_law(values)
+        self.latched, self.refs = False, (0.0, 0.0)
+
     def _candidate_references(self) -> tuple[float, float]:
-        law, x = self.law, self.values
+        law = self.law
         assert law is not None
-        phi_ref, twist_ref = switch_on_references(law.latch_code, x["phi"], x["theta"], law.K0)
+        phi, _, theta, _ = self.measured()
+        phi_ref, twist_ref = switch_on_references(law.latch_code, phi, theta, law.K0)
         return float(phi_ref), float(twist_ref)
 
     def output_values(self) -> Mapping[str, Any]:
-        law, x = self.law, self.values
+        law = self.law
         assert law is not None
         phi_ref, twist_ref = self.refs if self.latched else self._candidate_references()
-        t_on = law.t_on if x["enabled"] else math.inf
+        t_on = law.t_on if self.values["enabled"] else math.inf
+        phi, dphi, theta, dtheta = self.measured()
         r = feedback_torque(
-            self.time, x["phi"], x["dphi"], x["theta"], x["dtheta"], law.F, law.K0, law.R_ff,
-            t_on, phi_ref, twist_ref,
+            self.time, phi, dphi, theta, dtheta, law.F, law.K0, law.R_ff, t_on, phi_ref,
+            twist_ref,
         )  # fmt: skip
-        return {"R_minus_R0": float(r)}
+        return {self.OUTPUT: float(r)}
 
     def advance(self, t: float, h: float) -> fmu.StepResult:
         law = self.law
@@ -152,5 +166,5 @@ class TorsionalController(fmu.FmuModel):
         return fields, None, lambda: b""
 
     def restore(self, fields: Mapping[str, Any], snapshot: Any, payload: bytes | None) -> None:
-        self.law = self._new_law(self.values) if fields["law"] else None
+        self.law = self.new_law(self.values) if fields["law"] else None
         self.latched, self.refs = bool(fields["latched"]), tuple(fields["refs"])

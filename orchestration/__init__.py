@@ -14,11 +14,16 @@ The general master, one module per job:
 * :mod:`.step_control` -- the coupling-error estimate and the step-size update;
 * :mod:`.fixed`, :mod:`.adaptive` -- the fixed-step and the step-size-controlled drivers;
 * :mod:`.recorder`, :mod:`.results` -- the recorded rows and the result of a run;
-* :mod:`.master` -- the public :class:`~.master.Master`.
+* :mod:`.master` -- the public :class:`~.master.Master` (also made from an SSP package,
+  :meth:`~.master.Master.from_ssp`);
+* :mod:`.ssp` -- SSP 1.0 packages: write, validate against the schemas, read;
+* :mod:`.hosts` -- other hosts of an SSP package: Ecos (API and command line), fmpy's
+  ``simulate_ssp``.
 
 The drill-string closed loop on top of it: :mod:`.closed_loop` (the two FMUs, the start values
 of an experiment, the model they describe), :mod:`.monolithic` (its monolithic twin),
-:mod:`.figures` (Figs. 5 and 6) and :mod:`.crosscheck` (convergence in the macro step).
+:mod:`.figures` (Figs. 5 and 6), :mod:`.crosscheck` (convergence in the macro step) and
+:mod:`.loop_ssp` (the loop as SSP packages, scaled and SI; ``docs/si_fmus.md``).
 """
 
 from drillstring.orchestration.master import (

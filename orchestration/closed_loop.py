@@ -14,11 +14,19 @@ start values back from the FMUs' model descriptions, so the monolithic twin
 (:mod:`.monolithic`) and the co-simulation describe the same system by construction.
 :func:`errors_on_grid` compares the two at the co-simulation's communication points, which must
 lie on the monolithic output grid.
+
+The same loop exists in two unit systems (:class:`LoopVariant`): :data:`SCALED`, the FMUs above
+in the paper's scaled quantities, and :data:`SI`, ``DrillStringPlantSI`` and
+``TorsionalControllerSI`` in SI units and seconds (:mod:`drillstring.model.units`). Every
+function here takes the variant (default :data:`SCALED`); :class:`LoopModel` is always the scaled
+model the FMUs describe, with the rig's :class:`~drillstring.model.units.SIScaling` for the SI
+variant, so the monolithic twin runs either.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import subprocess
@@ -33,13 +41,18 @@ import numpy as np
 from drillstring.model.control import LATCH_MODES, AffineFeedback
 from drillstring.model.engine import ON_INVALID_CHOICES, EngineOptions, InitialState
 from drillstring.model.experiments import Experiment
-from drillstring.model.params import ScaledParams
+from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
 from drillstring.model.simulate import SimulationResult
+from drillstring.model.units import PLANT_SI, PhysicalFeedback, SIScaling
 from drillstring.orchestration.connections import StartValue, Unit, effective_start_values
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.results import CosimResult
 
 __all__ = [
+    "SCALED",
+    "SI",
+    "VARIANTS",
+    "LoopVariant",
     "PLANT_FMU",
     "CONTROLLER_FMU",
     "FEEDBACK",
@@ -90,8 +103,72 @@ _PARAMS = {f: f for f in ("n", "psi", "gamma", "eta", "beta", "rho", "v0", "omeg
 _INITIAL = {k: f"{k}0" for k in ("u", "du", "phi", "dphi", "theta", "dtheta")}
 #: controller parameters of the gain F
 _GAINS = tuple(f"F[{i}]" for i in range(1, 5))
+#: PhysicalParams fields = SI plant parameters
+_PHYSICAL = tuple(f.name for f in dataclasses.fields(PhysicalParams))
 
 Overrides = Mapping[str, StartValue]
+
+
+@dataclass(frozen=True)
+class LoopVariant:
+    """The closed loop in one unit system: its two FMU files and the names that connect them.
+
+    Attributes
+    ----------
+    name : str
+        ``"scaled"`` or ``"si"``.
+    plant_fmu, controller_fmu : str
+        File names of the FMUs (as ``build_fmus.py`` writes them).
+    feedback : tuple of str
+        Plant outputs fed to the controller inputs of the same names.
+    torque : str
+        The controller output fed to the plant input of the same name.
+    record : tuple of str
+        Plant outputs recorded besides the connected ones.
+    ssp : str
+        File name of the SSP package of the loop.
+    """
+
+    name: str
+    plant_fmu: str
+    controller_fmu: str
+    feedback: tuple[str, ...]
+    torque: str
+    record: tuple[str, ...]
+    ssp: str
+
+    @property
+    def connections(self) -> tuple[str, ...]:
+        """``"plant.y -> controller.y"`` for the feedback, and the torque back."""
+        return (
+            *(f"plant.{n} -> controller.{n}" for n in self.feedback),
+            f"controller.{self.torque} -> plant.{self.torque}",
+        )
+
+
+_COUNTERS = ("plant.mode", "plant.stick_events", "plant.torsional_stick", "plant.bit_bounce")
+#: The loop in the paper's scaled quantities.
+SCALED = LoopVariant(
+    "scaled",
+    PLANT_FMU,
+    CONTROLLER_FMU,
+    FEEDBACK,
+    "R_minus_R0",
+    RECORD,
+    "DrillStringClosedLoop.ssp",
+)
+#: The loop in SI units and seconds.
+SI = LoopVariant(
+    "si",
+    "DrillStringPlantSI.fmu",
+    "TorsionalControllerSI.fmu",
+    ("bit_angle", "bit_speed", "table_angle", "table_speed"),
+    "table_torque",
+    tuple(f"plant.{q.name}" for q in PLANT_SI if not q.name.endswith(("_angle", "_speed")))
+    + _COUNTERS,
+    "DrillStringClosedLoopSI.ssp",
+)
+VARIANTS: dict[str, LoopVariant] = {v.name: v for v in (SCALED, SI)}
 
 
 @dataclass(frozen=True)
@@ -110,21 +187,26 @@ class LoopModel:
     control : AffineFeedback or float
         The controller's law (29)-(31), or its feed-forward R_ff alone when the feedback is
         disabled.
+    scaling : SIScaling or None
+        For the SI variant: the scales of the FMUs' rig (the model above is their scaled form).
     """
 
     params: ScaledParams
     initial: InitialState
     options: EngineOptions
     control: AffineFeedback | float
+    scaling: SIScaling | None = None
 
 
-def fmu_paths(fmus_dir: str | os.PathLike[str]) -> tuple[Path, Path]:
+def fmu_paths(fmus_dir: str | os.PathLike[str], variant: LoopVariant = SCALED) -> tuple[Path, Path]:
     """The plant and controller FMU files in a folder.
 
     Parameters
     ----------
     fmus_dir : path
         Folder of the built FMUs.
+    variant : LoopVariant
+        The unit system.
 
     Returns
     -------
@@ -137,7 +219,7 @@ def fmu_paths(fmus_dir: str | os.PathLike[str]) -> tuple[Path, Path]:
         Naming the FMU that is missing and how to build it.
     """
     d = Path(fmus_dir)
-    paths = (d / PLANT_FMU, d / CONTROLLER_FMU)
+    paths = (d / variant.plant_fmu, d / variant.controller_fmu)
     missing = [p.name for p in paths if not p.is_file()]
     if missing:
         raise ValueError(
@@ -181,13 +263,26 @@ def build_fmus_into(out_dir: str | os.PathLike[str], gains: str | os.PathLike[st
     return Path(out_dir)
 
 
-def experiment_start_values(experiment: Experiment) -> dict[str, dict[str, StartValue]]:
+def experiment_start_values(
+    experiment: Experiment,
+    variant: LoopVariant = SCALED,
+    rig: PhysicalParams = REFERENCE_RIG,
+    *,
+    full_initial: bool = False,
+) -> dict[str, dict[str, StartValue]]:
     """The start values an experiment defines, per unit.
 
     Parameters
     ----------
     experiment : Experiment
-        The set-up (``docs/model.md``, "Experiments of Figs. 5 and 6").
+        The set-up (``docs/model.md``, "Experiments of Figs. 5 and 6"), in scaled time.
+    variant : LoopVariant
+        The unit system; for :data:`SI` the initial state, ``h`` and ``t_on`` are converted on
+        ``rig`` (:class:`~drillstring.model.units.SIScaling`).
+    rig : PhysicalParams
+        The physical rig of the SI FMUs (their start values are the reference rig).
+    full_initial : bool
+        Give all six initial deviations (``u0`` ... ``dtheta0``), not only ``dphi0``.
 
     Returns
     -------
@@ -195,14 +290,21 @@ def experiment_start_values(experiment: Experiment) -> dict[str, dict[str, Start
         ``{"plant": {dphi0, h, torsional_stick_model}, "controller": {t_on, latch,
         enabled}}``; the gains and the parameter set are the FMUs' own.
     """
+    initial = dict(dataclasses.asdict(InitialState.coerce(experiment.initial())))
+    h, t_on = float(experiment.h), float(experiment.t_on)
+    if variant.name == SI.name:
+        scaling = SIScaling(rig)
+        initial = scaling.initial_to_si(initial)
+        h, t_on = scaling.time(h), scaling.time(t_on)
+    keys = _INITIAL if full_initial else {"dphi": "dphi0"}
     return {
         "plant": {
-            "dphi0": float(experiment.dphi0),
-            "h": float(experiment.h),
+            **{keys[k]: float(initial[k]) for k in keys},
+            "h": h,
             "torsional_stick_model": bool(experiment.torsional_stick),
         },
         "controller": {
-            "t_on": float(experiment.t_on),
+            "t_on": t_on,
             # an Enumeration of the FMU: item values 1, 2, 3 in the order of LATCH_MODES
             "latch": LATCH_MODES.index(experiment.latch) + 1,
             "enabled": bool(experiment.enabled),
@@ -226,6 +328,7 @@ def loop_units(
     fmus_dir: str | os.PathLike[str],
     experiment: Experiment | None,
     overrides: Overrides | None = None,
+    variant: LoopVariant = SCALED,
 ) -> tuple[Unit, Unit]:
     """Plant and controller units with the experiment's start values and the overrides.
 
@@ -237,14 +340,16 @@ def loop_units(
         The set-up; None: the FMUs' own start values only.
     overrides : mapping, optional
         ``"plant.variable"`` / ``"controller.variable"`` -> start value, applied last.
+    variant : LoopVariant
+        The unit system (the SI experiment is converted on the reference rig).
 
     Returns
     -------
     (Unit, Unit)
         Plant and controller.
     """
-    plant, controller = fmu_paths(fmus_dir)
-    values = experiment_start_values(experiment) if experiment is not None else {}
+    plant, controller = fmu_paths(fmus_dir, variant)
+    values = experiment_start_values(experiment, variant) if experiment is not None else {}
     extra = _split_overrides(overrides)
     return (
         Unit("plant", plant, {**values.get("plant", {}), **extra["plant"]}),
@@ -252,19 +357,26 @@ def loop_units(
     )
 
 
-def loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> LoopModel:
+def loop_model(
+    plant: Mapping[str, Any], controller: Mapping[str, Any], variant: LoopVariant = SCALED
+) -> LoopModel:
     """The closed loop described by the two FMUs' start values (their variable names).
 
     Parameters
     ----------
     plant, controller : mapping
         Variable name -> value of every parameter of each FMU.
+    variant : LoopVariant
+        The unit system of the FMUs; an SI loop is converted to its scaled form
+        (:mod:`drillstring.model.units`).
 
     Returns
     -------
     LoopModel
         Parameter set, initial state, engine options and law, validated like the Python API.
     """
+    if variant.name == SI.name:
+        return _si_loop_model(plant, controller)
     params = ScaledParams(**{field: plant[name] for field, name in _PARAMS.items()})
     initial = InitialState(**{field: plant[name] for field, name in _INITIAL.items()})
     options = EngineOptions(
@@ -285,6 +397,28 @@ def loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> LoopM
     return LoopModel(params, initial, options, control)
 
 
+def _si_loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> LoopModel:
+    """:func:`loop_model` of the SI FMUs: the rig's scaled set, initial state, options, law."""
+    scaling = SIScaling(PhysicalParams(**{name: plant[name] for name in _PHYSICAL}))
+    initial = scaling.initial_to_scaled({k: plant[name] for k, name in _INITIAL.items()})
+    options = EngineOptions(
+        h=scaling.tau(plant["h"]),
+        torsional_stick=bool(plant["torsional_stick_model"]),
+        on_invalid=_item(ON_INVALID_CHOICES, plant["on_invalid"]),
+        event_tol=scaling.tau(plant["event_tol"]),
+    )
+    law = PhysicalFeedback(
+        F=tuple(controller[name] for name in _GAINS),
+        K0=controller["K0"],
+        R_ff=controller["R_ff"],
+        Omega0=controller["Omega0"],
+        t_on=controller["t_on"],
+        latch=_item(LATCH_MODES, controller["latch"]),
+    ).to_scaled(scaling)
+    control: AffineFeedback | float = law if controller["enabled"] else law.R_ff
+    return LoopModel(scaling.scaled, initial, options, control, scaling)
+
+
 def _item(names: Sequence[str], value: StartValue) -> str:
     """The name of an FMU Enumeration item (values 1, 2, ... in the order of ``names``)."""
     if isinstance(value, str):
@@ -298,12 +432,13 @@ def read_loop_model(
     fmus_dir: str | os.PathLike[str],
     experiment: Experiment | None,
     overrides: Overrides | None = None,
+    variant: LoopVariant = SCALED,
 ) -> LoopModel:
     """The closed loop the FMUs run in an experiment, read from their model descriptions.
 
     Parameters
     ----------
-    fmus_dir, experiment, overrides
+    fmus_dir, experiment, overrides, variant
         As for :func:`loop_units`.
 
     Returns
@@ -311,8 +446,8 @@ def read_loop_model(
     LoopModel
         What :func:`closed_loop_master` co-simulates with the same arguments.
     """
-    plant, controller = loop_units(fmus_dir, experiment, overrides)
-    return loop_model(effective_start_values(plant), effective_start_values(controller))
+    plant, controller = loop_units(fmus_dir, experiment, overrides, variant)
+    return loop_model(effective_start_values(plant), effective_start_values(controller), variant)
 
 
 def closed_loop_master(
@@ -320,23 +455,29 @@ def closed_loop_master(
     experiment: Experiment | None,
     *,
     overrides: Overrides | None = None,
-    record: Sequence[str] = RECORD,
+    record: Sequence[str] | None = None,
+    variant: LoopVariant = SCALED,
 ) -> Master:
     """A :class:`Master` of plant and controller set up for an experiment.
 
     Parameters
     ----------
-    fmus_dir, experiment, overrides
+    fmus_dir, experiment, overrides, variant
         As for :func:`loop_units`.
-    record : sequence of str
-        Extra variables recorded (default :data:`RECORD`).
+    record : sequence of str, optional
+        Extra variables recorded (default: the variant's ``record``, :data:`RECORD` for the
+        scaled loop).
 
     Returns
     -------
     Master
         The master (a context manager: close it to remove the extracted FMUs).
     """
-    return Master(loop_units(fmus_dir, experiment, overrides), CONNECTIONS, record=record)
+    return Master(
+        loop_units(fmus_dir, experiment, overrides, variant),
+        variant.connections,
+        record=variant.record if record is None else record,
+    )
 
 
 @contextlib.contextmanager

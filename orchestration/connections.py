@@ -108,7 +108,8 @@ def parse_connection(spec: Connection | tuple[str, str] | str) -> Connection:
 
 @dataclass(frozen=True)
 class VarRef:
-    """A resolved variable: unit index, name, value reference, FMI type and causality."""
+    """A resolved variable: unit index, name, value reference, FMI type, causality,
+    variability and initial (None when the model description gives none)."""
 
     unit: int
     name: str

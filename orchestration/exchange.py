@@ -53,7 +53,7 @@ class Exchange:
         Per unit, all its connected inputs (a set) and all its connected outputs (a get).
     """
 
-    def __init__(self, instances: Instances, simple: bool):
+    def __init__(self, instances: Instances, simple: bool) -> None:
         sysm = instances.system
         self.instances = instances
         src_of = sysm.input_source

@@ -111,6 +111,12 @@ def run_pair(
     summary : dict
         Steps, wall times, max |difference| of du/dtau and dphi/dtau over the common
         communication points, the co-simulation's failure if any.
+
+    Raises
+    ------
+    ValueError
+        Missing FMUs, bad start values, or an ``H`` that is not a multiple of the engine step
+        or does not divide ``tau_end``.
     """
     model = read_loop_model(fmus_dir, experiment, overrides)
     tau_end = experiment.tau_end

@@ -20,7 +20,7 @@ from __future__ import annotations
 import ctypes
 import logging
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NoReturn
 
 import numpy as np
@@ -100,7 +100,7 @@ class Instance:
         "messages",
     )
 
-    def __init__(self, index: int, name: str, library: str):
+    def __init__(self, index: int, name: str, library: str) -> None:
         self.index, self.name, self.library = index, name, library
         self.fmu: FMU2Slave | None = None
         self.state = ctypes.c_void_p()
@@ -141,7 +141,14 @@ class RealBatch:
 
     __slots__ = ("inst", "fn", "vr", "n", "buf", "view", "idx", "fname")
 
-    def __init__(self, inst: Instance, get: bool, vrs: Sequence[int], idx, buf=None):
+    def __init__(
+        self,
+        inst: Instance,
+        get: bool,
+        vrs: Sequence[int],
+        idx: Sequence[int] | np.ndarray,
+        buf: ctypes.Array[ctypes.c_double] | None = None,
+    ) -> None:
         self.inst = inst
         self.fn = inst.get_real if get else inst.set_real
         self.fname = "fmi2GetReal" if get else "fmi2SetReal"
@@ -194,7 +201,7 @@ def make_callbacks(
 class UnitFailure(Exception):
     """An FMI call of unit ``unit`` (index) failed; :meth:`Instances.describe` reports it."""
 
-    def __init__(self, unit: int, function: str, status: int, t: float, h: float | None):
+    def __init__(self, unit: int, function: str, status: int, t: float, h: float | None) -> None:
         super().__init__(function)
         self.unit, self.function, self.status, self.t, self.h = unit, function, status, t, h
 
@@ -214,7 +221,7 @@ class Instances:
 
     def __init__(
         self, system: System, libraries: Sequence[str], log_categories: Sequence[str] | None
-    ):
+    ) -> None:
         self.system = system
         self.log_categories = log_categories
         self.items = [
@@ -225,7 +232,7 @@ class Instances:
         self.log: list[tuple[str, str, str, str]] = []
         self._callbacks = make_callbacks(self._on_message)
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[Instance]:
         return iter(self.items)
 
     def __getitem__(self, index: int) -> Instance:

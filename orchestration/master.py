@@ -20,9 +20,14 @@ A run, in FMI 2.0 terms (standard section 4.2.4, state machine of a co-simulatio
    a signal through a feedthrough unit by one macro step, an ``O(H)`` change of the result)
    and one recorded row (:mod:`.recorder`);
 4. the step size: fixed (:mod:`.fixed`; ``grid="ns"`` is libcosim's integer-nanosecond time
-   grid, so that ``exchange="simple", grid="ns"`` reproduces a libcosim run bit for bit) or
+   grid, so that ``exchange="simple", grid="ns"`` reproduces a libcosim run bit for bit;
+   ``grid="sum"`` is the accumulated time of Ecos and of fmpy's SSP simulator) or
    controlled by the coupling-error estimate with rollback (:mod:`.adaptive`,
    :mod:`.step_control`).
+
+:meth:`Master.from_ssp` builds the same master from an SSP 1.0 package (:mod:`.ssp`): its
+components, connections and a named parameter set, so that a plant or controller is swapped by
+naming another FMU, not by writing Python wiring.
 
 FMU failures (a call returning fmi2Discard, fmi2Error or fmi2Fatal, or failing to instantiate)
 stop the run cleanly: the returned :class:`CosimResult` holds the trajectories up to the last
@@ -47,7 +52,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from fmpy import extract
+from fmpy import extract, read_model_description
 from tqdm import tqdm
 
 from drillstring.orchestration.adaptive import run_adaptive
@@ -57,6 +62,7 @@ from drillstring.orchestration.fixed import n_steps, run_fixed
 from drillstring.orchestration.instances import Instances, UnitFailure
 from drillstring.orchestration.recorder import Recorder
 from drillstring.orchestration.results import CosimResult, FmuFailure, StepStats
+from drillstring.orchestration.ssp import SspError, SspPackage, read_ssp
 from drillstring.orchestration.step import macro_step
 from drillstring.orchestration.step_control import StepControl
 from drillstring.validation import check_choice, check_real
@@ -141,6 +147,8 @@ class Master:
                 )
             seen.setdefault(path, unit.name)
 
+        #: the SSP package the master was made from (:meth:`from_ssp`), else None
+        self.ssp: SspPackage | None = None
         self._tmp = tempfile.mkdtemp(prefix="cosim_master_")
         self._finalizer = weakref.finalize(self, shutil.rmtree, self._tmp, True)
         self._unzipdirs: list[str] = []
@@ -150,6 +158,83 @@ class Master:
             if path not in extracted:
                 extracted[path] = extract(path, unzipdir=Path(self._tmp, f"{i}_{unit.name}"))
             self._unzipdirs.append(str(extracted[path]))
+
+    @classmethod
+    def from_ssp(
+        cls,
+        path: str | Path,
+        parameter_set: str | Sequence[str] | None = None,
+        *,
+        fmus: Mapping[str, str | Path] | None = None,
+        record: Sequence[str] | None = None,
+        gs_order: Sequence[str] | None = None,
+        log_categories: Sequence[str] | None = None,
+    ) -> Master:
+        """A master of the system an SSP 1.0 package describes (:mod:`.ssp`).
+
+        The components become units, the connections the master's connections; the start
+        values are the FMUs' own, replaced by the named parameter set(s) of the package, in the
+        order given (SSP's named sets as Ecos's ``--parameterSet`` applies them; see
+        :mod:`.ssp`). The package's default experiment is :attr:`ssp` (``stop_time``, ``step``).
+
+        Parameters
+        ----------
+        path : path
+            The ``.ssp`` archive or an SSP folder.
+        parameter_set : str or sequence of str, optional
+            Parameter set(s) of the package to apply; None: none (the FMUs' start values).
+        fmus : mapping, optional
+            Component name -> another FMU file to use in its place (it must have the
+            component's connectors and the parameters of the applied sets).
+        record : sequence of str, optional
+            Extra ``"unit.var"`` to record (default: every output connector).
+        gs_order, log_categories
+            As for :class:`Master`.
+
+        Returns
+        -------
+        Master
+            The master; :attr:`ssp` is the package. Close it (or use it as a context manager)
+            to remove the extracted files.
+
+        Raises
+        ------
+        SspError
+            For an invalid package, an unknown parameter set or component, connected connectors
+            with different units, or a parameter the FMU does not have.
+        """
+        tmp = tempfile.mkdtemp(prefix="cosim_ssp_")
+        try:
+            package = read_ssp(path, unpack_to=Path(tmp) / "package")
+            values = package.start_values(parameter_set)
+            replaced = dict(fmus or {})
+            for name in replaced:
+                package.component(name)  # an unknown component is an error
+            units = []
+            for comp in package.components:
+                fmu = Path(replaced.get(comp.name, package.fmu(comp.name)))
+                units.append(Unit(comp.name, fmu, _typed_values(comp.name, fmu, values[comp.name])))
+            _check_connected_units(package)
+            if record is None:
+                record = [
+                    f"{c.name}.{k.name}"
+                    for c in package.components
+                    for k in c.connectors
+                    if k.kind == "output"
+                ]
+            master = cls(
+                units,
+                [str(c) for c in package.connections],
+                record=record,
+                gs_order=gs_order,
+                log_categories=log_categories,
+            )
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        master.ssp = package
+        weakref.finalize(master, shutil.rmtree, tmp, True)
+        return master
 
     # -- lifecycle -------------------------------------------------------------------
 
@@ -181,7 +266,7 @@ class Master:
         step_control: StepControl | None = None,
         progress: bool | None = None,
         exchange: ExchangeMode = "propagate",
-        grid: Literal["float", "ns"] = "float",
+        grid: Literal["float", "ns", "sum"] = "float",
     ) -> CosimResult:
         """Co-simulate from ``start_time`` to ``stop_time``.
 
@@ -206,9 +291,9 @@ class Master:
         exchange : {"propagate", "simple"}
             Exchange after a step: the dependency-ordered schedule, or libcosim's
             read-all-then-write-all.
-        grid : {"float", "ns"}
-            Communication points of a fixed-step run: ``start_time + k*step`` or libcosim's
-            integer-nanosecond grid.
+        grid : {"float", "ns", "sum"}
+            Communication points of a fixed-step run: ``start_time + k*step``, libcosim's
+            integer-nanosecond grid, or ``t + step`` accumulated (Ecos, fmpy's SSP simulator).
 
         Returns
         -------
@@ -227,7 +312,9 @@ class Master:
         check_choice("scheme", scheme, ("jacobi", "gauss-seidel"))
         check_choice("extrapolation", extrapolation, ("zoh", "linear"))
         check_choice("exchange", exchange, ("propagate", "simple"))
-        check_choice("grid", grid, ("float", "ns"))
+        check_choice("grid", grid, ("float", "ns", "sum"))
+        if grid == "sum" and step_control is not None:
+            raise ValueError("grid='sum' is for fixed-step runs, not with step_control")
         if grid == "ns":
             if step_control is not None:
                 raise ValueError("grid='ns' is for fixed-step runs, not with step_control")
@@ -273,7 +360,7 @@ class Master:
             scheme,
             extrapolation,
             exchange == "simple",
-            grid == "ns",
+            grid,
             progress,
         )
 
@@ -286,7 +373,7 @@ class Master:
         scheme: str,
         extrapolation: str,
         simple: bool,
-        ns_grid: bool,
+        grid: str,
         progress: bool | None,
     ) -> CosimResult:
         """One run on fresh instances (arguments checked by :meth:`run`)."""
@@ -321,7 +408,7 @@ class Master:
             exchange.exchange(t0)
             recorder.record(t0)
             if control is None:
-                run_fixed(step, recorder, stats, t0, t_end, h, ns_grid, show)
+                run_fixed(step, recorder, stats, t0, t_end, h, grid == "ns", show, grid == "sum")
             else:
                 run_adaptive(
                     step,
@@ -374,6 +461,44 @@ class Master:
             log=tuple(instances.log),
             step_log=step_log,
         )
+
+
+def _typed_values(component: str, fmu: Path, values: Mapping[str, tuple[str, object]]) -> dict:
+    """Start values of a parameter set for the FMU's variables: an ``ssv:Enumeration`` item name
+    becomes its value; a parameter the FMU does not have is an error (not silently ignored)."""
+    md = read_model_description(str(fmu))
+    variables = {v.name: v for v in md.modelVariables}
+    out = {}
+    for name, (kind, value) in values.items():
+        var = variables.get(name)
+        if var is None:
+            raise SspError(
+                f"component {component!r}: {fmu.name} has no variable {name!r} (parameter set)"
+            )
+        if kind == "Enumeration":
+            items = {item.name: int(item.value) for item in var.declaredType.items}
+            if value not in items:
+                raise SspError(
+                    f"component {component!r}: {value!r} is not an item of {name} ({list(items)})"
+                )
+            value = items[value]
+        elif kind == "Real" and var.type == "Real":
+            value = float(value)
+        out[name] = value
+    return out
+
+
+def _check_connected_units(package: SspPackage) -> None:
+    """Connected connectors must have the same unit: the master converts no units."""
+    unit = {(c.name, k.name): k.unit for c in package.components for k in c.connectors}
+    for con in package.connections:
+        a = unit.get((con.start_element, con.start_connector))
+        b = unit.get((con.end_element, con.end_connector))
+        if a != b:
+            raise SspError(
+                f"connection {con}: units {a!r} and {b!r} differ; the master does not convert "
+                "units (connect connectors of the same unit)"
+            )
 
 
 def _empty_table(columns: Sequence[str]) -> np.ndarray:

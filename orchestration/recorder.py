@@ -27,7 +27,7 @@ class Recorder:
         batched by unit and type.
     """
 
-    def __init__(self, instances: Instances, exchange: Exchange, record: Sequence[str]):
+    def __init__(self, instances: Instances, exchange: Exchange, record: Sequence[str]) -> None:
         sysm = instances.system
         self.instances = instances
         self.exchange = exchange

@@ -78,10 +78,12 @@ class CosimResult:
 
     @property
     def completed(self) -> bool:
+        """The run reached the stop time (no failure)."""
         return self.failure is None
 
     @property
     def time(self) -> np.ndarray:
+        """The communication points (``data["time"]``)."""
         return self.data["time"]
 
     def __getitem__(self, name: str) -> np.ndarray:

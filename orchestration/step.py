@@ -39,7 +39,7 @@ class JacobiStep:
         Linear extrapolation of the inputs (else zero-order hold).
     """
 
-    def __init__(self, instances: Instances, exchange: Exchange, linear: bool):
+    def __init__(self, instances: Instances, exchange: Exchange, linear: bool) -> None:
         self.linear = linear
         self._items = instances.items
         self._fail = instances.fail
@@ -54,7 +54,9 @@ class JacobiStep:
         y = self.y
         return y + (y - y_prev) * (0.5 * h / h_prev)
 
-    def advance(self, t: float, h: float, y_prev: np.ndarray | None, h_prev: float, nsp: int):
+    def advance(
+        self, t: float, h: float, y_prev: np.ndarray | None, h_prev: float, nsp: int
+    ) -> None:
         """Step every unit from ``t`` to ``t + h`` and exchange at ``t + h``.
 
         Parameters
@@ -88,7 +90,7 @@ class GaussSeidelStep(JacobiStep):
         As for :class:`JacobiStep`; the order is ``instances.system.gs_order``.
     """
 
-    def __init__(self, instances: Instances, exchange: Exchange, linear: bool):
+    def __init__(self, instances: Instances, exchange: Exchange, linear: bool) -> None:
         super().__init__(instances, exchange, linear)
         sysm = instances.system
         links = [(t.split(".", 1)[0], s.split(".", 1)[0]) for t, s in sysm.input_source.items()]
@@ -103,7 +105,9 @@ class GaussSeidelStep(JacobiStep):
                 (instances[i], exchange.input_ops[i], fresh, exchange.output_ops[i], feeds_later)
             )
 
-    def advance(self, t: float, h: float, y_prev: np.ndarray | None, h_prev: float, nsp: int):
+    def advance(
+        self, t: float, h: float, y_prev: np.ndarray | None, h_prev: float, nsp: int
+    ) -> None:
         """Step the units in turn from ``t`` to ``t + h`` and exchange at ``t + h``.
 
         Parameters are those of :meth:`JacobiStep.advance`.

@@ -6,7 +6,7 @@ signals alone: the defect ``d = y(t_n + H) - P(t_n + H)`` of the extrapolation p
 input-error impulse a receiving unit integrated over the step,
 ``int |u_held - u| dt ~ c_p H |d|`` (``c_0 = 1/2``, ``c_1 = 5/12``), which is ``O(H^(p+2))``
 and drives its state error. The error norm is ``err = max_i c_p H |d_i| / (atol + rtol |y_i|)``
-(:func:`coupling_error`).
+with ``|y_i|`` the larger of the magnitudes at both ends of the step (:func:`coupling_error`).
 
 Above 1 the step is rejected and retried with ``H*max(shrink_min, safety*err**(-1/(p+2)))``
 (:func:`retry_step`); otherwise it is accepted and the next step is
@@ -39,7 +39,8 @@ class StepControl:
     ----------
     rtol, atol : float
         Relative and absolute tolerance of the input-error impulse of every exchanged signal,
-        ``c_p H |defect_i| <= atol + rtol*|y_i|`` (not both 0).
+        ``c_p H |defect_i| <= atol + rtol*|y_i|``, ``|y_i|`` the larger magnitude at the two
+        ends of the step (not both 0).
     h_min, h_max : float
         Limits of the macro step, ``0 < h_min <= h_max``.
     h_init : float, optional

@@ -55,6 +55,21 @@ CONTROLLER = "TorsionalController"
 #: Plant outputs fed back to the controller inputs of the same name, and the torque back.
 FEEDBACK = ("phi", "dphi", "theta", "dtheta")
 RECORD_PLANT = ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n")
+#: The same loop in SI units (DrillStringPlantSI, TorsionalControllerSI).
+PLANT_SI = "DrillStringPlantSI"
+CONTROLLER_SI = "TorsionalControllerSI"
+FEEDBACK_SI = ("bit_angle", "bit_speed", "table_angle", "table_speed")
+RECORD_PLANT_SI = (
+    "bit_position",
+    "bit_velocity",
+    *FEEDBACK_SI,
+    "depth_of_cut",
+    "contact",
+    "delay",
+    "weight_on_bit",
+    "torque_on_bit",
+    "rate_of_penetration",
+)
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 
 _CACHE: dict[str, Any] = {}
@@ -75,13 +90,35 @@ class Unit:
 
 @dataclass
 class Built:
-    """Both FMUs of one session build, the gains file and the build folder."""
+    """The plant and controller of one session build (in one unit system), the gains file, the
+    build folder and the names that connect them; :attr:`si` is the same build's SI loop."""
 
     plant: Unit
     controller: Unit
     gains: Path
     out: Path
     gains_values: dict[str, Any] = field(default_factory=dict)
+    units: str = "scaled"
+    feedback: tuple[str, ...] = FEEDBACK
+    torque: str = "R_minus_R0"
+    record: tuple[str, ...] = RECORD_PLANT
+    ssp: Path | None = None
+    other: Built | None = None
+
+    @property
+    def si(self) -> Built:
+        """The SI FMUs of the same build (``DrillStringPlantSI``, ``TorsionalControllerSI``)."""
+        if self.units == "si":
+            return self
+        assert self.other is not None
+        return self.other
+
+    @property
+    def scaled(self) -> Built:
+        if self.units == "scaled":
+            return self
+        assert self.other is not None
+        return self.other
 
 
 @contextlib.contextmanager
@@ -174,13 +211,29 @@ def built_fmus(tmp_path_factory: Any) -> Built:
         values = make_gains_file(gains)
         out = root / "build"
         run_build(out, gains)
-        _CACHE["built"] = Built(
+        scaled = Built(
             plant=_unit(PLANT, out / f"{PLANT}.fmu", root),
             controller=_unit(CONTROLLER, out / f"{CONTROLLER}.fmu", root),
             gains=gains,
             out=out,
             gains_values=values,
+            ssp=out / "DrillStringClosedLoop.ssp",
         )
+        si = Built(
+            plant=_unit(PLANT_SI, out / f"{PLANT_SI}.fmu", root),
+            controller=_unit(CONTROLLER_SI, out / f"{CONTROLLER_SI}.fmu", root),
+            gains=gains,
+            out=out,
+            gains_values=values,
+            units="si",
+            feedback=FEEDBACK_SI,
+            torque="table_torque",
+            record=RECORD_PLANT_SI,
+            ssp=out / "DrillStringClosedLoopSI.ssp",
+            other=scaled,
+        )
+        scaled.other = si
+        _CACHE["built"] = scaled
     return _CACHE["built"]
 
 
@@ -371,14 +424,14 @@ def ecos_grid(step: float, n_steps: int) -> list[tuple[float, float]]:
 
 def _links(built: Built) -> list[tuple[str, int, str, int]]:
     p, c = built.plant, built.controller
-    links = [("plant", p.vr[n], "controller", c.vr[n]) for n in FEEDBACK]
-    links.append(("controller", c.vr["R_minus_R0"], "plant", p.vr["R_minus_R0"]))
+    links = [("plant", p.vr[n], "controller", c.vr[n]) for n in built.feedback]
+    links.append(("controller", c.vr[built.torque], "plant", p.vr[built.torque]))
     return links
 
 
 def _columns(built: Built) -> list[tuple[str, int]]:
-    cols = [("plant", built.plant.vr[n]) for n in RECORD_PLANT]
-    return cols + [("controller", built.controller.vr["R_minus_R0"])]
+    cols = [("plant", built.plant.vr[n]) for n in built.record]
+    return cols + [("controller", built.controller.vr[built.torque])]
 
 
 def jacobi_fmpy(
@@ -388,11 +441,14 @@ def jacobi_fmpy(
     starts: dict[str, dict[str, float]],
     points: list[tuple[float, float]] | None = None,
     units: tuple[str, ...] = ("plant", "controller"),
+    initial_exchange: bool = True,
 ) -> np.ndarray:
     """The closed loop with fmpy, libcosim's exchange (module docstring); rows after each step.
 
     ``points``: the (t, h) of each step (default: libcosim's grid); ``units=("plant",)`` runs the
-    plant alone with its input at its start value.
+    plant alone with its input at its start value. ``initial_exchange=False`` is fmpy.ssp's
+    start instead of libcosim's: every connected input is 0 for the first step and nothing is
+    exchanged in initialization mode.
     """
     points = points or libcosim_grid(step_ns, n_steps)
     units = {name: getattr(built, name) for name in units}
@@ -418,20 +474,27 @@ def jacobi_fmpy(
             for src, svr, dst, dvr in links:
                 pending[(dst, dvr)] = cache[(src, svr)]
 
-        for name, s in slaves.items():
-            s.fmu.setupExperiment(startTime=0.0)
-            s.fmu.enterInitializationMode()
-            get_outputs(name)
-        for _ in range(len(slaves)):
-            for name in slaves:
+        if initial_exchange:
+            for name, s in slaves.items():
+                s.fmu.setupExperiment(startTime=0.0)
+                s.fmu.enterInitializationMode()
+                get_outputs(name)
+            for _ in range(len(slaves)):
+                for name in slaves:
+                    set_inputs(name)
+                    get_outputs(name)
+                transfer()
+            for name, s in slaves.items():
                 set_inputs(name)
+                s.fmu.exitInitializationMode()
                 get_outputs(name)
             transfer()
-        for name, s in slaves.items():
-            set_inputs(name)
-            s.fmu.exitInitializationMode()
-            get_outputs(name)
-        transfer()
+        else:
+            for s in slaves.values():
+                s.fmu.setupExperiment(startTime=0.0)
+                s.fmu.enterInitializationMode()
+                s.fmu.exitInitializationMode()
+            pending.update({(dst, dvr): 0.0 for _, _, dst, dvr in links})
 
         cols = [c for c in _columns(built) if c[0] in units]
         rows = []

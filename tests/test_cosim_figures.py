@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import fmu_testlib as tl
 import numpy as np
 import pytest
 
@@ -34,16 +33,6 @@ from drillstring.orchestration.closed_loop import (
 from drillstring.orchestration.figures import FIG6_RIPPLE, run_pair, write_fig5, write_fig6
 
 PNG = b"\x89PNG\r\n\x1a\n"
-
-
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
 
 
 def _read(path) -> np.ndarray:

@@ -48,16 +48,6 @@ COLUMNS = ["plant." + n for n in tl.RECORD_PLANT] + ["controller.R_minus_R0"]
 CC = dataclasses.replace(CROSSCHECK, tau_end=5.0)
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
-
-
 # ------------------------------------------------------------------------------------------------
 # libcosim
 # ------------------------------------------------------------------------------------------------

@@ -30,16 +30,6 @@ from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
-
-
 def _units(built):
     return {"plant": built.plant, "controller": built.controller}
 
@@ -292,15 +282,18 @@ def test_rebuild_is_deterministic(built, tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     tl.run_build(a, built.gains, env=pinned)
     tl.run_build(b, built.gains, env=pinned)
-    for model in (tl.PLANT, tl.CONTROLLER):
+    models = (tl.PLANT, tl.CONTROLLER, tl.PLANT_SI, tl.CONTROLLER_SI)
+    for model in models:
         fa, fb = a / f"{model}.fmu", b / f"{model}.fmu"
         assert _sha(fa) == _sha(fb), f"{model}.fmu differs between two pinned builds"
         assert b'generationDateAndTime="2023-11-14T22:13:20Z"' in _xml(fa)
         # the session build (build time not pinned) differs only in generationDateAndTime
         strip = re.compile(rb' generationDateAndTime="[^"]*"')
         assert strip.sub(b"", _xml(fa)) == strip.sub(b"", _xml(built.out / f"{model}.fmu"))
-    guids = {read_model_description(str(a / f"{m}.fmu")).guid for m in (tl.PLANT, tl.CONTROLLER)}
-    assert len(guids) == 2
+    for package in ("DrillStringClosedLoop.ssp", "DrillStringClosedLoopSI.ssp"):
+        assert _sha(a / package) == _sha(b / package), f"{package} differs between two builds"
+    guids = {read_model_description(str(a / f"{m}.fmu")).guid for m in models}
+    assert len(guids) == 4
 
 
 def _build_module():

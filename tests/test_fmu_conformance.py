@@ -13,7 +13,13 @@ steps, Terminated, or StepFailed after a validity stop), makes one call and asse
 Rows that concern ``fmi2Instantiate`` (no instance to go on with) assert the NULL, the message,
 and that a correct instantiation in the same process works afterwards.
 
-The README's table ("Using the FMUs in other tools") is this table:
+The same table runs for both unit systems (:data:`SYSTEMS`): the scaled FMUs and the SI FMUs
+(``DrillStringPlantSI``, ``TorsionalControllerSI``), whose rows use the SI variables (the
+table torque for R - R0, the bit's angle and speed for phi and dphi, the physical parameters for
+the scaled ones), the time scaled by t* (so the SI runs are the scaled runs in seconds) and their
+own model names in the messages.
+
+The README's table ("Using the FMUs in other tools") is the scaled one:
 ``test_readme_carries_the_table`` compares them; ``python tests/test_fmu_conformance.py`` prints
 it.
 """
@@ -21,6 +27,7 @@ it.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import math
 import re
 import sys
@@ -32,6 +39,9 @@ from typing import Any
 import fmu_testlib as tl
 import pytest
 
+from drillstring.model.params import REFERENCE_RIG
+from drillstring.model.units import SIScaling
+
 OK, WARNING, DISCARD, ERROR = tl.OK, tl.WARNING, tl.DISCARD, tl.ERROR
 STATUS = {OK: "fmi2OK", WARNING: "fmi2Warning", DISCARD: "fmi2Discard", ERROR: "fmi2Error"}
 H = 0.01
@@ -40,16 +50,159 @@ PLANT_INPUT = (0.05, -0.1, 0.2, 0.0, 0.1, -0.05)
 CTRL_INPUT = {"phi": 0.3, "dphi": -0.2, "theta": 0.1, "dtheta": 0.05}
 
 
+def rx(x: float) -> str:
+    """A number as its repr, escaped for a pattern."""
+    return re.escape(repr(x))
+
+
+@dataclass(frozen=True)
+class System:
+    """The names and values by which the table's rows address one unit system's FMUs."""
+
+    name: str
+    #: the macro step (H in scaled time; H t* in seconds)
+    H: float
+    scale: float
+    plant_model: str
+    controller_model: str
+    plant_input: str
+    torques: tuple[float, ...]
+    ctrl_inputs: dict[str, float]
+    params_class: str
+    #: a Real parameter, a valid value of it, and a second Real parameter
+    param: str
+    param_ok: float
+    param2: str
+    out_real: str
+    out_u: str
+    ctrl_in: str
+    ctrl_in4: str
+    out_of_range: tuple[tuple[str, float, str], ...]
+    #: (values making fmi2ExitInitializationMode fail, message, values that fix it)
+    inconsistent: tuple[dict[str, float], str, dict[str, float]]
+    #: du0 that makes the bit bounce inside the second step
+    bounce_du0: float
+    #: a torque that stops the table (torsional stick with the model off)
+    stop_torque: float
+    #: what a validity stop's message adds after the scaled time
+    stop_suffix: str
+
+
+OUT_OF_RANGE = [
+    ("psi", -1.0, r"ScaledParams\.psi must be > 0, got -1\.0"),
+    ("psi", 0.0, r"ScaledParams\.psi must be > 0, got 0\.0"),
+    ("gamma", -0.1, r"ScaledParams\.gamma must be >= 0, got -0\.1"),
+    ("eta", 0.0, r"ScaledParams\.eta must be > 0, got 0\.0"),
+    ("lambda", -1.0, r"ScaledParams\.lam must be >= 0, got -1\.0"),
+    ("beta", 1.5, r"ScaledParams\.beta must be in \(0, 1\], got 1\.5"),
+    ("beta", 0.0, r"ScaledParams\.beta must be > 0, got 0\.0"),
+    ("rho", 0.0, r"ScaledParams\.rho must be > 0, got 0\.0"),
+    ("v0", 0.0, r"ScaledParams\.v0 must be > 0, got 0\.0"),
+    ("omega0", -1.0, r"ScaledParams\.omega0 must be > 0, got -1\.0"),
+    ("h", 0.0, r"EngineOptions\.h must be > 0, got 0\.0"),
+    ("event_tol", 1e-3, r"EngineOptions\.event_tol must be in \(0, 1e-10\], got 0\.001"),
+    ("event_tol", 0.0, r"EngineOptions\.event_tol must be in \(0, 1e-10\], got 0\.0"),
+]
+OUT_OF_RANGE_SI = [
+    ("M", -1.0, r"PhysicalParams\.M must be > 0, got -1\.0"),
+    ("C", 0.0, r"PhysicalParams\.C must be > 0, got 0\.0"),
+    ("D", -0.1, r"PhysicalParams\.D must be >= 0, got -0\.1"),
+    ("K", 0.0, r"PhysicalParams\.K must be > 0, got 0\.0"),
+    ("l", -1.0, r"PhysicalParams\.l must be >= 0, got -1\.0"),
+    ("xi", -1.0, r"PhysicalParams\.xi must be > 0, got -1\.0"),
+    ("mu", 0.0, r"PhysicalParams\.mu must be > 0, got 0\.0"),
+    ("I2", 0.0, r"PhysicalParams\.I2 must be > 0, got 0\.0"),
+    ("V0", 0.0, r"PhysicalParams\.V0 must be > 0, got 0\.0"),
+    ("Omega0", -1.0, r"PhysicalParams\.Omega0 must be > 0, got -1\.0"),
+    ("h", 0.0, r"h must be > 0, got 0\.0"),
+    ("event_tol", -1e-3, r"event_tol must be > 0, got -0\.001"),
+    ("event_tol", 0.0, r"event_tol must be > 0, got 0\.0"),
+]
+_RIG = SIScaling(REFERENCE_RIG)
+_TS = _RIG.t_star
+SYSTEMS = {
+    "scaled": System(
+        name="scaled",
+        H=H,
+        scale=1.0,
+        plant_model=tl.PLANT,
+        controller_model=tl.CONTROLLER,
+        plant_input="R_minus_R0",
+        torques=PLANT_INPUT,
+        ctrl_inputs=CTRL_INPUT,
+        params_class="ScaledParams",
+        param="psi",
+        param_ok=300.0,
+        param2="gamma",
+        out_real="dphi",
+        out_u="u",
+        ctrl_in="phi",
+        ctrl_in4="dtheta",
+        out_of_range=tuple(OUT_OF_RANGE),
+        inconsistent=(
+            {"dphi0": -6.0},
+            r"fmi2ExitInitializationMode: the parameters are inconsistent: initial dphi = -6\.0 "
+            r"gives dPhi/dtau = -1\.0 <= 0.*stays in initialization mode",
+            {"dphi0": -2.5},
+        ),
+        bounce_du0=-40.0,
+        stop_torque=-30.0,
+        stop_suffix="",
+    ),
+    "si": System(
+        name="si",
+        H=H * _TS,
+        scale=_TS,
+        plant_model=tl.PLANT_SI,
+        controller_model=tl.CONTROLLER_SI,
+        plant_input="table_torque",
+        torques=tuple(_RIG.table_torque(r) for r in PLANT_INPUT),
+        ctrl_inputs={
+            "bit_angle": 0.3,
+            "bit_speed": (_RIG.scaled.omega0 - 0.2) / _TS,
+            "table_angle": _RIG.twist0 + 0.1,
+            "table_speed": (_RIG.scaled.omega0 + 0.05) / _TS,
+        },
+        params_class="PhysicalParams",
+        param="C",
+        param_ok=300.0,
+        param2="D",
+        out_real="bit_speed",
+        out_u="bit_position",
+        ctrl_in="bit_angle",
+        ctrl_in4="table_speed",
+        out_of_range=tuple(OUT_OF_RANGE_SI),
+        inconsistent=(
+            {"dphi0": -6.0 / _TS},
+            r"fmi2ExitInitializationMode: the parameters are inconsistent: the initial bit speed "
+            r"Omega0 \+ dphi0 = -1\.08\d+ rad/s is not > 0.*stays in initialization mode",
+            {"dphi0": -2.5 / _TS},
+        ),
+        bounce_du0=-40.0 * _RIG.L_star / _TS,
+        stop_torque=_RIG.table_torque(-30.0),
+        stop_suffix=r" \(t = 0\.009\d+ s\)",
+    ),
+}
+
+
 # ------------------------------------------------------------------------------------------------
 # the harness
 # ------------------------------------------------------------------------------------------------
 
 
 def _step_inputs(s: tl.Slave, k: int) -> None:
-    if s.unit.model == tl.PLANT:
-        s.set(R_minus_R0=PLANT_INPUT[k % len(PLANT_INPUT)])
+    sy = s.system
+    if s.unit.model == sy.plant_model:
+        s.set(**{sy.plant_input: sy.torques[k % len(sy.torques)]})
     else:
-        s.set(**{n: v * (1 + 0.1 * k) for n, v in CTRL_INPUT.items()})
+        s.set(**{n: v * (1 + 0.1 * k) for n, v in sy.ctrl_inputs.items()})
+
+
+def slave(sy: System, unit: tl.Unit, name: str, **kw: Any) -> tl.Slave:
+    """An instance that knows its unit system (the harness reads ``s.system``)."""
+    s = tl.Slave(unit, name, **kw)
+    s.system = sy
+    return s
 
 
 def _outputs(s: tl.Slave) -> list[Any]:
@@ -69,6 +222,7 @@ def bring(s: tl.Slave, state: str, prior: dict[str, Any], n_steps: int = 2) -> d
     if state == "initialization":
         return ctx
     s.fmu.exitInitializationMode()
+    H = s.system.H
     for k in range(n_steps):
         _step_inputs(s, k)
         assert s.step(k * H, H) in (OK, WARNING), s.logs
@@ -96,7 +250,7 @@ def go_on(s: tl.Slave, state: str, ctx: dict[str, Any]) -> list[list[Any]]:
         s.fmu.enterInitializationMode()
     if state in ("instantiated", "initialization"):
         s.fmu.exitInitializationMode()
-    rows, k0 = [], ctx["k"]
+    rows, k0, H = [], ctx["k"], s.system.H
     for k in range(k0, k0 + 3):
         _step_inputs(s, k)
         assert s.step(k * H, H) == OK, s.logs
@@ -109,13 +263,13 @@ def restored(s: tl.Slave, state: str, ctx: dict[str, Any]) -> list[list[Any]]:
     that ends before the stop: fmi2OK and the outputs of an instance that never stopped."""
     s.fmu.setFMUstate(ctx["saved"])
     s.fmu.freeFMUstate(ctx["saved"])
-    assert s.step(ctx["k"] * H, 1e-4) == OK, s.logs
+    assert s.step(ctx["k"] * s.system.H, 1e-4 * s.system.scale) == OK, s.logs
     return [_outputs(s)]
 
 
 def short_step(ref: tl.Slave, ctx: dict[str, Any]) -> list[list[Any]]:
     """The undisturbed counterpart of :func:`restored`."""
-    assert ref.step(ctx["k"] * H, 1e-4) == OK, ref.logs
+    assert ref.step(ctx["k"] * ref.system.H, 1e-4 * ref.system.scale) == OK, ref.logs
     return [_outputs(ref)]
 
 
@@ -168,7 +322,7 @@ def _step(t: float, h: float) -> Callable[[tl.Slave, dict[str, Any]], int]:
 
 
 def _state_of_other(s: tl.Slave, ctx: dict[str, Any]) -> int:
-    other = tl.Slave(BUILT.controller, "other").init()
+    other = slave(s.system, _built(s.system).controller, "other").init()
     try:
         state = other.fmu.getFMUstate()
         st = s.call("SetFMUstate", state)
@@ -179,7 +333,7 @@ def _state_of_other(s: tl.Slave, ctx: dict[str, Any]) -> int:
 
 
 def _bytes_of_other(s: tl.Slave, ctx: dict[str, Any]) -> int:
-    other = tl.Slave(BUILT.controller, "other").init()
+    other = slave(s.system, _built(s.system).controller, "other").init()
     try:
         state = other.fmu.getFMUstate()
         data = other.fmu.serializeFMUstate(state)
@@ -256,17 +410,18 @@ def _save_then(call: Callable[[tl.Slave, dict[str, Any]], int]):
 
 def _stop_by_torque(s: tl.Slave, ctx: dict[str, Any]) -> int:
     """R - R0 = -30 stops the rotary table: the bit sticks torsionally (model off)."""
-    s.set(R_minus_R0=-30.0)
-    t = ctx["k"] * H
-    while (st := s.step(t, 0.25)) == OK:
-        t += 0.25
-        assert t < 5.0
+    sy = s.system
+    s.set(**{sy.plant_input: sy.stop_torque})
+    t, h = ctx["k"] * sy.H, 0.25 * sy.scale
+    while (st := s.step(t, h)) == OK:
+        t += h
+        assert t < 5.0 * sy.scale
     ctx["t"] = t
     return st
 
 
 def _step_counted(s: tl.Slave, ctx: dict[str, Any]) -> int:
-    st = s.step(ctx["k"] * H, H)
+    st = s.step(ctx["k"] * s.system.H, s.system.H)
     ctx["k"] += 1
     return st
 
@@ -281,9 +436,9 @@ def _last_time_inside(width: float):
     """fmi2LastSuccessfulTime is the time the FMU reached, inside the failed step."""
 
     def check(s: tl.Slave, ctx: dict[str, Any]) -> None:
-        t0 = ctx.get("t", ctx["k"] * H)
+        t0 = ctx.get("t", ctx["k"] * s.system.H)
         t = s.last_successful_time()
-        assert t0 < t < t0 + width, (t0, t)
+        assert t0 < t < t0 + width * s.system.scale, (t0, t)
         assert f"stopped at {t!r}" in " ".join(s.messages(DISCARD))
 
     return check
@@ -291,637 +446,634 @@ def _last_time_inside(width: float):
 
 R, INT, B, S = "Real", "Integer", "Boolean", "String"
 P, C = "plant", "controller"
-OUT_OF_RANGE = [
-    ("psi", -1.0, r"ScaledParams\.psi must be > 0, got -1\.0"),
-    ("psi", 0.0, r"ScaledParams\.psi must be > 0, got 0\.0"),
-    ("gamma", -0.1, r"ScaledParams\.gamma must be >= 0, got -0\.1"),
-    ("eta", 0.0, r"ScaledParams\.eta must be > 0, got 0\.0"),
-    ("lambda", -1.0, r"ScaledParams\.lam must be >= 0, got -1\.0"),
-    ("beta", 1.5, r"ScaledParams\.beta must be in \(0, 1\], got 1\.5"),
-    ("beta", 0.0, r"ScaledParams\.beta must be > 0, got 0\.0"),
-    ("rho", 0.0, r"ScaledParams\.rho must be > 0, got 0\.0"),
-    ("v0", 0.0, r"ScaledParams\.v0 must be > 0, got 0\.0"),
-    ("omega0", -1.0, r"ScaledParams\.omega0 must be > 0, got -1\.0"),
-    ("h", 0.0, r"EngineOptions\.h must be > 0, got 0\.0"),
-    ("event_tol", 1e-3, r"EngineOptions\.event_tol must be in \(0, 1e-10\], got 0\.001"),
-    ("event_tol", 0.0, r"EngineOptions\.event_tol must be in \(0, 1e-10\], got 0\.0"),
-]
 
-CASES: list[Case] = [
-    *[
+
+def make_cases(sy: System) -> list[Case]:
+    """The table's rows for the FMUs of unit system ``sy``."""
+    H = sy.H
+    return _table(sy, H)
+
+
+def _table(sy: System, H: float) -> list[Case]:
+    return [
+        *[
+            Case(
+                f"P{i + 1}",
+                P,
+                "instantiated",
+                f"parameter {name} = {value!r} (out of range)",
+                _set(R, name, value),
+                ERROR,
+                rf"parameter {name} = {re.escape(repr(value))} rejected: {msg}; the value is not "
+                "applied",
+            )
+            for i, (name, value, msg) in enumerate(sy.out_of_range)
+        ],
         Case(
-            f"P{i + 1}",
+            "P14",
             P,
             "instantiated",
-            f"parameter {name} = {value!r} (out of range)",
-            _set(R, name, value),
+            "parameter n = 0 (Integer, out of range)",
+            _set(INT, "n", 0),
             ERROR,
-            rf"parameter {name} = {re.escape(repr(value))} rejected: {msg}; the value is not "
-            "applied",
-        )
-        for i, (name, value, msg) in enumerate(OUT_OF_RANGE)
-    ],
-    Case(
-        "P14",
-        P,
-        "instantiated",
-        "parameter n = 0 (Integer, out of range)",
-        _set(INT, "n", 0),
-        ERROR,
-        r"parameter n = 0 rejected: ScaledParams\.n must be a positive integer, got 0",
-    ),
-    Case(
-        "P15",
-        P,
-        "instantiated",
-        "on_invalid = 3 (no such Enumeration item)",
-        _set(INT, "on_invalid", 3),
-        ERROR,
-        r"on_invalid must be one of 1 \(stop\), 2 \(continue\), got 3",
-    ),
-    Case(
-        "P16",
-        P,
-        "instantiated",
-        "parameter psi = NaN",
-        _set(R, "psi", math.nan),
-        ERROR,
-        r"parameter psi = nan rejected: psi must be finite, got nan",
-    ),
-    Case(
-        "P17",
-        P,
-        "instantiated",
-        "initial state u0 = +inf",
-        _set(R, "u0", math.inf),
-        ERROR,
-        r"parameter u0 = inf rejected: u0 must be finite, got inf",
-    ),
-    Case(
-        "P18",
-        P,
-        "initialization",
-        "dphi0 = -6 < -omega0: inconsistent at fmi2ExitInitializationMode",
-        _exit_with({"dphi0": -6.0}),
-        ERROR,
-        r"fmi2ExitInitializationMode: the parameters are inconsistent: initial dphi = -6\.0 gives "
-        r"dPhi/dtau = -1\.0 <= 0.*stays in initialization mode",
-        then=_fix_and_go_on({"dphi0": -2.5}),
-    ),
-    Case(
-        "P19",
-        P,
-        "instantiated",
-        "torsional_stick_model = 2 (fmi2Boolean neither 0 nor 1)",
-        _set(B, "torsional_stick_model", 2),
-        ERROR,
-        r"value 2 for torsional_stick_model is neither fmi2True \(1\) nor fmi2False \(0\)",
-    ),
-    Case(
-        "C1",
-        C,
-        "instantiated",
-        "gain F[2] = +inf",
-        _set(R, "F[2]", math.inf),
-        ERROR,
-        r"parameter F\[2\] = inf rejected: F\[2\] must be finite, got inf",
-    ),
-    Case(
-        "C2",
-        C,
-        "instantiated",
-        "K0 = NaN",
-        _set(R, "K0", math.nan),
-        ERROR,
-        r"parameter K0 = nan rejected: K0 must be finite",
-    ),
-    Case(
-        "C3",
-        C,
-        "instantiated",
-        "R_ff = -inf",
-        _set(R, "R_ff", -math.inf),
-        ERROR,
-        r"parameter R_ff = -inf rejected: R_ff must be finite",
-    ),
-    Case(
-        "C4",
-        C,
-        "instantiated",
-        "t_on = NaN",
-        _set(R, "t_on", math.nan),
-        ERROR,
-        r"parameter t_on = nan rejected: t_on must be finite",
-    ),
-    Case(
-        "C5",
-        C,
-        "instantiated",
-        "latch = 0 (no such Enumeration item)",
-        _set(INT, "latch", 0),
-        ERROR,
-        r"latch must be one of 1 \(none\), 2 \(angle\), 3 \(angle\+twist\), got 0",
-    ),
-    Case(
-        "C6",
-        C,
-        "initialization",
-        "latch = 4 in initialization mode",
-        _set(INT, "latch", 4),
-        ERROR,
-        r"latch must be one of .* got 4",
-    ),
-    Case(
-        "I1",
-        P,
-        "stepping",
-        "input R_minus_R0 = NaN",
-        _set(R, "R_minus_R0", math.nan),
-        ERROR,
-        r"input R_minus_R0 = nan rejected: R_minus_R0 must be finite, got nan",
-    ),
-    Case(
-        "I2",
-        P,
-        "stepping",
-        "input R_minus_R0 = -inf",
-        _set(R, "R_minus_R0", -math.inf),
-        ERROR,
-        r"input R_minus_R0 = -inf rejected",
-    ),
-    Case(
-        "I3",
-        C,
-        "stepping",
-        "input phi = NaN",
-        _set(R, "phi", math.nan),
-        ERROR,
-        r"input phi = nan rejected: phi must be finite, got nan",
-    ),
-    Case(
-        "I4",
-        C,
-        "stepping",
-        "input dtheta = +inf",
-        _set(R, "dtheta", math.inf),
-        ERROR,
-        r"input dtheta = inf rejected",
-    ),
-    Case(
-        "T1",
-        P,
-        "instantiated",
-        "fmi2SetInteger on the Real psi",
-        _set(INT, "psi", 3),
-        ERROR,
-        r"fmi2SetInteger: variable psi \(value reference \d+\) is a Real, not an Integer",
-    ),
-    Case(
-        "T2",
-        P,
-        "instantiated",
-        "fmi2SetReal on the Integer n",
-        _set(R, "n", 4.0),
-        ERROR,
-        r"fmi2SetReal: variable n \(value reference \d+\) is an Integer, not a Real",
-    ),
-    Case(
-        "T3",
-        P,
-        "instantiated",
-        "fmi2SetBoolean on the Real h",
-        _set(B, "h", 1),
-        ERROR,
-        r"fmi2SetBoolean: variable h .* is a Real, not a Boolean",
-    ),
-    Case(
-        "T4",
-        P,
-        "stepping",
-        "fmi2GetInteger of the Real output dphi",
-        _get(INT, "dphi"),
-        ERROR,
-        r"fmi2GetInteger: variable dphi .* is a Real, not an Integer",
-    ),
-    Case(
-        "T5",
-        C,
-        "instantiated",
-        "fmi2SetString on the Enumeration latch",
-        _set(S, "latch", "none"),
-        ERROR,
-        r"fmi2SetString: variable latch .* is an Enumeration, not a String",
-    ),
-    Case(
-        "T6",
-        P,
-        "stepping",
-        "fmi2GetReal of the Integer output mode",
-        _get(R, "mode"),
-        ERROR,
-        r"fmi2GetReal: variable mode .* is an Integer, not a Real",
-    ),
-    Case(
-        "V1",
-        P,
-        "stepping",
-        "fmi2GetReal of value reference 999",
-        _vr(R, [999]),
-        ERROR,
-        r"fmi2GetReal: no variable has value reference 999",
-    ),
-    Case(
-        "V2",
-        P,
-        "instantiated",
-        "fmi2SetReal of value reference 999",
-        _vr(R, [999], [1.0]),
-        ERROR,
-        r"fmi2SetReal: no variable has value reference 999",
-    ),
-    Case(
-        "V3",
-        C,
-        "stepping",
-        "fmi2SetReal of a valid and an unknown reference: none applied",
-        lambda s, ctx: s.set_raw(R, [s.unit.vr["phi"], 999], [5.0, 1.0]),
-        ERROR,
-        r"no variable has value reference 999 \(vr\[1\]\); nothing done",
-    ),
-    Case(
-        "V4",
-        P,
-        "instantiated",
-        "psi = 300 (valid) with gamma = -1 in one call: none applied",
-        _set_many(R, psi=300.0, gamma=-1.0),
-        ERROR,
-        r"parameter gamma = -1\.0 rejected",
-    ),
-    Case(
-        "S1",
-        P,
-        "stepping",
-        "fmi2SetReal of the output u",
-        _set(R, "u", 1.0),
-        ERROR,
-        r"variable u \(value reference \d+\) is an output .* cannot be set",
-    ),
-    Case(
-        "S2",
-        P,
-        "stepping",
-        "parameter psi set after initialization",
-        _set(R, "psi", 300.0),
-        ERROR,
-        r"parameter psi \(value reference \d+\) is fixed: it can be set only before "
-        r"fmi2ExitInitializationMode, not in state StepComplete",
-    ),
-    Case(
-        "S3",
-        C,
-        "stepping",
-        "parameter t_on set after initialization",
-        _set(R, "t_on", 1.0),
-        ERROR,
-        r"parameter t_on .* is fixed",
-    ),
-    Case(
-        "Q1",
-        P,
-        "stepping",
-        "fmi2ExitInitializationMode a second time",
-        _fn("ExitInitializationMode"),
-        ERROR,
-        r"fmi2ExitInitializationMode: illegal call sequence: not allowed in state StepComplete "
-        r"\(allowed in: InitializationMode\)",
-    ),
-    Case(
-        "Q2",
-        P,
-        "stepping",
-        "fmi2EnterInitializationMode after stepping",
-        _fn("EnterInitializationMode"),
-        ERROR,
-        r"fmi2EnterInitializationMode: illegal call sequence: not allowed in state StepComplete",
-    ),
-    Case(
-        "Q3",
-        P,
-        "instantiated",
-        "fmi2DoStep before initialization",
-        _step(0.0, H),
-        ERROR,
-        r"fmi2DoStep: illegal call sequence: not allowed in state Instantiated",
-    ),
-    Case(
-        "Q4",
-        C,
-        "initialization",
-        "fmi2DoStep in initialization mode",
-        _step(0.0, H),
-        ERROR,
-        r"fmi2DoStep: illegal call sequence: not allowed in state InitializationMode",
-    ),
-    Case(
-        "Q5",
-        P,
-        "initialization",
-        "fmi2SetupExperiment in initialization mode",
-        _fn(
-            "SetupExperiment",
-            0,
-            ctypes.c_double(0.0),
-            ctypes.c_double(0.0),
-            0,
-            ctypes.c_double(0.0),
+            rf"parameter n = 0 rejected: {sy.params_class}\.n must be a positive integer, got 0",
         ),
-        ERROR,
-        r"fmi2SetupExperiment: illegal call sequence: not allowed in state "
-        r"InitializationMode \(allowed in: Instantiated\)",
-    ),
-    Case(
-        "Q6",
-        P,
-        "instantiated",
-        "fmi2GetReal before initialization",
-        _get(R, "dphi"),
-        ERROR,
-        r"fmi2GetReal: illegal call sequence: not allowed in state Instantiated",
-    ),
-    Case(
-        "Q7",
-        C,
-        "instantiated",
-        "fmi2Terminate before initialization",
-        _fn("Terminate"),
-        ERROR,
-        r"fmi2Terminate: illegal call sequence: not allowed in state Instantiated",
-    ),
-    Case(
-        "Q8",
-        P,
-        "terminated",
-        "fmi2DoStep after fmi2Terminate",
-        _step(2 * H, H),
-        ERROR,
-        r"fmi2DoStep: illegal call sequence: not allowed in state Terminated",
-    ),
-    Case(
-        "Q9",
-        P,
-        "failed",
-        "fmi2DoStep again after fmi2Discard",
-        _step(2 * H, H),
-        ERROR,
-        r"fmi2DoStep: illegal call sequence: not allowed in state StepFailed",
-        prior={"du0": -40.0},
-        n_steps=1,
-        then=restored,
-        reference=short_step,
-        reference_state="stepping",
-    ),
-    Case(
-        "Q10",
-        P,
-        "stepping",
-        "fmi2CancelStep (fmi2DoStep never returns fmi2Pending)",
-        _fn("CancelStep"),
-        ERROR,
-        r"fmi2CancelStep: illegal call sequence: .*StepInProgress, which this FMU never enters",
-    ),
-    Case(
-        "Q11",
-        C,
-        "terminated",
-        "fmi2SetReal after fmi2Terminate",
-        _set(R, "phi", 1.0),
-        ERROR,
-        r"fmi2SetReal: illegal call sequence: not allowed in state Terminated",
-    ),
-    Case(
-        "Q12",
-        P,
-        "instantiated",
-        "fmi2ExitInitializationMode without entering it",
-        _fn("ExitInitializationMode"),
-        ERROR,
-        r"fmi2ExitInitializationMode: illegal call sequence: not allowed in state Instantiated",
-    ),
-    Case(
-        "A1",
-        P,
-        "stepping",
-        "step size 0",
-        _step(2 * H, 0.0),
-        ERROR,
-        r"fmi2DoStep: step size must be > 0, got 0\.0 at t = 0\.02",
-    ),
-    Case(
-        "A2",
-        C,
-        "stepping",
-        "step size -0.01",
-        _step(2 * H, -0.01),
-        ERROR,
-        r"fmi2DoStep: step size must be > 0, got -0\.01",
-    ),
-    Case(
-        "A3",
-        P,
-        "stepping",
-        "step size NaN",
-        _step(2 * H, math.nan),
-        ERROR,
-        r"fmi2DoStep: time and step size must be finite, got t = 0\.02, h = nan",
-    ),
-    Case(
-        "A4",
-        P,
-        "stepping",
-        "communication point 5.0, not the FMU's time 0.02",
-        _step(5.0, H),
-        ERROR,
-        r"fmi2DoStep: communication point t = 5\.0 is not the FMU's time 0\.02; nothing was "
-        r"computed",
-    ),
-    Case(
-        "A5",
-        C,
-        "stepping",
-        "communication point 0.0 again (a step back)",
-        _step(0.0, H),
-        ERROR,
-        r"communication point t = 0\.0 is not the FMU's time 0\.02",
-    ),
-    Case(
-        "A6",
-        P,
-        "instantiated",
-        "start time 1.0 in fmi2SetupExperiment",
-        _fn(
-            "SetupExperiment",
-            0,
-            ctypes.c_double(0.0),
-            ctypes.c_double(1.0),
-            0,
-            ctypes.c_double(0.0),
+        Case(
+            "P15",
+            P,
+            "instantiated",
+            "on_invalid = 3 (no such Enumeration item)",
+            _set(INT, "on_invalid", 3),
+            ERROR,
+            r"on_invalid must be one of 1 \(stop\), 2 \(continue\), got 3",
         ),
-        ERROR,
-        r"fmi2SetupExperiment: start time must be 0\.0 .* got 1\.0",
-    ),
-    Case(
-        "X1",
-        P,
-        "stepping",
-        "fmi2SetFMUstate with a state of the controller FMU",
-        _state_of_other,
-        ERROR,
-        r"fmi2SetFMUstate: 0x[0-9a-f]+ is not an FMU state of "
-        r"DrillStringPlant \(one of another FMU, or freed already\)",
-    ),
-    Case(
-        "X2",
-        P,
-        "stepping",
-        "fmi2DeSerializeFMUstate of the controller's bytes",
-        _bytes_of_other,
-        ERROR,
-        r"the bytes are an FMU state of TorsionalController \(GUID "
-        r"\{[-0-9a-f]+\}\), not of this FMU DrillStringPlant",
-    ),
-    Case(
-        "X3",
-        P,
-        "stepping",
-        "fmi2DeSerializeFMUstate of bytes with one bit flipped",
-        _corrupted,
-        ERROR,
-        r"corrupted FMU state: checksum mismatch; nothing done",
-    ),
-    Case(
-        "X4",
-        C,
-        "stepping",
-        "fmi2DeSerializeFMUstate of truncated bytes",
-        _truncated,
-        ERROR,
-        r"corrupted FMU state: \d+ bytes, the header announces \d+",
-    ),
-    Case(
-        "X5",
-        P,
-        "stepping",
-        "fmi2DeSerializeFMUstate of arbitrary bytes",
-        lambda s, ctx: _deserialize(s, b"not an FMU state at all" * 10),
-        ERROR,
-        r"230 bytes that are not a serialized FMU state of a drillstring FMU",
-    ),
-    Case(
-        "X6",
-        C,
-        "stepping",
-        "fmi2SetFMUstate with a state freed before",
-        _freed_state,
-        ERROR,
-        r"is not an FMU state of TorsionalController \(one of another FMU, or freed already\)",
-    ),
-    Case(
-        "X7",
-        P,
-        "stepping",
-        "fmi2SerializeFMUstate into a buffer of the wrong size",
-        _wrong_size,
-        ERROR,
-        r"fmi2SerializeFMUstate: buffer of 64 bytes, the state needs \d+",
-    ),
-    Case(
-        "D1",
-        P,
-        "stepping",
-        "bit bouncing inside a step (on_invalid = stop)",
-        _save_then(lambda s, ctx: s.step(H, H)),
-        DISCARD,
-        r"fmi2DoStep: bit_bounce: bit bouncing: depth of cut d < 0, outside the model at tau = "
-        r"0\.010\d+; the step \[0\.01, 0\.02\] stopped at",
-        prior={"du0": -40.0},
-        n_steps=1,
-        then=restored,
-        reference=short_step,
-        check=_last_time_inside(H),
-    ),
-    Case(
-        "D2",
-        P,
-        "stepping",
-        "torsional stick with torsional_stick_model = false",
-        _save_then(_stop_by_torque),
-        DISCARD,
-        r"fmi2DoStep: torsional_stick: torsional stick: "
-        r"outside the model \(dPhi/dtau reached 0 with the torsional-stick model off\)",
-        then=restored,
-        reference=short_step,
-        check=_last_time_inside(0.25),
-    ),
-    Case(
-        "D3",
-        P,
-        "stepping",
-        "bit bouncing inside a step (on_invalid = continue)",
-        _step_counted,
-        WARNING,
-        r"fmi2DoStep: bit bouncing \(d < 0, outside the model's validity\) in the step "
-        r"\[0\.01, 0\.02\]; continuing as on_invalid = continue",
-        prior={"du0": -40.0, "on_invalid": 2},
-        n_steps=1,
-        reference=_then_warning_step,
-    ),
-    Case(
-        "G1",
-        P,
-        "stepping",
-        "fmi2GetRealStatus(fmi2DoStepStatus)",
-        lambda s, ctx: s.call("GetRealStatus", 0, ctypes.byref(ctypes.c_double())),
-        DISCARD,
-        r"fmi2GetRealStatus\(0\): only fmi2LastSuccessfulTime is available",
-    ),
-    Case(
-        "G2",
-        C,
-        "stepping",
-        "fmi2GetStatus(fmi2DoStepStatus) (no asynchronous steps)",
-        lambda s, ctx: s.call("GetStatus", 0, ctypes.byref(ctypes.c_int())),
-        DISCARD,
-        r"fmi2GetStatus\(0\): not available: fmi2DoStep never returns fmi2Pending",
-    ),
-    Case(
-        "G3",
-        P,
-        "stepping",
-        "fmi2GetDirectionalDerivative (not provided)",
-        lambda s, ctx: s.call("GetDirectionalDerivative", None, 0, None, 0, None, None),
-        ERROR,
-        r"fmi2GetDirectionalDerivative: not provided \(providesDirectionalDerivative is false\)",
-    ),
-    Case(
-        "G4",
-        C,
-        "stepping",
-        "fmi2SetRealInputDerivatives (canInterpolateInputs = false)",
-        lambda s, ctx: s.call("SetRealInputDerivatives", None, 0, None, None),
-        ERROR,
-        r"fmi2SetRealInputDerivatives: not provided \(canInterpolateInputs is false\)",
-    ),
-    Case(
-        "G5",
-        P,
-        "instantiated",
-        "fmi2SetDebugLogging with an undeclared category",
-        lambda s, ctx: s.call("SetDebugLogging", 1, 1, (ctypes.c_char_p * 1)(b"logEverything")),
-        ERROR,
-        r"fmi2SetDebugLogging: unknown log category 'logEverything' \(declared: "
-        r"logStatusWarning, .*logAll\); nothing changed",
-    ),
-]
+        Case(
+            "P16",
+            P,
+            "instantiated",
+            f"parameter {sy.param} = NaN",
+            _set(R, sy.param, math.nan),
+            ERROR,
+            rf"parameter {sy.param} = nan rejected: {sy.param} must be finite, got nan",
+        ),
+        Case(
+            "P17",
+            P,
+            "instantiated",
+            "initial state u0 = +inf",
+            _set(R, "u0", math.inf),
+            ERROR,
+            r"parameter u0 = inf rejected: u0 must be finite, got inf",
+        ),
+        Case(
+            "P18",
+            P,
+            "initialization",
+            "dphi0 = -6 < -omega0: inconsistent at fmi2ExitInitializationMode",
+            _exit_with(sy.inconsistent[0]),
+            ERROR,
+            sy.inconsistent[1],
+            then=_fix_and_go_on(sy.inconsistent[2]),
+        ),
+        Case(
+            "P19",
+            P,
+            "instantiated",
+            "torsional_stick_model = 2 (fmi2Boolean neither 0 nor 1)",
+            _set(B, "torsional_stick_model", 2),
+            ERROR,
+            r"value 2 for torsional_stick_model is neither fmi2True \(1\) nor fmi2False \(0\)",
+        ),
+        Case(
+            "C1",
+            C,
+            "instantiated",
+            "gain F[2] = +inf",
+            _set(R, "F[2]", math.inf),
+            ERROR,
+            r"parameter F\[2\] = inf rejected: F\[2\] must be finite, got inf",
+        ),
+        Case(
+            "C2",
+            C,
+            "instantiated",
+            "K0 = NaN",
+            _set(R, "K0", math.nan),
+            ERROR,
+            r"parameter K0 = nan rejected: K0 must be finite",
+        ),
+        Case(
+            "C3",
+            C,
+            "instantiated",
+            "R_ff = -inf",
+            _set(R, "R_ff", -math.inf),
+            ERROR,
+            r"parameter R_ff = -inf rejected: R_ff must be finite",
+        ),
+        Case(
+            "C4",
+            C,
+            "instantiated",
+            "t_on = NaN",
+            _set(R, "t_on", math.nan),
+            ERROR,
+            r"parameter t_on = nan rejected: t_on must be finite",
+        ),
+        Case(
+            "C5",
+            C,
+            "instantiated",
+            "latch = 0 (no such Enumeration item)",
+            _set(INT, "latch", 0),
+            ERROR,
+            r"latch must be one of 1 \(none\), 2 \(angle\), 3 \(angle\+twist\), got 0",
+        ),
+        Case(
+            "C6",
+            C,
+            "initialization",
+            "latch = 4 in initialization mode",
+            _set(INT, "latch", 4),
+            ERROR,
+            r"latch must be one of .* got 4",
+        ),
+        Case(
+            "I1",
+            P,
+            "stepping",
+            f"input {sy.plant_input} = NaN",
+            _set(R, sy.plant_input, math.nan),
+            ERROR,
+            rf"input {sy.plant_input} = nan rejected: {sy.plant_input} must be finite, got nan",
+        ),
+        Case(
+            "I2",
+            P,
+            "stepping",
+            f"input {sy.plant_input} = -inf",
+            _set(R, sy.plant_input, -math.inf),
+            ERROR,
+            rf"input {sy.plant_input} = -inf rejected",
+        ),
+        Case(
+            "I3",
+            C,
+            "stepping",
+            f"input {sy.ctrl_in} = NaN",
+            _set(R, sy.ctrl_in, math.nan),
+            ERROR,
+            rf"input {sy.ctrl_in} = nan rejected: {sy.ctrl_in} must be finite, got nan",
+        ),
+        Case(
+            "I4",
+            C,
+            "stepping",
+            f"input {sy.ctrl_in4} = +inf",
+            _set(R, sy.ctrl_in4, math.inf),
+            ERROR,
+            rf"input {sy.ctrl_in4} = inf rejected",
+        ),
+        Case(
+            "T1",
+            P,
+            "instantiated",
+            f"fmi2SetInteger on the Real {sy.param}",
+            _set(INT, sy.param, 3),
+            ERROR,
+            rf"fmi2SetInteger: variable {sy.param} \(value reference \d+\) is a Real, "
+            r"not an Integer",
+        ),
+        Case(
+            "T2",
+            P,
+            "instantiated",
+            "fmi2SetReal on the Integer n",
+            _set(R, "n", 4.0),
+            ERROR,
+            r"fmi2SetReal: variable n \(value reference \d+\) is an Integer, not a Real",
+        ),
+        Case(
+            "T3",
+            P,
+            "instantiated",
+            "fmi2SetBoolean on the Real h",
+            _set(B, "h", 1),
+            ERROR,
+            r"fmi2SetBoolean: variable h .* is a Real, not a Boolean",
+        ),
+        Case(
+            "T4",
+            P,
+            "stepping",
+            f"fmi2GetInteger of the Real output {sy.out_real}",
+            _get(INT, sy.out_real),
+            ERROR,
+            rf"fmi2GetInteger: variable {sy.out_real} .* is a Real, not an Integer",
+        ),
+        Case(
+            "T5",
+            C,
+            "instantiated",
+            "fmi2SetString on the Enumeration latch",
+            _set(S, "latch", "none"),
+            ERROR,
+            r"fmi2SetString: variable latch .* is an Enumeration, not a String",
+        ),
+        Case(
+            "T6",
+            P,
+            "stepping",
+            "fmi2GetReal of the Integer output mode",
+            _get(R, "mode"),
+            ERROR,
+            r"fmi2GetReal: variable mode .* is an Integer, not a Real",
+        ),
+        Case(
+            "V1",
+            P,
+            "stepping",
+            "fmi2GetReal of value reference 999",
+            _vr(R, [999]),
+            ERROR,
+            r"fmi2GetReal: no variable has value reference 999",
+        ),
+        Case(
+            "V2",
+            P,
+            "instantiated",
+            "fmi2SetReal of value reference 999",
+            _vr(R, [999], [1.0]),
+            ERROR,
+            r"fmi2SetReal: no variable has value reference 999",
+        ),
+        Case(
+            "V3",
+            C,
+            "stepping",
+            "fmi2SetReal of a valid and an unknown reference: none applied",
+            lambda s, ctx: s.set_raw(R, [s.unit.vr[sy.ctrl_in], 999], [5.0, 1.0]),
+            ERROR,
+            r"no variable has value reference 999 \(vr\[1\]\); nothing done",
+        ),
+        Case(
+            "V4",
+            P,
+            "instantiated",
+            f"{sy.param} = 300 (valid) with {sy.param2} = -1 in one call: none applied",
+            _set_many(R, **{sy.param: sy.param_ok, sy.param2: -1.0}),
+            ERROR,
+            rf"parameter {sy.param2} = -1\.0 rejected",
+        ),
+        Case(
+            "S1",
+            P,
+            "stepping",
+            f"fmi2SetReal of the output {sy.out_u}",
+            _set(R, sy.out_u, 1.0),
+            ERROR,
+            rf"variable {sy.out_u} \(value reference \d+\) is an output .* cannot be set",
+        ),
+        Case(
+            "S2",
+            P,
+            "stepping",
+            f"parameter {sy.param} set after initialization",
+            _set(R, sy.param, sy.param_ok),
+            ERROR,
+            rf"parameter {sy.param} \(value reference \d+\) is fixed: it can be set only before "
+            r"fmi2ExitInitializationMode, not in state StepComplete",
+        ),
+        Case(
+            "S3",
+            C,
+            "stepping",
+            "parameter t_on set after initialization",
+            _set(R, "t_on", 1.0),
+            ERROR,
+            r"parameter t_on .* is fixed",
+        ),
+        Case(
+            "Q1",
+            P,
+            "stepping",
+            "fmi2ExitInitializationMode a second time",
+            _fn("ExitInitializationMode"),
+            ERROR,
+            r"fmi2ExitInitializationMode: illegal call sequence: not allowed in state StepComplete "
+            r"\(allowed in: InitializationMode\)",
+        ),
+        Case(
+            "Q2",
+            P,
+            "stepping",
+            "fmi2EnterInitializationMode after stepping",
+            _fn("EnterInitializationMode"),
+            ERROR,
+            r"fmi2EnterInitializationMode: illegal call sequence: not allowed in state "
+            r"StepComplete",
+        ),
+        Case(
+            "Q3",
+            P,
+            "instantiated",
+            "fmi2DoStep before initialization",
+            _step(0.0, H),
+            ERROR,
+            r"fmi2DoStep: illegal call sequence: not allowed in state Instantiated",
+        ),
+        Case(
+            "Q4",
+            C,
+            "initialization",
+            "fmi2DoStep in initialization mode",
+            _step(0.0, H),
+            ERROR,
+            r"fmi2DoStep: illegal call sequence: not allowed in state InitializationMode",
+        ),
+        Case(
+            "Q5",
+            P,
+            "initialization",
+            "fmi2SetupExperiment in initialization mode",
+            _fn(
+                "SetupExperiment",
+                0,
+                ctypes.c_double(0.0),
+                ctypes.c_double(0.0),
+                0,
+                ctypes.c_double(0.0),
+            ),
+            ERROR,
+            r"fmi2SetupExperiment: illegal call sequence: not allowed in state "
+            r"InitializationMode \(allowed in: Instantiated\)",
+        ),
+        Case(
+            "Q6",
+            P,
+            "instantiated",
+            "fmi2GetReal before initialization",
+            _get(R, sy.out_real),
+            ERROR,
+            r"fmi2GetReal: illegal call sequence: not allowed in state Instantiated",
+        ),
+        Case(
+            "Q7",
+            C,
+            "instantiated",
+            "fmi2Terminate before initialization",
+            _fn("Terminate"),
+            ERROR,
+            r"fmi2Terminate: illegal call sequence: not allowed in state Instantiated",
+        ),
+        Case(
+            "Q8",
+            P,
+            "terminated",
+            "fmi2DoStep after fmi2Terminate",
+            _step(2 * H, H),
+            ERROR,
+            r"fmi2DoStep: illegal call sequence: not allowed in state Terminated",
+        ),
+        Case(
+            "Q9",
+            P,
+            "failed",
+            "fmi2DoStep again after fmi2Discard",
+            _step(2 * H, H),
+            ERROR,
+            r"fmi2DoStep: illegal call sequence: not allowed in state StepFailed",
+            prior={"du0": sy.bounce_du0},
+            n_steps=1,
+            then=restored,
+            reference=short_step,
+            reference_state="stepping",
+        ),
+        Case(
+            "Q10",
+            P,
+            "stepping",
+            "fmi2CancelStep (fmi2DoStep never returns fmi2Pending)",
+            _fn("CancelStep"),
+            ERROR,
+            r"fmi2CancelStep: illegal call sequence: .*StepInProgress, which this FMU never enters",
+        ),
+        Case(
+            "Q11",
+            C,
+            "terminated",
+            "fmi2SetReal after fmi2Terminate",
+            _set(R, sy.ctrl_in, 1.0),
+            ERROR,
+            r"fmi2SetReal: illegal call sequence: not allowed in state Terminated",
+        ),
+        Case(
+            "Q12",
+            P,
+            "instantiated",
+            "fmi2ExitInitializationMode without entering it",
+            _fn("ExitInitializationMode"),
+            ERROR,
+            r"fmi2ExitInitializationMode: illegal call sequence: not allowed in state Instantiated",
+        ),
+        Case(
+            "A1",
+            P,
+            "stepping",
+            "step size 0",
+            _step(2 * H, 0.0),
+            ERROR,
+            rf"fmi2DoStep: step size must be > 0, got 0\.0 at t = {rx(2 * H)}",
+        ),
+        Case(
+            "A2",
+            C,
+            "stepping",
+            "step size -0.01",
+            _step(2 * H, -H),
+            ERROR,
+            rf"fmi2DoStep: step size must be > 0, got {rx(-H)}",
+        ),
+        Case(
+            "A3",
+            P,
+            "stepping",
+            "step size NaN",
+            _step(2 * H, math.nan),
+            ERROR,
+            rf"fmi2DoStep: time and step size must be finite, got t = {rx(2 * H)}, h = nan",
+        ),
+        Case(
+            "A4",
+            P,
+            "stepping",
+            "communication point 5.0, not the FMU's time 0.02",
+            _step(500 * H, H),
+            ERROR,
+            rf"fmi2DoStep: communication point t = {rx(500 * H)} is not the FMU's time "
+            rf"{rx(2 * H)}; "
+            r"nothing was computed",
+        ),
+        Case(
+            "A5",
+            C,
+            "stepping",
+            "communication point 0.0 again (a step back)",
+            _step(0.0, H),
+            ERROR,
+            rf"communication point t = 0\.0 is not the FMU's time {rx(2 * H)}",
+        ),
+        Case(
+            "A6",
+            P,
+            "instantiated",
+            "start time 1.0 in fmi2SetupExperiment",
+            _fn(
+                "SetupExperiment",
+                0,
+                ctypes.c_double(0.0),
+                ctypes.c_double(1.0),
+                0,
+                ctypes.c_double(0.0),
+            ),
+            ERROR,
+            r"fmi2SetupExperiment: start time must be 0\.0 .* got 1\.0",
+        ),
+        Case(
+            "X1",
+            P,
+            "stepping",
+            "fmi2SetFMUstate with a state of the controller FMU",
+            _state_of_other,
+            ERROR,
+            r"fmi2SetFMUstate: 0x[0-9a-f]+ is not an FMU state of "
+            rf"{sy.plant_model} \(one of another FMU, or freed already\)",
+        ),
+        Case(
+            "X2",
+            P,
+            "stepping",
+            "fmi2DeSerializeFMUstate of the controller's bytes",
+            _bytes_of_other,
+            ERROR,
+            rf"the bytes are an FMU state of {sy.controller_model} \(GUID "
+            rf"\{{[-0-9a-f]+\}}\), not of this FMU {sy.plant_model}",
+        ),
+        Case(
+            "X3",
+            P,
+            "stepping",
+            "fmi2DeSerializeFMUstate of bytes with one bit flipped",
+            _corrupted,
+            ERROR,
+            r"corrupted FMU state: checksum mismatch; nothing done",
+        ),
+        Case(
+            "X4",
+            C,
+            "stepping",
+            "fmi2DeSerializeFMUstate of truncated bytes",
+            _truncated,
+            ERROR,
+            r"corrupted FMU state: \d+ bytes, the header announces \d+",
+        ),
+        Case(
+            "X5",
+            P,
+            "stepping",
+            "fmi2DeSerializeFMUstate of arbitrary bytes",
+            lambda s, ctx: _deserialize(s, b"not an FMU state at all" * 10),
+            ERROR,
+            r"230 bytes that are not a serialized FMU state of a drillstring FMU",
+        ),
+        Case(
+            "X6",
+            C,
+            "stepping",
+            "fmi2SetFMUstate with a state freed before",
+            _freed_state,
+            ERROR,
+            rf"is not an FMU state of {sy.controller_model} \(one of another FMU, or freed "
+            r"already\)",
+        ),
+        Case(
+            "X7",
+            P,
+            "stepping",
+            "fmi2SerializeFMUstate into a buffer of the wrong size",
+            _wrong_size,
+            ERROR,
+            r"fmi2SerializeFMUstate: buffer of 64 bytes, the state needs \d+",
+        ),
+        Case(
+            "D1",
+            P,
+            "stepping",
+            "bit bouncing inside a step (on_invalid = stop)",
+            _save_then(lambda s, ctx: s.step(H, H)),
+            DISCARD,
+            r"fmi2DoStep: bit_bounce: bit bouncing: depth of cut d < 0, outside the model at tau = "
+            rf"0\.010\d+{sy.stop_suffix}; the step \[{rx(H)}, {rx(2 * H)}\] stopped at",
+            prior={"du0": sy.bounce_du0},
+            n_steps=1,
+            then=restored,
+            reference=short_step,
+            check=_last_time_inside(H),
+        ),
+        Case(
+            "D2",
+            P,
+            "stepping",
+            "torsional stick with torsional_stick_model = false",
+            _save_then(_stop_by_torque),
+            DISCARD,
+            r"fmi2DoStep: torsional_stick: torsional stick: "
+            r"outside the model \(dPhi/dtau reached 0 with the torsional-stick model off\)",
+            then=restored,
+            reference=short_step,
+            check=_last_time_inside(0.25),
+        ),
+        Case(
+            "D3",
+            P,
+            "stepping",
+            "bit bouncing inside a step (on_invalid = continue)",
+            _step_counted,
+            WARNING,
+            r"fmi2DoStep: bit bouncing \(d < 0, outside the model's validity\) in the step "
+            rf"\[{rx(H)}, {rx(2 * H)}\]; continuing as on_invalid = continue",
+            prior={"du0": sy.bounce_du0, "on_invalid": 2},
+            n_steps=1,
+            reference=_then_warning_step,
+        ),
+        Case(
+            "G1",
+            P,
+            "stepping",
+            "fmi2GetRealStatus(fmi2DoStepStatus)",
+            lambda s, ctx: s.call("GetRealStatus", 0, ctypes.byref(ctypes.c_double())),
+            DISCARD,
+            r"fmi2GetRealStatus\(0\): only fmi2LastSuccessfulTime is available",
+        ),
+        Case(
+            "G2",
+            C,
+            "stepping",
+            "fmi2GetStatus(fmi2DoStepStatus) (no asynchronous steps)",
+            lambda s, ctx: s.call("GetStatus", 0, ctypes.byref(ctypes.c_int())),
+            DISCARD,
+            r"fmi2GetStatus\(0\): not available: fmi2DoStep never returns fmi2Pending",
+        ),
+        Case(
+            "G3",
+            P,
+            "stepping",
+            "fmi2GetDirectionalDerivative (not provided)",
+            lambda s, ctx: s.call("GetDirectionalDerivative", None, 0, None, 0, None, None),
+            ERROR,
+            r"fmi2GetDirectionalDerivative: not provided \(providesDirectionalDerivative is "
+            r"false\)",
+        ),
+        Case(
+            "G4",
+            C,
+            "stepping",
+            "fmi2SetRealInputDerivatives (canInterpolateInputs = false)",
+            lambda s, ctx: s.call("SetRealInputDerivatives", None, 0, None, None),
+            ERROR,
+            r"fmi2SetRealInputDerivatives: not provided \(canInterpolateInputs is false\)",
+        ),
+        Case(
+            "G5",
+            P,
+            "instantiated",
+            "fmi2SetDebugLogging with an undeclared category",
+            lambda s, ctx: s.call("SetDebugLogging", 1, 1, (ctypes.c_char_p * 1)(b"logEverything")),
+            ERROR,
+            r"fmi2SetDebugLogging: unknown log category 'logEverything' \(declared: "
+            r"logStatusWarning, .*logAll\); nothing changed",
+        ),
+    ]
 
 
 @dataclass(frozen=True)
@@ -992,23 +1144,38 @@ INSTANTIATE_CASES = [
 # the tests
 # ------------------------------------------------------------------------------------------------
 
+
+def instantiate_cases(sy: System) -> list[InstantiateCase]:
+    """The fmi2Instantiate rows for the plant of unit system ``sy``."""
+    return [
+        dataclasses.replace(c, message=c.message.replace(tl.PLANT, sy.plant_model))
+        for c in INSTANTIATE_CASES
+    ]
+
+
+#: The scaled table (the README's) and the SI one.
+CASES = make_cases(SYSTEMS["scaled"])
+TABLE = [(sy, c) for sy in SYSTEMS.values() for c in make_cases(sy)]
+INSTANTIATE_TABLE = [(sy, c) for sy in SYSTEMS.values() for c in instantiate_cases(sy)]
+
 BUILT: tl.Built
 
 
 @pytest.fixture(scope="session")
-def built(tmp_path_factory):
+def built(built):
+    """The session's build (conftest), also kept in BUILT for the table's call functions."""
     global BUILT
-    BUILT = tl.built_fmus(tmp_path_factory)
+    BUILT = built
     return BUILT
 
 
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
+def _built(sy: System) -> tl.Built:
+    """The build's FMUs of unit system ``sy``."""
+    return BUILT.si if sy.name == "si" else BUILT.scaled
 
 
-def _undisturbed(c: Case, unit: tl.Unit) -> list[list[Any]]:
-    ref = tl.Slave(unit, f"{c.id}_reference")
+def _undisturbed(sy: System, c: Case, unit: tl.Unit) -> list[list[Any]]:
+    ref = slave(sy, unit, f"{c.id}_reference")
     try:
         state = c.reference_state or c.state
         ctx = bring(ref, state, c.prior, c.n_steps)
@@ -1019,10 +1186,10 @@ def _undisturbed(c: Case, unit: tl.Unit) -> list[list[Any]]:
         ref.free()
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
-def test_conformance(built, case):
-    unit = getattr(built, case.unit)
-    s = tl.Slave(unit, case.id)
+@pytest.mark.parametrize(("sy", "case"), TABLE, ids=[f"{sy.name}-{c.id}" for sy, c in TABLE])
+def test_conformance(built, sy, case):
+    unit = getattr(_built(sy), case.unit)
+    s = slave(sy, unit, case.id)
     try:
         ctx = bring(s, case.state, case.prior, case.n_steps)
         before = len(s.logs)
@@ -1034,30 +1201,35 @@ def test_conformance(built, case):
         if case.check is not None:
             case.check(s, ctx)
         after = case.then(s, case.state, ctx)
-        assert after == _undisturbed(case, unit), f"{case.id}: the instance did not go on alike"
+        assert after == _undisturbed(sy, case, unit), f"{case.id}: the instance did not go on alike"
     finally:
         s.free()
 
 
-@pytest.mark.parametrize("case", INSTANTIATE_CASES, ids=[c.id for c in INSTANTIATE_CASES])
-def test_instantiation_conformance(built, case, tmp_path):
+@pytest.mark.parametrize(
+    ("sy", "case"), INSTANTIATE_TABLE, ids=[f"{sy.name}-{c.id}" for sy, c in INSTANTIATE_TABLE]
+)
+def test_instantiation_conformance(built, sy, case, tmp_path):
+    plant = _built(sy).plant
     with pytest.raises(tl.InstantiationError) as info:
-        tl.Slave(built.plant, case.id, **case.kwargs(built.plant, tmp_path))
+        tl.Slave(plant, case.id, **case.kwargs(plant, tmp_path))
     errors = [m for st, _, m in info.value.logs if st == ERROR]
     assert any(re.search(case.message, m) for m in errors), info.value.logs
-    s = tl.Slave(built.plant, f"{case.id}_after").init()  # the process goes on
+    s = tl.Slave(plant, f"{case.id}_after").init()  # the process goes on
     try:
-        assert s.step(0.0, H) == OK
+        assert s.step(0.0, sy.H) == OK
     finally:
         s.free()
 
 
-def test_errors_are_logged_with_logging_off_and_info_only_with_it_on(built):
-    quiet = tl.Slave(built.plant, "quiet", logging_on=False)
-    loud = tl.Slave(built.plant, "loud", logging_on=True)
+@pytest.mark.parametrize("sy", SYSTEMS.values(), ids=list(SYSTEMS))
+def test_errors_are_logged_with_logging_off_and_info_only_with_it_on(built, sy):
+    plant = _built(sy).plant
+    quiet = tl.Slave(plant, "quiet", logging_on=False)
+    loud = tl.Slave(plant, "loud", logging_on=True)
     try:
         for s in (quiet, loud):
-            assert s.set_raw(R, [s.unit.vr["psi"]], [-1.0]) == ERROR
+            assert s.set_raw(R, [s.unit.vr[sy.param]], [-1.0]) == ERROR
             s.fmu.setupExperiment(startTime=0.0)
             s.fmu.enterInitializationMode()
             s.fmu.exitInitializationMode()
@@ -1072,6 +1244,7 @@ def test_errors_are_logged_with_logging_off_and_info_only_with_it_on(built):
 
 def test_the_table_has_at_least_40_rows():
     assert len(CASES) + len(INSTANTIATE_CASES) >= 40
+    assert len(TABLE) == 2 * len(CASES)  # the same rows for both unit systems
     assert len({c.id for c in CASES} | {c.id for c in INSTANTIATE_CASES}) == len(CASES) + len(
         INSTANTIATE_CASES
     )

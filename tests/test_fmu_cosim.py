@@ -36,16 +36,6 @@ ODD = "drill ü#%[x] 100%20"
 CSV_RESOLUTION = 5e-7 + 1e-12
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
-
-
 @pytest.fixture(scope="module")
 def jacobi(built):
     rows = tl.jacobi_fmpy(built, H_NS, N_STEPS, STARTS)
@@ -56,11 +46,6 @@ def jacobi(built):
 @pytest.fixture(scope="module")
 def host(tmp_path_factory):
     return tl.compile_c_host(tmp_path_factory.mktemp("c_host"))
-
-
-@pytest.fixture(scope="session")
-def clean_home(tmp_path_factory):
-    return tmp_path_factory.mktemp("home")
 
 
 def _dirs(built, root):
@@ -327,3 +312,31 @@ def test_readme_c_host_example(built, tmp_path, clean_home):
     t, dphi, r = (float(x) for x in proc.stdout.split()[-1].split(","))
     assert t == 2.0 and -1 < dphi < 0 and abs(r) > 0.1
     assert "started Python" in proc.stderr
+
+
+# ------------------------------------------------------------------------------------------------
+# the SI FMUs in the independent hosts
+# ------------------------------------------------------------------------------------------------
+
+
+def test_si_loop_in_the_c_host_in_a_clean_environment_equals_fmpy(
+    built, host, tmp_path, clean_home
+):
+    """The SI FMUs keep the front layer's guarantees: no Python in the host, the package cache
+    found where the scaled FMUs put it (the same bundled package), bit-identical results."""
+    si = built.si
+    starts = {"controller": {"t_on": 0.5 * 0.9}}
+    n = 500
+    ref = tl.jacobi_fmpy(si, H_NS, n, starts)
+    dirs = {
+        "plant": tl.unpack(si.plant.fmu, tmp_path / ODD / "plant"),
+        "controller": tl.unpack(si.controller.fmu, tmp_path / ODD / "controller"),
+    }
+    csv = tmp_path / ODD / "host.csv"
+    config = tl.host_config(si, dirs, H_NS, n, starts, csv, logging=True)
+    proc, rows = tl.run_c_host(host, config, tmp_path, tl.clean_env(clean_home), csv)
+    assert proc.returncode == 0, proc.stderr
+    assert "started Python" in proc.stderr and "drillstring package from the cache" in proc.stderr
+    assert rows is not None and rows.shape == (n + 1, len(si.record) + 2)
+    assert np.array_equal(rows[1:], ref)
+    assert np.ptp(ref[:, -1]) > 1e3  # the table torque moved (N m)

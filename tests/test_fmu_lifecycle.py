@@ -27,19 +27,9 @@ H_NS = 10_000_000
 N = 20
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
 @pytest.fixture(scope="module")
 def host(tmp_path_factory):
     return tl.compile_c_host(tmp_path_factory.mktemp("c_host"))
-
-
-@pytest.fixture(scope="session")
-def clean_home(tmp_path_factory):
-    return tmp_path_factory.mktemp("home")
 
 
 CYCLES = textwrap.dedent(

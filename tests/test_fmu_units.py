@@ -25,16 +25,6 @@ REALS = ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n")
 INTS = ("mode", "stick_events", "bit_bounce", "torsional_stick")
 
 
-@pytest.fixture(scope="session")
-def built(tmp_path_factory):
-    return tl.built_fmus(tmp_path_factory)
-
-
-@pytest.fixture(autouse=True)
-def _sys_path():
-    yield from tl.restore_sys_path()
-
-
 def _record(s: tl.Slave) -> list[float]:
     return s.get(*REALS) + s.get(*INTS)
 

@@ -55,12 +55,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from drillstring.analysis.spectrum import DDESystem, dde_roots
+from drillstring.validation import check_real
 
 if TYPE_CHECKING:
     from drillstring.model.params import ScaledParams
@@ -90,21 +91,11 @@ TWO_PI = 2.0 * math.pi
 # validation
 
 
-def _real(name: str, value: object, *, lower: float, strict: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (v <= lower if strict else v < lower):
-        rel = ">" if strict else ">="
-        raise ValueError(f"{name} must be finite and {rel} {lower}, got {value!r}")
-    return v
-
-
 def _check_ge(
     gammabar: object, etabar2: object, *, etabar2_strict: bool = True
 ) -> tuple[float, float]:
-    g = _real("gammabar", gammabar, lower=0.0, strict=False)
-    e2 = _real("etabar2", etabar2, lower=0.0, strict=etabar2_strict)
+    g = check_real("gammabar", gammabar, lower=0.0, strict=False)
+    e2 = check_real("etabar2", etabar2, lower=0.0, strict=etabar2_strict)
     return g, e2
 
 
@@ -115,16 +106,49 @@ def _check_ge(
 def characteristic_function(
     s: ArrayLike, gammabar: float, etabar2: float, taubar_n: float
 ) -> NDArray | complex:
-    """P(s) = s^2 + gammabar s + etabar^2 + 1 - exp(-s taubar_n), eq. (21)."""
+    """P(s) = s^2 + gammabar s + etabar^2 + 1 - exp(-s taubar_n), eq. (21).
+
+    Parameters
+    ----------
+    s : array_like
+        Point(s) of the complex plane.
+    gammabar, etabar2, taubar_n : float
+        Damping gammabar, stiffness etabar^2 and delay taubar_n of (18) (not validated).
+
+    Returns
+    -------
+    complex or ndarray
+        P(s), of the shape of ``s`` (a scalar for scalar ``s``).
+    """
     s = np.asarray(s, dtype=complex)
     out = s * s + gammabar * s + etabar2 + 1.0 - np.exp(-s * taubar_n)
     return out[()] if out.ndim == 0 else out
 
 
 def axial_system(gammabar: float, etabar2: float, taubar_n: float) -> DDESystem:
-    """Eq. (21) as x' = A0 x + A1 x(taubar - taubar_n), x = (ubar, ubar'); taubar_n = 0: the ODE."""
+    """Eq. (21) as x' = A0 x + A1 x(taubar - taubar_n), x = (ubar, ubar'); taubar_n = 0: the ODE.
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0.
+    etabar2 : float
+        Stiffness etabar^2 >= 0.
+    taubar_n : float
+        Delay taubar_n >= 0 in fast time.
+
+    Returns
+    -------
+    DDESystem
+        The linearisation of (18) about ubar = 0 (module docstring).
+
+    Raises
+    ------
+    ValueError
+        A value that is not finite or is negative (named).
+    """
     g, e2 = _check_ge(gammabar, etabar2, etabar2_strict=False)
-    tau = _real("taubar_n", taubar_n, lower=0.0, strict=False)
+    tau = check_real("taubar_n", taubar_n, lower=0.0, strict=False)
     a0 = np.array([[0.0, 1.0], [-(e2 + 1.0), -g]])
     a1 = np.array([[0.0, 0.0], [1.0, 0.0]])
     if tau == 0.0:
@@ -132,13 +156,42 @@ def axial_system(gammabar: float, etabar2: float, taubar_n: float) -> DDESystem:
     return DDESystem(a0, [(tau, a1)])
 
 
-def axial_roots(gammabar: float, etabar2: float, taubar_n: float, **kwargs) -> NDArray:
-    """Rightmost roots of (21), sorted by real part descending (keywords go to ``dde_roots``)."""
+def axial_roots(gammabar: float, etabar2: float, taubar_n: float, **kwargs: Any) -> NDArray:
+    """Rightmost roots of (21), sorted by real part descending.
+
+    Parameters
+    ----------
+    gammabar, etabar2, taubar_n : float
+        As for :func:`axial_system`.
+    **kwargs
+        Passed to :func:`~drillstring.analysis.spectrum.dde_roots`.
+
+    Returns
+    -------
+    ndarray of complex
+        The roots; by default those within min(1, 2/taubar_n) of the rightmost one (both
+        roots for taubar_n = 0).
+    """
     return dde_roots(axial_system(gammabar, etabar2, taubar_n), **kwargs)
 
 
-def axial_spectral_abscissa(gammabar: float, etabar2: float, taubar_n: float, **kwargs) -> float:
-    """max Re s over the roots of (21): < 0 iff the axial equilibrium is asymptotically stable."""
+def axial_spectral_abscissa(
+    gammabar: float, etabar2: float, taubar_n: float, **kwargs: Any
+) -> float:
+    """max Re s over the roots of (21): < 0 iff the axial equilibrium is asymptotically stable.
+
+    Parameters
+    ----------
+    gammabar, etabar2, taubar_n : float
+        As for :func:`axial_system`.
+    **kwargs
+        Passed to :func:`~drillstring.analysis.spectrum.dde_roots`.
+
+    Returns
+    -------
+    float
+        The spectral abscissa.
+    """
     return float(axial_roots(gammabar, etabar2, taubar_n, **kwargs).real.max())
 
 
@@ -186,6 +239,23 @@ def crossing_frequencies(gammabar: float, etabar2: float) -> tuple[tuple[float, 
 
     Empty when no root of (21) can reach the imaginary axis; direction 0 for the tangential case
     D = 0 (then w_+ = w_-, reported once).
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0.
+    etabar2 : float
+        Stiffness etabar^2 > 0.
+
+    Returns
+    -------
+    tuple of (float, int)
+        ``(w, direction)`` pairs, w_+ first.
+
+    Raises
+    ------
+    ValueError
+        gammabar < 0 or etabar^2 <= 0, or a non-finite value.
     """
     g, e2 = _check_ge(gammabar, etabar2)
     fam = _families(g, e2)
@@ -199,9 +269,28 @@ def crossing_delays(gammabar: float, etabar2: float, taubar_max: float) -> tuple
 
     Tangential contacts (D = 0, direction 0) are included with direction 0. For gammabar = 0 the
     marginal pair at taubar = 0 (k = 0) is not listed (module docstring).
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0.
+    etabar2 : float
+        Stiffness etabar^2 > 0.
+    taubar_max : float
+        Largest delay listed, > 0.
+
+    Returns
+    -------
+    tuple of Crossing
+        Sorted by delay; at equal delays destabilising crossings first.
+
+    Raises
+    ------
+    ValueError
+        A value out of range or not finite (named).
     """
     g, e2 = _check_ge(gammabar, etabar2)
-    tmax = _real("taubar_max", taubar_max, lower=0.0, strict=True)
+    tmax = check_real("taubar_max", taubar_max, lower=0.0, strict=True)
     out: list[Crossing] = []
     for w, theta, direction in _families(g, e2):
         k = 1
@@ -222,8 +311,25 @@ def critical_delay(gammabar: float, etabar2: float) -> float:
     """taubar_crit(gammabar, etabar^2): delay at which the axial equilibrium first loses stability.
 
     = (2 pi - theta_+) / w_+ (first destabilising crossing), ``inf`` when no root crosses the
-    imaginary axis for any delay (D <= 0). For gammabar = 0 this is pi / sqrt(etabar^2 + 2).
-    Requires gammabar >= 0, etabar^2 > 0.
+    imaginary axis for any delay (D <= 0, or gammabar^2 >= 2(etabar^2 + 1)). For gammabar = 0
+    this is pi / sqrt(etabar^2 + 2).
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0.
+    etabar2 : float
+        Stiffness etabar^2 > 0.
+
+    Returns
+    -------
+    float
+        taubar_crit, or ``inf``.
+
+    Raises
+    ------
+    ValueError
+        gammabar < 0 or etabar^2 <= 0, or a non-finite value.
     """
     g, e2 = _check_ge(gammabar, etabar2)
     fam = _families(g, e2)
@@ -234,7 +340,18 @@ def critical_delay(gammabar: float, etabar2: float) -> float:
 
 
 def taubar_crit(p: ScaledParams) -> float:
-    """Critical delay of (22) for a parameter set: ``critical_delay(p.gammabar, p.etabar2)``."""
+    """Critical delay taubar_crit of (22) for a parameter set.
+
+    Parameters
+    ----------
+    p : ScaledParams
+        The parameter set (its fast-time gammabar and etabar^2 are used).
+
+    Returns
+    -------
+    float
+        ``critical_delay(p.gammabar, p.etabar2)``.
+    """
     return critical_delay(p.gammabar, p.etabar2)
 
 
@@ -264,8 +381,27 @@ def unstable_root_count(gammabar: float, etabar2: ArrayLike, taubar_n: ArrayLike
 
     Vectorised over ``etabar2`` and ``taubar_n`` (broadcast). A delay exactly at a crossing counts
     the pair on the axis as not unstable (only crossings strictly below ``taubar_n`` count).
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0.
+    etabar2 : array_like
+        Stiffness etabar^2 > 0.
+    taubar_n : array_like
+        Delay taubar_n >= 0.
+
+    Returns
+    -------
+    int or ndarray of int
+        The count N(taubar_n) (module docstring), an int for scalar inputs.
+
+    Raises
+    ------
+    ValueError
+        A value out of range or not finite.
     """
-    g = _real("gammabar", gammabar, lower=0.0, strict=False)
+    g = check_real("gammabar", gammabar, lower=0.0, strict=False)
     e2 = np.asarray(etabar2, dtype=float)
     tau = np.asarray(taubar_n, dtype=float)
     if not np.all(np.isfinite(e2)) or np.any(e2 <= 0.0):
@@ -284,6 +420,25 @@ def stability_intervals(
     Obtained by counting unstable roots across the crossings (:func:`crossing_delays`); the last
     interval ends at ``taubar_max`` when the equilibrium is still stable there. More than one
     interval is the "multiple stability regions" of Fig. 2 (e.g. gammabar = 0, etabar^2 > 1.6).
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0.
+    etabar2 : float
+        Stiffness etabar^2 > 0.
+    taubar_max : float
+        End of the delay range, > 0.
+
+    Returns
+    -------
+    tuple of (float, float)
+        The intervals ``(start, end)`` in increasing order.
+
+    Raises
+    ------
+    ValueError
+        A value out of range or not finite (named).
     """
     crossings = crossing_delays(gammabar, etabar2, taubar_max)
     out: list[tuple[float, float]] = []
@@ -386,14 +541,37 @@ def stability_diagram(
 
     A point of a crossing curve is kept as boundary when the unstable-root count
     (:func:`unstable_root_count`) is 0 on one side of it (in taubar) and positive on the other.
-    ``shade_gammabar`` (default: the smallest gammabar) gets a stable/unstable mask on a
-    ``grid = (n_taubar, n_etabar2)`` grid for shading.
+
+    Parameters
+    ----------
+    gammabars : sequence of float
+        Damping values, each >= 0 (default: those of Fig. 2).
+    taubar_range : (float, float)
+        Delay range of the plot, increasing, >= 0.
+    etabar2_range : (float, float)
+        Stiffness range of the plot, increasing, >= 0.
+    n_param : int
+        Points per crossing curve before thinning.
+    grid : (int, int)
+        ``(n_taubar, n_etabar2)`` size of the shading mask.
+    shade_gammabar : float, optional
+        Damping of the shading mask; default the smallest of ``gammabars``.
+
+    Returns
+    -------
+    StabilityDiagram
+        Boundaries per gammabar and the mask.
+
+    Raises
+    ------
+    ValueError
+        Empty ``gammabars``, a negative or non-finite value, or a range that does not increase.
     """
-    gs = tuple(_real("gammabar", g, lower=0.0, strict=False) for g in gammabars)
+    gs = tuple(check_real("gammabar", g, lower=0.0, strict=False) for g in gammabars)
     if not gs:
         raise ValueError("gammabars must not be empty")
-    t0, t1 = (_real("taubar_range", v, lower=0.0, strict=False) for v in taubar_range)
-    e0, e1 = (_real("etabar2_range", v, lower=0.0, strict=False) for v in etabar2_range)
+    t0, t1 = (check_real("taubar_range", v, lower=0.0, strict=False) for v in taubar_range)
+    e0, e1 = (check_real("etabar2_range", v, lower=0.0, strict=False) for v in etabar2_range)
     if not (t1 > t0 and e1 > e0):
         raise ValueError(
             f"ranges must be increasing, got taubar_range={taubar_range!r}, "
@@ -422,7 +600,7 @@ def stability_diagram(
     sg = (
         min(gs)
         if shade_gammabar is None
-        else _real("shade_gammabar", shade_gammabar, lower=0.0, strict=False)
+        else check_real("shade_gammabar", shade_gammabar, lower=0.0, strict=False)
     )
     tg = np.linspace(t0, t1, grid[0])
     eg = np.linspace(max(e0, 1e-6), e1, grid[1])

@@ -37,7 +37,28 @@ def write_limit_cycle_figure(
     taubar_n: float = 10.0,
     periods: int = 2,
 ) -> dict[str, Path]:
-    """Fig. 3: ubar and gbar over ``periods`` periods of the axial stick-slip limit cycle."""
+    """Fig. 3: ubar and gbar over ``periods`` periods of the axial stick-slip limit cycle.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        Folder of ``fig3_limit_cycle.png``, ``.csv`` (the repeated samples) and ``.json`` (period,
+        stick fraction, both estimates of the average).
+    gammabar, etabar2, taubar_n : float
+        The point of (18).
+    periods : int
+        Number of periods drawn.
+
+    Returns
+    -------
+    dict
+        Paths ``png``, ``csv`` and ``json``.
+
+    Raises
+    ------
+    RuntimeError
+        The motion at this point does not settle on a periodic limit cycle.
+    """
     out = Path(out_dir)
     lc = find_limit_cycle(gammabar, etabar2, taubar_n, n_samples=2000)
     if lc.kind != "periodic":
@@ -90,7 +111,20 @@ POINT_COLUMNS = ("gammabar", "etabar2", "taubar_n", "kind", "average", "period",
 
 
 def write_average_points(path: str | os.PathLike[str], curves: Iterable[LimitCycle]) -> Path:
-    """Write limit cycles as a Fig. 4 points file (CSV, :data:`POINT_COLUMNS`), atomically."""
+    """Write limit cycles as a Fig. 4 points file (CSV, :data:`POINT_COLUMNS`), atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The CSV file.
+    curves : iterable of LimitCycle
+        One row each (samples are not written).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     rows = (
         (lc.gammabar, lc.etabar2, lc.taubar_n, lc.kind, lc.average, lc.period, lc.stick_fraction)
         for lc in curves
@@ -100,6 +134,16 @@ def write_average_points(path: str | os.PathLike[str], curves: Iterable[LimitCyc
 
 def read_average_points(path: str | os.PathLike[str]) -> list[LimitCycle]:
     """Read a Fig. 4 points file written by :func:`write_average_points`.
+
+    Parameters
+    ----------
+    path : path-like
+        The CSV file.
+
+    Returns
+    -------
+    list of LimitCycle
+        The rows, without samples and with the unwritten fields at their defaults.
 
     Raises
     ------
@@ -148,8 +192,28 @@ def average_curves(
     """The limit cycles of the Fig. 4 lines (gammabar -> points along :func:`default_fit_delays`).
 
     Points already in ``known`` (same gammabar, etabar^2 and delay, e.g. the design's own line)
-    are taken from there, not computed again. ``on_point(all_points)`` is called after every
-    computed point (to keep partial results).
+    are taken from there, not computed again.
+
+    Parameters
+    ----------
+    gammabars : sequence of float
+        One line per damping value.
+    etabar2 : float
+        Stiffness of all lines.
+    n_points : int
+        Delays per line.
+    known : iterable of LimitCycle
+        Points computed before; matched exactly on (gammabar, etabar2, taubar_n).
+    progress : bool
+        Show a progress bar over the points to compute.
+    on_point : callable, optional
+        Called as ``on_point(points_so_far)`` after every point, reused or computed (to keep
+        partial results).
+
+    Returns
+    -------
+    dict
+        gammabar -> the limit cycles of its line, in order of delay.
     """
     have = {(lc.gammabar, lc.etabar2, lc.taubar_n): lc for lc in known}
     jobs = [(g, float(tb)) for g in gammabars for tb in default_fit_delays(g, etabar2, n_points)]
@@ -185,8 +249,8 @@ def write_average_figure(
     ----------
     out_dir : path-like
         Folder of ``fig4_average.png``, ``fig4_average.csv`` (points) and ``fig4_fits.csv``.
-    gammabars, etabar2, n_points :
-        The lines of the figure.
+    gammabars, etabar2, n_points : sequence of float, float, int
+        The lines of the figure (as for :func:`average_curves`).
     known : iterable of LimitCycle
         Points computed before (the design's line, :func:`read_average_points`), reused.
     progress : bool
@@ -197,6 +261,11 @@ def write_average_figure(
     dict
         Paths ``png``, ``csv`` and ``fits``. The points file is rewritten after every point, so
         an interrupted run keeps its results.
+
+    Raises
+    ------
+    ValueError
+        A line with fewer than two periodic points (no fit).
     """
     out = Path(out_dir)
     points = out / "fig4_average.csv"
@@ -250,8 +319,22 @@ def write_stability_diagram(
 ) -> dict[str, Path]:
     """Write Fig. 2 (``fig2_stability.png``, ``fig2_boundaries.csv``) atomically into ``out_dir``.
 
-    CSV columns: gammabar, segment (polyline id per gammabar), taubar_n, etabar2. Returns
-    ``{"png": path, "csv": path}``.
+    CSV columns: gammabar, segment (polyline id per gammabar), taubar_n, etabar2.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        Output folder (created).
+    gammabars, taubar_range, etabar2_range
+        Passed to :func:`~drillstring.analysis.axial_stability.stability_diagram`; ignored when
+        ``diagram`` is given.
+    diagram : StabilityDiagram, optional
+        A diagram computed before.
+
+    Returns
+    -------
+    dict
+        Paths ``png`` and ``csv``.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -43,7 +43,30 @@ FIG4_ETABAR2 = 0.1
 def fast_params(
     gammabar: float, etabar2: float, taubar_n: float, lam_over_vbar0: float = DEFAULT_LAM_OVER_VBAR0
 ) -> ScaledParams:
-    """Parameters that make the engine integrate (18): n*psi = 1, v0 = 1, omega0 = 2*pi/taubar_n."""
+    """Parameters that make the engine integrate (18): n*psi = 1, v0 = 1, omega0 = 2*pi/taubar_n.
+
+    Parameters
+    ----------
+    gammabar : float
+        Damping gammabar >= 0 (becomes ``gamma``).
+    etabar2 : float
+        Stiffness etabar^2 > 0 (``eta = sqrt(etabar2)``).
+    taubar_n : float
+        Constant delay taubar_n > 0 (n = 1 blade turning at omega0 = 2*pi/taubar_n).
+    lam_over_vbar0 : float
+        lambda/vbar0 of (18) (becomes ``lam``).
+
+    Returns
+    -------
+    ScaledParams
+        The set, with beta = rho = 1 (the torsion is frozen, so they do not act).
+
+    Raises
+    ------
+    ValueError
+        A value out of range (named); :class:`~drillstring.model.params.ParameterError` for a
+        negative ``lam_over_vbar0``.
+    """
     gammabar = check_real("gammabar", gammabar, lower=0.0, strict=False)
     etabar2 = check_real("etabar2", etabar2, lower=0.0)
     taubar_n = check_real("taubar_n", taubar_n, lower=0.0)
@@ -115,8 +138,34 @@ def limit_cycle(
 
     Periodicity: the stick-entry times and positions repeat with k stick phases per period, the
     last two periods agreeing to ``tol`` (relative). The average over that period is the exact
-    RK4 integral of g. One period is then sampled (``n_samples`` points) for plots and the
-    second estimate etabar^2 <ubar>.
+    RK4 integral of g. One further period is then sampled (``n_samples + 1`` points) for plots
+    and the second estimate etabar^2 <ubar>.
+
+    Parameters
+    ----------
+    gammabar, etabar2, taubar_n : float
+        The point of (18), as for :func:`fast_params`.
+    lam_over_vbar0 : float
+        lambda/vbar0 of (18); it does not change the average while the bit never moves up.
+    h : float
+        RK4 step in fast time.
+    kick : float
+        Initial perturbation u(0) = ubar(0) from the equilibrium.
+    tol : float
+        Relative agreement of the last two periods (duration and u at the stick entries).
+    max_periods : int
+        Budget of the run, in units of taubar_n + 2*pi of fast time.
+    max_phases : int
+        Largest number k of stick phases per period looked for.
+    n_samples : int
+        Sampling intervals of the extra period; 0 skips it (no samples, no second estimate).
+
+    Returns
+    -------
+    LimitCycle
+        ``kind`` "periodic" with period, average and check; "equilibrium" when the
+        perturbation decays without contact events; "invalid" when the bit moves up or the run
+        stops; "not_converged" when the budget runs out.
     """
     p = fast_params(gammabar, etabar2, taubar_n, lam_over_vbar0)
     eng = Engine(p, EngineOptions(h=h, freeze_torsion=True), initial={"u": kick})
@@ -198,7 +247,27 @@ class SlopeFit:
 def fit_slope(
     gammabar: float, etabar2: float, taubar: Sequence[float], average: Sequence[float]
 ) -> SlopeFit:
-    """Least-squares line through the periodic points (finite, positive averages)."""
+    """Least-squares line (22) through the periodic points (finite, positive averages).
+
+    Parameters
+    ----------
+    gammabar, etabar2 : float
+        The line's damping and stiffness (for taubar_crit and the record).
+    taubar : sequence of float
+        Delays of the points.
+    average : sequence of float
+        (lambda/vbar0)<gbar>_a at these delays; NaN or non-positive entries are left out.
+
+    Returns
+    -------
+    SlopeFit
+        Slope A, fitted zero taubar_zero, taubar_crit from (21) and the RMS residual.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two usable points, or etabar2 <= 0.
+    """
     t = np.asarray(taubar, dtype=float)
     a = np.asarray(average, dtype=float)
     ok = np.isfinite(a) & (a > 0)
@@ -226,7 +295,20 @@ FIT_POINTS = 25
 
 
 def default_fit_delays(gammabar: float, etabar2: float, n: int = FIT_POINTS) -> np.ndarray:
-    """Delays of a line of Fig. 4 (and of the slope A): from 1.5 taubar_crit to taubar_crit + 30."""
+    """Delays of a line of Fig. 4 (and of the slope A): from 1.5 taubar_crit to taubar_crit + 30.
+
+    Parameters
+    ----------
+    gammabar, etabar2 : float
+        The line's damping and stiffness.
+    n : int
+        Number of delays.
+
+    Returns
+    -------
+    ndarray
+        ``n`` equally spaced delays (``docs/model.md``, "Averaging").
+    """
     tc = critical_delay(gammabar, etabar2)
     return np.linspace(1.5 * tc, tc + 30.0, n)
 
@@ -237,9 +319,26 @@ def average_curve(
     taubars: Sequence[float],
     *,
     progress: bool = True,
-    **kw,
+    **kw: Any,
 ) -> list[LimitCycle]:
-    """Limit cycles along a line of delays (serial; see drillstring.apps.sweep.runner for Dask)."""
+    """Limit cycles along a line of delays, computed one after the other, without samples.
+
+    Parameters
+    ----------
+    gammabar, etabar2 : float
+        The line's damping and stiffness.
+    taubars : sequence of float
+        The delays.
+    progress : bool
+        Show a progress bar.
+    **kw
+        Passed to :func:`limit_cycle` (except ``n_samples``, which is 0).
+
+    Returns
+    -------
+    list of LimitCycle
+        One per delay, in order.
+    """
     out = []
     for tb in tqdm(list(taubars), desc=f"gammabar={gammabar:g}", disable=not progress, leave=False):
         out.append(limit_cycle(gammabar, etabar2, float(tb), n_samples=0, **kw))

@@ -59,6 +59,7 @@ import contextlib
 import math
 import warnings
 from collections.abc import Iterator, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -86,9 +87,18 @@ _DEDUP_RTOL = 1e-6
 class DDESystem:
     """A validated linear retarded DDE: x' = A0 x + sum_k A_k x(t - tau_k).
 
-    ``A0`` is an (m, m) array (a scalar is read as 1 x 1); ``delayed`` is a sequence of
-    ``(tau_k, A_k)`` with finite ``tau_k > 0`` and ``A_k`` of the same shape as ``A0``. Equal delays
-    are merged (their matrices added). Raises ``ValueError`` naming the bad value.
+    Parameters
+    ----------
+    A0 : array_like
+        Real or complex (m, m) matrix, finite; a scalar is read as 1 x 1.
+    delayed : sequence of (float, array_like)
+        Pairs ``(tau_k, A_k)`` with finite ``tau_k > 0`` and ``A_k`` of the same shape as ``A0``.
+        Equal delays are merged (their matrices added); the delays are stored sorted.
+
+    Raises
+    ------
+    ValueError
+        A malformed pair, a bad delay or a matrix that is not square, numeric and finite (named).
     """
 
     __slots__ = ("A0", "As", "_n0", "_nk", "m", "taus")
@@ -134,6 +144,16 @@ class DDESystem:
         """R(re_min) = rho(|A0| + sum |A_k| exp(-re_min tau_k)), |.| entrywise, rho spectral radius.
 
         Every root with Re s >= re_min has |s| <= R (module docstring).
+
+        Parameters
+        ----------
+        re_min : float
+            Lower bound of the real part of the roots considered.
+
+        Returns
+        -------
+        float
+            The bound R(re_min) on |s|.
         """
         b = np.abs(self.A0)
         for tau, a in zip(self.taus, self.As, strict=True):
@@ -141,21 +161,54 @@ class DDESystem:
         return float(np.max(np.abs(np.linalg.eigvals(b))))
 
     def delta(self, s: complex) -> NDArray:
-        """Characteristic matrix Delta(s) = s I - A0 - sum A_k exp(-s tau_k)."""
+        """Characteristic matrix Delta(s) = s I - A0 - sum A_k exp(-s tau_k).
+
+        Parameters
+        ----------
+        s : complex
+            Point of the complex plane.
+
+        Returns
+        -------
+        ndarray
+            Complex (m, m) matrix.
+        """
         d = s * np.eye(self.m, dtype=complex) - self.A0
         for tau, a in zip(self.taus, self.As, strict=True):
             d = d - a * np.exp(-s * tau)
         return d
 
     def ddelta(self, s: complex) -> NDArray:
-        """Derivative Delta'(s) = I + sum tau_k A_k exp(-s tau_k)."""
+        """Derivative Delta'(s) = I + sum tau_k A_k exp(-s tau_k).
+
+        Parameters
+        ----------
+        s : complex
+            Point of the complex plane.
+
+        Returns
+        -------
+        ndarray
+            Complex (m, m) matrix.
+        """
         d = np.eye(self.m, dtype=complex)
         for tau, a in zip(self.taus, self.As, strict=True):
             d = d + tau * a * np.exp(-s * tau)
         return d
 
     def scale(self, s: complex) -> float:
-        """Size of the terms of Delta(s): |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)|."""
+        """Size of the terms of Delta(s): |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)|.
+
+        Parameters
+        ----------
+        s : complex
+            Point of the complex plane.
+
+        Returns
+        -------
+        float
+            The scale, with ||.|| the spectral norm (the denominator of :func:`root_residual`).
+        """
         r = abs(s) + self._n0
         for tau, nk in zip(self.taus, self._nk, strict=True):
             r += nk * math.exp(min(-s.real * tau, 700.0))
@@ -196,6 +249,19 @@ def root_residual(
 
     scale(s) = |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)| is the size of the terms that cancel in
     Delta(s), so the residual is ~1e-16 at an exact root in floating point and O(1) far from roots.
+
+    Parameters
+    ----------
+    s : complex
+        The candidate root.
+    A0, delayed
+        The system, as for :class:`DDESystem`; ``A0`` may also be a :class:`DDESystem` (then
+        ``delayed`` must be empty).
+
+    Returns
+    -------
+    float
+        sigma_min(Delta(s)) / scale(s).
     """
     sys_ = _system(A0, delayed)
     s = complex(s)
@@ -237,6 +303,18 @@ def chebyshev_generator(sys_: DDESystem, n_cheb: int) -> NDArray:
     State ordering: blocks phi(theta_0), ..., phi(theta_N), theta_j = tau_max (cos(j pi/N) - 1)/2.
     Block row 0: phi'(0) = A0 phi(0) + sum_k A_k phi(-tau_k) (interpolated); block rows 1..N:
     phi'(theta_i) = sum_j D_ij phi(theta_j) with D the Chebyshev matrix scaled by 2 / tau_max.
+
+    Parameters
+    ----------
+    sys_ : DDESystem
+        The system.
+    n_cheb : int
+        Chebyshev degree N.
+
+    Returns
+    -------
+    ndarray
+        The (m(N+1), m(N+1)) matrix, complex if the system is; a copy of A0 for an ODE.
     """
     if sys_.tau_max <= 0.0:
         return sys_.A0.copy()
@@ -279,7 +357,20 @@ def _newton(sys_: DDESystem, s0: complex, max_iter: int, step_tol: float) -> com
 
 
 def default_n_cheb(sys_: DDESystem, re_min: float) -> int:
-    """Collocation degree N = ceil(R(re_min) tau_max) + 24 (module docstring), at least 24."""
+    """Collocation degree N = ceil(R(re_min) tau_max) + 24 (module docstring), at least 24.
+
+    Parameters
+    ----------
+    sys_ : DDESystem
+        The system.
+    re_min : float
+        Lower bound of the real part of the roots to resolve.
+
+    Returns
+    -------
+    int
+        The degree that resolves every root with Re s >= re_min.
+    """
     r = sys_.radius_bound(re_min)
     return max(N_CHEB_MIN, math.ceil(r * sys_.tau_max) + N_CHEB_MIN)
 
@@ -357,27 +448,38 @@ def dde_roots(
 
     Parameters
     ----------
-    A0, delayed:
+    A0, delayed
         The system (see :class:`DDESystem`); ``A0`` may also be a :class:`DDESystem` (then
         ``delayed`` must be empty).
-    re_min:
+    re_min : float, optional
         Lower bound of the real part of the returned roots. ``None`` chooses
         ``alpha - min(1, 2/tau_max)`` with alpha a first estimate of the spectral abscissa.
-    n_cheb:
+    n_cheb : int, optional
         Chebyshev degree N; default from the a-priori bound (module docstring). An explicit value is
         used as given (no completeness guarantee if it is below the rule).
-    n_cheb_max:
-        Largest degree the automatic rule may choose; beyond it a ``ValueError`` is raised.
-    max_roots:
+    n_cheb_max : int
+        Largest degree the automatic rule may choose. Beyond it, with an explicit ``re_min`` a
+        ``ValueError`` is raised; with ``re_min=None`` a ``RuntimeWarning`` is issued and
+        ``n_cheb_max`` used.
+    max_roots : int, optional
         Return at most this many roots (the rightmost ones).
-    max_iter, step_tol, res_tol:
+    max_iter, step_tol, res_tol : int, float, float
         Newton iterations, relative step tolerance, and the acceptance threshold for
         :func:`root_residual`.
 
     Returns
     -------
-    Distinct roots (multiplicity not reported) sorted by real part descending, then imaginary part
-    descending. For an ODE (no delays) these are the eigenvalues of A0 with Re >= re_min.
+    ndarray of complex
+        Distinct roots (multiplicity not reported) sorted by real part descending, then imaginary
+        part descending. For an ODE (no delays) these are the eigenvalues of A0 with Re >= re_min.
+
+    Raises
+    ------
+    ValueError
+        An invalid system or option, or an explicit ``re_min`` that needs more than
+        ``n_cheb_max``.
+    RuntimeError
+        With ``re_min=None``, no root converged in the first pass.
     """
     sys_ = _system(A0, delayed)
     with _single_thread_blas():
@@ -465,9 +567,27 @@ def _dde_roots(
 
 
 def spectral_abscissa(
-    A0: ArrayLike | DDESystem, delayed: Sequence[tuple[float, ArrayLike]] = (), **kwargs
+    A0: ArrayLike | DDESystem, delayed: Sequence[tuple[float, ArrayLike]] = (), **kwargs: Any
 ) -> float:
-    """max Re s over the characteristic roots (the rightmost root of :func:`dde_roots`)."""
+    """max Re s over the characteristic roots (the rightmost root of :func:`dde_roots`).
+
+    Parameters
+    ----------
+    A0, delayed
+        The system, as for :func:`dde_roots`.
+    **kwargs
+        Passed to :func:`dde_roots`.
+
+    Returns
+    -------
+    float
+        The spectral abscissa: < 0 iff the system is exponentially stable.
+
+    Raises
+    ------
+    RuntimeError
+        No root was found in the requested region.
+    """
     roots = dde_roots(A0, delayed, **kwargs)
     if roots.size == 0:
         raise RuntimeError("no characteristic root found in the requested region")
@@ -477,7 +597,7 @@ def spectral_abscissa(
 def quasi_polynomial_roots(
     poly: ArrayLike,
     delayed: Sequence[tuple[float, ArrayLike]] = (),
-    **kwargs,
+    **kwargs: Any,
 ) -> NDArray[np.complex128]:
     """Roots of p(s) - sum_k q_k(s) exp(-s tau_k) = 0 (retarded: deg q_k < deg p).
 
@@ -486,6 +606,25 @@ def quasi_polynomial_roots(
     first-order system in companion form (x = [y, y', ..., y^(m-1)]) and passed to :func:`dde_roots`
     with the same keyword arguments. Example: eq. (21) is ``poly=[1, gammabar, etabar2 + 1]``,
     ``delayed=[(taubar_n, [1])]``.
+
+    Parameters
+    ----------
+    poly : array_like
+        Coefficients of p, highest power first, degree >= 1, ``poly[0] != 0``.
+    delayed : sequence of (float, array_like)
+        Pairs ``(tau_k, q_k)``, ``tau_k > 0``, deg q_k < deg p.
+    **kwargs
+        Passed to :func:`dde_roots`.
+
+    Returns
+    -------
+    ndarray of complex
+        The roots, as :func:`dde_roots` returns them.
+
+    Raises
+    ------
+    ValueError
+        Bad coefficients, a malformed pair, or deg q_k >= deg p.
     """
     p = np.atleast_1d(np.asarray(poly))
     if p.ndim != 1 or p.size < 2 or not np.all(np.isfinite(p)) or p[0] == 0:

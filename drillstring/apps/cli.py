@@ -2,7 +2,8 @@
 cross-check, parameter sweeps and the demo pipeline.
 
 Every subcommand writes CSV/JSON/PNG files into an output folder and exits with 0 on success,
-2 on bad input (with a message naming the bad value). A subcommand's module is imported when it
+2 on bad input (with a message naming the bad value); ``simulate`` exits with 1 when the run
+stopped early, ``sweep`` with 130 when interrupted. A subcommand's module is imported when it
 runs, so that ``drillstring -h`` does not load cvxpy, dask and fmpy.
 """
 
@@ -22,7 +23,9 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "axial": ("drillstring.apps.axial", "axial_main", "Section III: Figs. 2-4"),
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
+    "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
+    "controllers": ("drillstring.apps.controllers", "controllers_main", "industrial vs LMI"),
     "demo": ("drillstring.apps.demo", "demo_main", "the main job (make demo)"),
 }
 
@@ -34,7 +37,21 @@ def _usage() -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``drillstring`` console script."""
+    """Entry point of the ``drillstring`` console script.
+
+    Dispatches to the subcommand's entry point (:data:`COMMANDS`); no command, ``-h`` or
+    ``--help`` prints the list of commands.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The command and its arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The subcommand's exit code; 0 for the help text, 2 for an unknown command.
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(_usage())

@@ -7,8 +7,8 @@ The command line of :func:`drillstring.controller.design_controller`. Example::
 prints the open-loop characteristic roots of (29) and the poles of the ODE (13), (27), the alpha
 line search, the gain F (and the paper's gain for comparison), the certificate (32) with its
 margins and the closed-loop spectral abscissa over the delay sweep, then writes
-``out/design/gains.json`` and the points of the axial fit ``out/design/axial_fit.csv`` (the
-Fig. 4 line the slope A comes from).
+``out/design/gains.json`` and, when A is computed rather than given with ``--A``, the points of
+the axial fit ``out/design/axial_fit.csv`` (the Fig. 4 line the slope A comes from).
 """
 
 from __future__ import annotations
@@ -32,7 +32,18 @@ DEFAULT_OUT = DEFAULT_GAINS_PATH.parent
 
 
 def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
-    """Argument parser of the ``design`` subcommand."""
+    """Argument parser of the ``design`` subcommand.
+
+    Parameters
+    ----------
+    prog : str
+        Program name shown in the usage text.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
+    """
     ap = argparse.ArgumentParser(
         prog=prog,
         description="Torsional analysis and LMI state-feedback synthesis (paper Sections IV-V).",
@@ -120,7 +131,14 @@ def _print_certificate(result: SynthesisResult) -> None:
 
 
 def print_design(design: Design) -> None:
-    """Print the analysis, the alpha search, the gain, the certificate and the paper's gain."""
+    """Print the analysis, the alpha search, the gain, the certificate and the paper's gain.
+
+    Parameters
+    ----------
+    design : Design
+        A result of :func:`~drillstring.controller.design.design_controller`; the axial fit
+        and the paper's gain are printed when it holds them.
+    """
     params, model = design.params, design.model
     if design.axial is not None:
         a = design.axial
@@ -164,7 +182,21 @@ def print_design(design: Design) -> None:
 
 
 def design_main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``design`` subcommand; returns the process exit code (0 ok, 2 error)."""
+    """Run the ``design`` subcommand; returns the process exit code (0 ok, 2 error).
+
+    Designs the controller for ``--params``, prints the design (:func:`print_design`) and
+    writes it into ``--out`` (:func:`~drillstring.controller.design.write_design`).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after the subcommand (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     args = build_parser().parse_args(argv)
     try:
         params: ScaledParams = params_from_spec(args.params)

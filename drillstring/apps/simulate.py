@@ -58,7 +58,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def simulate_main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``simulate`` subcommand; exit code 0 (ok), 1 (the run stopped), 2 (bad input)."""
+    """Run the ``simulate`` subcommand; exit code 0 (ok), 1 (the run stopped), 2 (bad input).
+
+    Writes ``simulation.csv``, ``simulation.json`` (status, counters, flags, parameters) and
+    ``simulation.png`` into ``--out``; a run that stops early is written up to the stop.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after the subcommand (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     args = build_parser().parse_args(argv)
     exp = EXPERIMENTS[args.experiment] if args.experiment else None
     mode = args.control or ("gains" if exp is not None else "none")

@@ -38,9 +38,25 @@ LATCH_ANGLE_TWIST = 2
 def switch_on_references(latch: int, phi: float, theta: float, K0: float) -> tuple[float, float]:
     """References (phi_ref, twist_ref) latched at switch-on from the measured phi and theta.
 
-    ``latch`` is an index into :data:`LATCH_MODES`: "none" keeps both 0 (the paper's law),
-    "angle" takes phi_ref = phi, so that x1 = 0 at switch-on, "angle+twist" also takes
-    twist_ref = phi - theta - K0, so that x3 = 0 too. Only the velocities act at first.
+    "none" keeps both 0 (the paper's law), "angle" takes phi_ref = phi, so that x1 = 0 at
+    switch-on (the velocities and the twist act at first), "angle+twist" also takes
+    twist_ref = phi - theta - K0, so that x3 = 0 too (only the velocities act at first);
+    ``docs/model.md``, "Bumpless switch-on".
+
+    Parameters
+    ----------
+    latch : int
+        Index into :data:`LATCH_MODES` (:data:`LATCH_NONE`, :data:`LATCH_ANGLE`,
+        :data:`LATCH_ANGLE_TWIST`).
+    phi, theta : float
+        Perturbation angles of the bit and the rotary table at switch-on.
+    K0 : float
+        Nominal twist offset of x3, eq. (29) (``docs/model.md``, "Equation (30)").
+
+    Returns
+    -------
+    phi_ref, twist_ref : float
+        The references that :func:`feedback_torque` subtracts from x1 and x3.
     """
     phi_ref = phi if latch != LATCH_NONE else 0.0
     twist_ref = (phi - theta) - K0 if latch == LATCH_ANGLE_TWIST else 0.0
@@ -61,7 +77,31 @@ def feedback_torque(
     phi_ref: float,
     twist_ref: float,
 ) -> float:
-    """R - R0 at time tau for perturbation states phi, dphi, theta, dtheta (eqs. (29)-(31))."""
+    """Table torque R - R0 = R_ff + F x at time tau, eq. (31) with R_fb = F x of Theorem 1.
+
+    Parameters
+    ----------
+    tau : float
+        Scaled time.
+    phi, dphi, theta, dtheta : float
+        Perturbation angles and speeds of the bit and the rotary table, eqs. (9)-(10).
+    F : tuple of 4 float
+        Gain of R_fb = F x, x = [phi - phi_ref, dphi, phi - theta - K0 - twist_ref, dtheta]
+        (the state of (29), shifted by the references).
+    K0 : float
+        Nominal twist offset of x3, n*v0*beta*A*(tau_n0 - tau_n_crit).
+    R_ff : float
+        Feed-forward torque of (31).
+    t_on : float
+        Switch-on time: for tau < t_on only R_ff acts.
+    phi_ref, twist_ref : float
+        References latched at switch-on (:func:`switch_on_references`).
+
+    Returns
+    -------
+    float
+        R - R0, the scaled table torque deviation of (13).
+    """
     if tau < t_on:
         return R_ff
     x0 = phi - phi_ref
@@ -78,7 +118,7 @@ class AffineFeedback:
     F : tuple of 4 float
         Gain of R_fb = F x, x = [phi - phi_ref, dphi, phi - theta - K0 - twist_ref, dtheta].
     K0 : float
-        Nominal twist offset of x3 (eq. (30)).
+        Nominal twist offset of x3, eq. (29) (``docs/model.md``, "Equation (30)").
     R_ff : float
         Feed-forward torque (31), -K0 for the paper's design.
     t_on : float

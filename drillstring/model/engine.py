@@ -37,6 +37,9 @@ from drillstring.model.prehistory import (
 )
 from drillstring.validation import check_choice, check_int, check_real
 
+#: The plain function behind the compiled coordinate change, for Python callers (no dispatch).
+_to_perturbation = getattr(to_perturbation, "py_func", to_perturbation)
+
 __all__ = [
     "Control",
     "Engine",
@@ -267,6 +270,7 @@ class Engine:
         H, n_nodes = build_prehistory(p, history or nominal_history, opt.h, opt.history_capacity)
         s = S.allocate(H, opt.event_capacity)
         s.params[:] = _parameter_array(p)
+        self._params_tuple = tuple(s.params.tolist())  # for Python-side conversions
         s.options[S.O_H] = opt.h
         s.options[S.O_TSTICK] = float(opt.torsional_stick)
         s.options[S.O_CONTINUE] = float(opt.on_invalid == "continue")
@@ -385,7 +389,7 @@ class Engine:
         return self._refresh()
 
     def _refresh(self) -> int:
-        return int(self._stepper.refresh(self._s, self._ext))
+        return int(self._stepper.refresh_from(*self._s, self._ext))
 
     def advance(self, to_tau: float) -> Status:
         """Integrate to ``to_tau``; events inside are located.
@@ -405,7 +409,7 @@ class Engine:
         if self._failed is not None:
             return self._failed
         while True:
-            st = int(self._stepper.advance(self._s, to_tau, self._ext))
+            st = int(self._stepper.advance_from(*self._s, to_tau, self._ext))
             if not self._service(st):
                 break
         return self._status(st)
@@ -446,7 +450,9 @@ class Engine:
             return rows[:0], self._failed
         i = 0
         while True:
-            st, i = self._stepper.advance_sampled(self._s, times, rows, i, times.size, self._ext)
+            st, i = self._stepper.advance_sampled_from(
+                *self._s, times, rows, i, times.size, self._ext
+            )
             st = int(st)
             if not self._service(st):
                 break
@@ -586,11 +592,14 @@ class Engine:
     def outputs(self) -> dict[str, float]:
         """The outputs at the current time (:data:`OUTPUT_COLUMNS` without ``tau``) and the
         validity counters ``stick_events``, ``bit_bounce``, ``torsional_stick``."""
-        row = np.empty(S.OUT_SIZE)
-        self._stepper.write_sample(self._s, row)
-        I = self._s.ints  # noqa: E741
-        counters = (I[S.I_NSTICK], I[S.I_NBOUNCE], I[S.I_NTSTICK])
-        return {k: float(v) for k, v in zip(OUTPUT_KEYS, (*row[1:], *counters), strict=True)}
+        s = self._s
+        D, I = s.diag.tolist(), s.ints.tolist()  # noqa: E741
+        y = _to_perturbation(self._params_tuple, self.tau, *s.y.tolist())
+        values = (
+            *y, D[S.D_D], D[S.D_G], D[S.D_TAUN], D[S.D_R],
+            I[S.I_MODE], I[S.I_NSTICK], I[S.I_NBOUNCE], I[S.I_NTSTICK],
+        )  # fmt: skip
+        return dict(zip(OUTPUT_KEYS, map(float, values), strict=True))
 
     # ----------------------------------------------------------------- state
     def get_state(self) -> EngineState:

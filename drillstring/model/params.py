@@ -62,7 +62,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import numbers
 import os
 import tomllib
 from collections.abc import Mapping
@@ -71,7 +70,7 @@ from pathlib import Path
 from typing import Any, Self
 
 from drillstring.fileio import load_table, write_text
-from drillstring.validation import check_real
+from drillstring.validation import check_int, check_real
 
 __all__ = [
     "KNOWN_PARAMS",
@@ -100,42 +99,18 @@ class ParameterError(ValueError):
 # --------------------------------------------------------------------------------------------
 
 
-def _as_int(cls: str, name: str, value: Any) -> int:
-    """Return ``value`` as a positive int, or raise ParameterError naming ``cls.name``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
-    if isinstance(value, numbers.Integral):
-        out = int(value)
-    else:
-        x = float(value)
-        if not math.isfinite(x) or x != math.floor(x):
-            raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
-        out = int(x)
-    if out < 1:
-        raise ParameterError(f"{cls}.{name} must be a positive integer, got {value!r}")
-    return out
-
-
-def _as_real(cls: str, name: str, value: Any, *, lower: float, strict: bool) -> float:
-    """Return ``value`` as a finite float above ``lower`` (strictly if ``strict``)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ParameterError(f"{cls}.{name} must be a real number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise ParameterError(f"{cls}.{name} must be finite, got {value!r}")
-    if (strict and not x > lower) or (not strict and not x >= lower):
-        op = ">" if strict else ">="
-        raise ParameterError(f"{cls}.{name} must be {op} {lower:g}, got {value!r}")
-    return x
-
-
 def _check_fields(obj: Any, ints: tuple[str, ...], rules: Mapping[str, tuple[float, bool]]) -> None:
     """Validate and coerce the fields of a frozen dataclass in place."""
     cls = type(obj).__name__
     for name in ints:
-        object.__setattr__(obj, name, _as_int(cls, name, getattr(obj, name)))
+        value = check_int(
+            f"{cls}.{name}", getattr(obj, name), lower=1, integral_floats=True, error=ParameterError
+        )
+        object.__setattr__(obj, name, value)
     for name, (lower, strict) in rules.items():
-        value = _as_real(cls, name, getattr(obj, name), lower=lower, strict=strict)
+        value = check_real(
+            f"{cls}.{name}", getattr(obj, name), lower=lower, strict=strict, error=ParameterError
+        )
         object.__setattr__(obj, name, value)
 
 
@@ -252,7 +227,23 @@ class ScaledParams:
 
     # -- copies and dicts ---------------------------------------------------------------------
     def replace(self, **changes: Any) -> ScaledParams:
-        """Validated copy with ``changes`` applied (key ``"lambda"`` is accepted for ``lam``)."""
+        """Validated copy with ``changes`` applied (key ``"lambda"`` is accepted for ``lam``).
+
+        Parameters
+        ----------
+        **changes
+            New values by field name.
+
+        Returns
+        -------
+        ScaledParams
+            The copy, validated like a new instance.
+
+        Raises
+        ------
+        ParameterError
+            An unknown field, a field given twice (``lam`` and ``lambda``) or an invalid value.
+        """
         mapped: dict[str, Any] = {}
         names = {f.name for f in dataclasses.fields(self)}
         for key, value in changes.items():
@@ -270,7 +261,23 @@ class ScaledParams:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Self:
-        """Build from a dict of all nine fields (``"lambda"`` or ``"lam"``); no extra keys."""
+        """Build from a dict of all nine fields (``"lambda"`` or ``"lam"``); no extra keys.
+
+        Parameters
+        ----------
+        data : mapping
+            Field values by name, as in a parameter file without its ``kind`` key.
+
+        Returns
+        -------
+        ScaledParams
+            The validated set.
+
+        Raises
+        ------
+        ParameterError
+            ``data`` is not a mapping, has an unknown, duplicate or missing key, or a bad value.
+        """
         names = tuple(f.name for f in dataclasses.fields(cls))
         return cls(**_dict_to_fields(cls.__name__, data, names, _SCALED_IN_ALIASES))
 
@@ -337,17 +344,31 @@ class PhysicalParams:
         """Nominal depth of cut d0 = (2*pi/n)*V0/Omega0 [m], eq. (8)."""
         return 2.0 * math.pi / self.n * self.V0 / self.Omega0
 
+    def weight_on_bit(self, d: Any, g: Any = 0.0) -> Any:
+        """Weight on bit W^c + W^f [N] at depth of cut ``d`` [m]: eq. (4) plus eq. (7).
+
+        ``g`` is the contact multiplier of (17) (0: full wearflat contact, dU/dt > 0; 1: none,
+        dU/dt < 0; in between in axial stick): W^f = n*a*l*sigma_bar*(1 - g). Floats or numpy
+        arrays.
+        """
+        return self.n * self.a * (self.zeta * self.eps * d + self.l * self.sigma_bar * (1.0 - g))
+
+    def torque_on_bit(self, d: Any, g: Any = 0.0) -> Any:
+        """Torque on bit T^c + T^f [N m] at depth of cut ``d`` [m]: eq. (4) plus eq. (7),
+        T^f = a*xi*mu*W^f/2 with W^f as in :meth:`weight_on_bit` (while the bit slips)."""
+        cutting = 0.5 * self.n * self.a**2 * self.eps * d
+        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
+        return cutting + contact * (1.0 - g)
+
     @property
     def W0(self) -> float:
         """Nominal weight on bit W^c + W^f [N]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
-        return self.n * self.a * (self.zeta * self.eps * self.d0 + self.l * self.sigma_bar)
+        return self.weight_on_bit(self.d0)
 
     @property
     def T0(self) -> float:
         """Nominal torque on bit T^c + T^f [N m]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
-        cutting = 0.5 * self.n * self.a**2 * self.eps * self.d0
-        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
-        return cutting + contact
+        return self.torque_on_bit(self.d0)
 
     @property
     def R0(self) -> float:
@@ -371,11 +392,33 @@ class PhysicalParams:
         return self.n * self.d0 * 1e3
 
     def scaled_torque(self, R: float) -> float:
-        """Scaled torque script-R = R/C, eq. (16)."""
+        """Scaled torque script-R = R/C, eq. (16).
+
+        Parameters
+        ----------
+        R : float
+            Torque [N m].
+
+        Returns
+        -------
+        float
+            R/C (dimensionless).
+        """
         return R / self.C
 
     def physical_torque(self, r: float) -> float:
-        """Inverse of :meth:`scaled_torque`: R = C*r [N m]."""
+        """Inverse of :meth:`scaled_torque`: R = C*r [N m], eq. (16).
+
+        Parameters
+        ----------
+        r : float
+            Scaled torque.
+
+        Returns
+        -------
+        float
+            The torque in N m.
+        """
         return r * self.C
 
     def to_scaled(self) -> ScaledParams:
@@ -423,11 +466,35 @@ class PhysicalParams:
 
         Derivation and the reference rig: ``docs/reference_rig.md``.
 
+        Parameters
+        ----------
+        scaled : ScaledParams
+            The scaled set to reproduce.
+        C : float
+            Torsional stiffness [N m/rad].
+        I1 : float
+            Bit-end (BHA) inertia [kg m^2].
+        a : float
+            Bit radius [m].
+        eps : float
+            Intrinsic specific energy [Pa].
+        zeta : float
+            Cutting-face orientation [-].
+        xi : float
+            Wearflat distribution [-].
+        sigma_bar : float
+            Contact stress [Pa].
+
+        Returns
+        -------
+        PhysicalParams
+            The set whose :meth:`to_scaled` equals ``scaled`` to rounding.
+
         Raises
         ------
         ParameterError
-            A choice that is not a finite number > 0 (named), or a result that is not a valid
-            :class:`PhysicalParams`.
+            ``scaled`` is not a :class:`ScaledParams`, a choice is not a finite number > 0
+            (named), or the result is not a valid :class:`PhysicalParams`.
         """
         if not isinstance(scaled, ScaledParams):
             raise ParameterError(
@@ -473,7 +540,23 @@ class PhysicalParams:
         )
 
     def replace(self, **changes: Any) -> PhysicalParams:
-        """Return a validated copy with ``changes`` applied."""
+        """Return a validated copy with ``changes`` applied.
+
+        Parameters
+        ----------
+        **changes
+            New values by field name.
+
+        Returns
+        -------
+        PhysicalParams
+            The copy, validated like a new instance.
+
+        Raises
+        ------
+        ParameterError
+            An unknown field or an invalid value.
+        """
         names = {f.name for f in dataclasses.fields(self)}
         for key in changes:
             if key not in names:
@@ -486,7 +569,23 @@ class PhysicalParams:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Self:
-        """Build from a dict of all sixteen fields; no extra keys."""
+        """Build from a dict of all sixteen fields; no extra keys.
+
+        Parameters
+        ----------
+        data : mapping
+            Field values by name (SI units), as in a parameter file without its ``kind`` key.
+
+        Returns
+        -------
+        PhysicalParams
+            The validated set.
+
+        Raises
+        ------
+        ParameterError
+            ``data`` is not a mapping, has an unknown or missing key, or a bad value.
+        """
         names = tuple(f.name for f in dataclasses.fields(cls))
         return cls(**_dict_to_fields(cls.__name__, data, names, {}))
 
@@ -545,6 +644,21 @@ def get_params(name: str) -> ScaledParams:
     ``"reference"`` is the scaled reference set; ``"reference-rig"`` is the physical reference
     rig converted by (15)-(16) (equal to ``"reference"`` to rounding). :func:`get_physical`
     returns a physical set in SI units.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`KNOWN_PARAMS`.
+
+    Returns
+    -------
+    ScaledParams
+        The named set.
+
+    Raises
+    ------
+    ParameterError
+        ``name`` is not a known set (the message lists them).
     """
     try:
         return KNOWN_PARAMS[name]
@@ -556,7 +670,23 @@ def get_params(name: str) -> ScaledParams:
 
 
 def get_physical(name: str) -> PhysicalParams:
-    """Return a physical named set (SI units), e.g. ``"reference-rig"``."""
+    """Return a physical named set (SI units), e.g. ``"reference-rig"``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`KNOWN_PHYSICAL`.
+
+    Returns
+    -------
+    PhysicalParams
+        The named set.
+
+    Raises
+    ------
+    ParameterError
+        ``name`` is not a physical set (the message says if it is a scaled one).
+    """
     try:
         return KNOWN_PHYSICAL[name]
     except (KeyError, TypeError):
@@ -571,7 +701,23 @@ def get_physical(name: str) -> PhysicalParams:
 
 def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:
     """A known set name (see :func:`get_params`) or else the path of a parameter file, as
-    :class:`ScaledParams` (physical sets and files are converted by (15)-(16))."""
+    :class:`ScaledParams` (physical sets and files are converted by (15)-(16)).
+
+    Parameters
+    ----------
+    spec : str or path-like
+        A key of :data:`KNOWN_PARAMS`, or a path that has a ``.toml``/``.json`` suffix or exists.
+
+    Returns
+    -------
+    ScaledParams
+        The named or loaded set.
+
+    Raises
+    ------
+    ParameterError
+        ``spec`` is neither a known set nor a readable, valid parameter file.
+    """
     if isinstance(spec, str) and spec in KNOWN_PARAMS:
         return KNOWN_PARAMS[spec]
     path = Path(spec)
@@ -601,7 +747,24 @@ def _suffix(path: Path) -> str:
 
 
 def read_params(path: str | os.PathLike[str]) -> ScaledParams | PhysicalParams:
-    """Read a parameter file (format in the module docstring) and return the kind it holds."""
+    """Read a parameter file (format in the module docstring) and return the kind it holds.
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.toml`` or ``.json`` parameter file.
+
+    Returns
+    -------
+    ScaledParams or PhysicalParams
+        As the file's ``kind`` says.
+
+    Raises
+    ------
+    ParameterError
+        Bad suffix, unreadable or unparsable file, missing or unknown ``kind``, or bad contents;
+        the message names the file.
+    """
     path = Path(path)
     suffix = _suffix(path)
     try:
@@ -630,7 +793,23 @@ def read_params(path: str | os.PathLike[str]) -> ScaledParams | PhysicalParams:
 
 
 def load_params(path: str | os.PathLike[str]) -> ScaledParams:
-    """Load a parameter file as :class:`ScaledParams` (physical files converted by (15)-(16))."""
+    """Load a parameter file as :class:`ScaledParams` (physical files converted by (15)-(16)).
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.toml`` or ``.json`` parameter file of either kind.
+
+    Returns
+    -------
+    ScaledParams
+        The set, converted by :meth:`PhysicalParams.to_scaled` if the file is physical.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`read_params`, or a physical set that maps to invalid scaled values.
+    """
     p = read_params(path)
     return p.to_scaled() if isinstance(p, PhysicalParams) else p
 
@@ -648,7 +827,25 @@ def _toml_value(value: Any) -> str:
 
 
 def save_params(p: ScaledParams | PhysicalParams, path: str | os.PathLike[str]) -> Path:
-    """Write ``p`` to ``path`` (.toml or .json by suffix) atomically; return the path."""
+    """Write ``p`` to ``path`` (.toml or .json by suffix) atomically.
+
+    Parameters
+    ----------
+    p : ScaledParams or PhysicalParams
+        The set; its ``kind`` is written with it.
+    path : path-like
+        Target file; the suffix chooses the format.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ParameterError
+        A suffix other than ``.toml``/``.json``, or ``p`` of another type.
+    """
     path = Path(path)
     suffix = _suffix(path)
     if isinstance(p, ScaledParams):

@@ -585,4 +585,46 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
     return ST_OK, i1
 
 
-__all__ = ["advance", "advance_sampled", "locate", "refresh", "rk4", "stage", "step", "switch_on"]
+# --- entry points from Python ----------------------------------------------------------------
+# numba dispatches a call with arrays in its C fast path but types a named tuple in Python (a few
+# microseconds a call, which is the cost of a whole FMU step); so Python calls these with the
+# arrays of a KernelState, in the order of its fields, and they rebuild the named tuple.
+
+
+@jit
+def advance_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+                 to_tau, ext):  # fmt: skip
+    """:func:`advance` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    return advance(s, to_tau, ext)
+
+
+@jit
+def advance_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
+                         work, times, rows, i0, i1, ext):  # fmt: skip
+    """:func:`advance_sampled` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    return advance_sampled(s, times, rows, i0, i1, ext)
+
+
+@jit
+def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+                 ext):  # fmt: skip
+    """:func:`refresh` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    return refresh(s, ext)
+
+
+__all__ = [
+    "advance",
+    "advance_from",
+    "advance_sampled",
+    "advance_sampled_from",
+    "locate",
+    "refresh",
+    "refresh_from",
+    "rk4",
+    "stage",
+    "step",
+    "switch_on",
+]

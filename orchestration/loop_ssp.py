@@ -1,0 +1,162 @@
+"""The closed loop of Section V as an SSP 1.0 package, in either unit system.
+
+``build_fmus.py`` writes ``DrillStringClosedLoop.ssp`` (the scaled FMUs) and
+``DrillStringClosedLoopSI.ssp`` (the SI FMUs) with :func:`write_loop_package`: both FMUs, the
+connections of :class:`~drillstring.orchestration.closed_loop.LoopVariant`, every connector with
+its unit, four named parameter sets and the default experiment of Fig. 5 with a fixed step:
+
+* ``fig5``, ``fig6``: the experiments of Figs. 5 and 6 (``docs/model.md``, "Experiments of Figs.
+  5 and 6"; :data:`~drillstring.model.experiments.FIG5`, ``FIG6``): the plant's whole initial
+  state, its RK4 step and torsional-stick model, the controller's switch-on time, latch and
+  enabled flag (in SI units in the SI package, converted on the reference rig);
+* ``reference``: the plant's parameter set (the scaled reference set, or the reference rig);
+* ``gains``: the controller's gains as built (the synthesis's gains file, in SI units in the SI
+  package).
+
+Each component binds, in this order, ``fig5``, ``fig6`` and its own nominal set, so libcosim
+(which applies the first binding of each component) runs Fig. 5, and Ecos runs the set named by
+``--parameterSet``. The values are the FMUs' start values where the set is theirs (``reference``,
+``gains``), so the package describes exactly the FMUs it holds.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+from fmpy import read_model_description
+
+from drillstring.model.experiments import FIG5, FIG6
+from drillstring.model.params import REFERENCE_RIG
+from drillstring.model.units import UNITS, SIScaling
+from drillstring.orchestration.closed_loop import (
+    SCALED,
+    SI,
+    LoopVariant,
+    experiment_start_values,
+    fmu_paths,
+)
+from drillstring.orchestration.connections import declared_start_values
+from drillstring.orchestration.ssp import (
+    SspComponent,
+    SspConnection,
+    SspConnector,
+    SspParameter,
+    write_ssp,
+)
+
+__all__ = ["DEFAULT_STEP", "PACKAGE_SETS", "loop_default_experiment", "write_loop_package"]
+
+#: The fixed macro step of the packages' default experiment (scaled time; 1 ms in SI).
+DEFAULT_STEP = {SCALED.name: 1e-3, SI.name: 1e-3}
+#: The parameter sets of a package, in binding order (module docstring).
+PACKAGE_SETS = ("fig5", "fig6", "reference", "gains")
+_NOMINAL = {"plant": "reference", "controller": "gains"}
+_EXPERIMENTS = {"fig5": FIG5, "fig6": FIG6}
+_GAINS = ("F[1]", "F[2]", "F[3]", "F[4]", "K0", "R_ff")
+
+
+def loop_default_experiment(variant: LoopVariant) -> tuple[float, float, float]:
+    """(start, stop, step) of a package: Fig. 5's run (tau in [0, 60]; in SI t* 60 s rounded up
+    to a whole number of steps, 55.352 s, so that every host takes the same equal steps) with
+    the fixed step :data:`DEFAULT_STEP`."""
+    step = DEFAULT_STEP[variant.name]
+    stop = FIG5.tau_end
+    if variant.name == SI.name:
+        stop = round(math.ceil(SIScaling(REFERENCE_RIG).time(stop) / step) * step, 12)
+    return 0.0, float(stop), step
+
+
+def _parameters(md, values: Mapping[str, object]) -> tuple[SspParameter, ...]:
+    variables = {v.name: v for v in md.modelVariables}
+    out = []
+    for name, value in values.items():
+        var = variables[name]
+        unit = var.unit if var.type == "Real" and var.unit not in (None, "1") else None
+        out.append(SspParameter(name, var.type, value, unit))
+    return tuple(out)
+
+
+def write_loop_package(
+    fmus_dir: str | os.PathLike[str],
+    variant: LoopVariant,
+    out: str | os.PathLike[str] | None = None,
+    source_date_epoch: int | None = None,
+) -> Path:
+    """Write the SSP package of the closed loop of the FMUs in ``fmus_dir`` (module docstring).
+
+    Parameters
+    ----------
+    fmus_dir : path
+        Folder with the variant's two FMUs (``build_fmus.py``'s output).
+    variant : LoopVariant
+        :data:`~drillstring.orchestration.closed_loop.SCALED` or ``SI``.
+    out : path, optional
+        The ``.ssp`` file (default ``fmus_dir/<variant.ssp>``).
+    source_date_epoch : int, optional
+        Timestamp of the archive entries (reproducible builds).
+
+    Returns
+    -------
+    Path
+        The package, validated against the SSP 1.0 schemas.
+    """
+    paths = dict(zip(("plant", "controller"), fmu_paths(fmus_dir, variant), strict=True))
+    target = Path(out) if out is not None else Path(fmus_dir) / variant.ssp
+    components = []
+    for name, fmu in paths.items():
+        md = read_model_description(str(fmu))
+        starts = declared_start_values(md)
+        connectors = tuple(
+            SspConnector(
+                v.name,
+                v.causality,
+                v.type,
+                v.unit if v.type == "Real" else None,
+            )
+            for v in md.modelVariables
+            if v.causality in ("input", "output")
+        )
+        sets = {}
+        for set_name, experiment in _EXPERIMENTS.items():
+            values = experiment_start_values(experiment, variant, full_initial=True)[name]
+            sets[set_name] = _parameters(md, values)
+        if name == "plant":
+            nominal = {
+                v.name: starts[v.name]
+                for v in md.modelVariables
+                if v.causality == "parameter" and v.name in _plant_parameter_names(variant)
+            }
+        else:
+            gains = _GAINS + (("Omega0",) if variant.name == SI.name else ())
+            nominal = {g: starts[g] for g in gains}
+        sets[_NOMINAL[name]] = _parameters(md, nominal)
+        components.append(SspComponent(name, f"resources/{fmu.name}", connectors, sets))
+    connections = []
+    for spec in variant.connections:
+        src, dst = (part.strip().split(".", 1) for part in spec.split("->"))
+        connections.append(SspConnection(src[0], src[1], dst[0], dst[1]))
+    kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
+    return write_ssp(
+        target,
+        name="DrillStringClosedLoop" + ("SI" if variant.name == SI.name else ""),
+        components=components,
+        fmus=paths,
+        connections=connections,
+        units=UNITS,
+        default_experiment=loop_default_experiment(variant),
+        description=(
+            "Drill-string plant (11)-(14), (17) and torsional controller (29)-(31) of Besselink, "
+            f"van de Wouw and Nijmeijer (IEEE CCA 2011) in closed loop, in {kind}"
+        ),
+        source_date_epoch=source_date_epoch,
+    )
+
+
+def _plant_parameter_names(variant: LoopVariant) -> tuple[str, ...]:
+    """The plant parameters of the parameter set itself (not the initial state or engine)."""
+    if variant.name == SI.name:
+        return tuple(REFERENCE_RIG.to_dict())
+    return ("n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0")
