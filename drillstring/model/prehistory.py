@@ -30,29 +30,6 @@ def nominal_history(tau: float) -> tuple[float, float, float, float]:
     return 0.0, 0.0, 0.0, 0.0
 
 
-def _nominal_nodes(params: ScaledParams, h: float) -> np.ndarray:
-    """Nodes of the nominal prehistory, in decreasing time (vectorised :func:`_sampled_nodes`)."""
-    w0, v0 = params.omega0, params.v0
-    blade = 2.0 * math.pi / params.n
-    n = math.ceil(blade / (w0 * h)) + 4
-    if n > MAX_PREHISTORY_NODES:
-        _too_long(h)
-    tau = -np.arange(n + 1, dtype=float) * h
-    tau[0] = 0.0  # not -0.0
-    phi = w0 * tau + 0.0
-    behind = phi[0] - phi  # angle rotated since each node
-    k = np.arange(n + 1)
-    stop = (behind > blade) & (k >= 2) & (np.roll(behind, 2) > blade)
-    last = int(np.argmax(stop))
-    nodes = np.zeros((last + 1, H_ROWS))
-    nodes[:, H_TAU] = tau[: last + 1]
-    nodes[:, H_U] = v0 * tau[: last + 1] + 0.0
-    nodes[:, H_V] = v0 + 0.0
-    nodes[:, H_PHI] = phi[: last + 1]
-    nodes[:, H_W] = w0 + 0.0
-    return nodes
-
-
 def _too_long(h: float) -> None:
     raise ValueError(
         "history does not span one blade angle 2*pi/n within "
@@ -60,50 +37,121 @@ def _too_long(h: float) -> None:
     )
 
 
-def _sampled_nodes(params: ScaledParams, history: HistoryFunction, h: float) -> np.ndarray:
-    """Sample ``history`` on nodes spaced h back from tau = 0 until it spans one blade angle
-    (two nodes beyond it, so the delay is always bracketed); in decreasing time."""
+def _perturbations(history: HistoryFunction | None, tau: np.ndarray) -> np.ndarray:
+    """(u, du, phi, dphi) of ``history`` at the times ``tau``, as a 4 x len(tau) array.
+
+    The nominal history is zero without a call; any other is called once per time with a
+    Python float (its contract is a scalar function), the only per-node Python left.
+    """
+    if history is None:
+        return np.zeros((4, tau.size))
+    values = [tuple(map(float, history(t))) for t in tau.tolist()]
+    for t, v in zip(tau.tolist(), values, strict=True):
+        if len(v) != 4:
+            raise ValueError(f"history({t!r}) must return (u, du, phi, dphi), got {v!r}")
+    return np.array(values, dtype=float).reshape(tau.size, 4).T
+
+
+def _first(mask: np.ndarray) -> int:
+    """Index of the first True of ``mask``, or its length."""
+    return int(np.argmax(mask)) if mask.any() else mask.size
+
+
+def _nodes(params: ScaledParams, history: HistoryFunction | None, h: float) -> np.ndarray:
+    """Nodes tau_k = -k h, k = 0, 1, ..., with U, V, Phi, W of eqs. (11)-(13) in total
+    coordinates (``docs/model.md``, "Coordinates"), until they span one blade angle 2*pi/n
+    (eq. (6)) with two nodes beyond it, so the delay is always bracketed; in decreasing time.
+
+    Built array-wise in blocks: the first block is the nominal motion's node count, the next
+    ones double it. The nodes equal those of the node-by-node rule bit for bit (the same IEEE
+    operations on the same numbers, ``tests/test_prehistory.py``); a bad node (non-finite,
+    dPhi/dtau < 0, Phi decreasing in time) raises at the first one before the stop, as that
+    rule would.
+    """
     w0, v0 = params.omega0, params.v0
-    blade = 2.0 * np.pi / params.n
-    nodes: list[tuple[float, ...]] = []
-    k = 0
+    blade = 2.0 * math.pi / params.n
+    limit = MAX_PREHISTORY_NODES + 1
+    count = math.ceil(blade / (w0 * h)) + 5
+    if count > limit:
+        _too_long(h)
+    parts: list[np.ndarray] = []
+    perts: list[np.ndarray] = []
+    done = 0
     while True:
-        tau = -k * h
-        u, du, phi, dphi = (float(x) for x in history(tau))
-        vals = (tau, v0 * tau + u, v0 + du, w0 * tau + phi, w0 + dphi, 0.0)
-        if not all(np.isfinite(vals)):
-            raise ValueError(f"history({tau!r}) returned a non-finite value: {(u, du, phi, dphi)}")
-        if vals[H_W] < 0.0:
-            raise ValueError(
-                f"history({tau!r}) has dPhi/dtau = {vals[H_W]!r} < 0: the bit rotates backwards"
-            )
-        if nodes and vals[H_PHI] > nodes[-1][H_PHI]:
-            raise ValueError(f"history: Phi decreases in time at tau = {tau!r}")
-        nodes.append(vals)
-        phi_end = nodes[0][H_PHI]
-        if phi_end - vals[H_PHI] > blade and k >= 2 and phi_end - nodes[-3][H_PHI] > blade:
-            break
-        k += 1
-        if k > MAX_PREHISTORY_NODES:
+        k = np.arange(done, count)
+        tau = -k * h  # as the scalar rule -k*h: 0.0 (not -0.0) first
+        pert = _perturbations(history, tau)
+        u, du, phi, dphi = pert
+        perts.append(pert)
+        part = np.zeros((k.size, H_ROWS))
+        part[:, H_TAU] = tau
+        part[:, H_U] = v0 * tau + u
+        part[:, H_V] = v0 + du
+        part[:, H_PHI] = w0 * tau + phi
+        part[:, H_W] = w0 + dphi
+        parts.append(part)
+        nodes = np.concatenate(parts) if len(parts) > 1 else part
+        Phi = nodes[:, H_PHI]
+        behind = Phi[0] - Phi  # the angle rotated since each node (NaN never stops)
+        stop = np.zeros(Phi.size, dtype=bool)
+        stop[2:] = (behind[2:] > blade) & (behind[:-2] > blade)
+        last = _first(stop)
+        vals = nodes[: min(last + 1, Phi.size)]
+        bad_value = ~np.all(np.isfinite(vals[:, [H_TAU, H_U, H_V, H_PHI, H_W]]), axis=1)
+        backwards = vals[:, H_W] < 0.0
+        decreasing = np.zeros(len(vals), dtype=bool)
+        decreasing[1:] = vals[1:, H_PHI] > vals[:-1, H_PHI]
+        bad = _first(bad_value | backwards | decreasing)
+        if bad < len(vals):
+            t = float(vals[bad, H_TAU])
+            if bad_value[bad]:
+                values = tuple(np.concatenate(perts, axis=1)[:, bad].tolist())
+                raise ValueError(f"history({t!r}) returned a non-finite value: {values}")
+            if backwards[bad]:
+                raise ValueError(
+                    f"history({t!r}) has dPhi/dtau = {float(vals[bad, H_W])!r} < 0: "
+                    "the bit rotates backwards"
+                )
+            raise ValueError(f"history: Phi decreases in time at tau = {t!r}")
+        if last < Phi.size:
+            return vals
+        if count >= limit:
             _too_long(h)
-    return np.array(nodes)
+        done, count = count, min(2 * count, limit)
 
 
 def build_prehistory(
     params: ScaledParams, history: HistoryFunction, h: float, capacity: int
 ) -> tuple[np.ndarray, int]:
-    """The history buffer filled for tau <= 0, and the number of nodes.
+    """The history buffer of the delay equation (14) filled for tau <= 0.
 
-    Nodes are spaced h back from tau = 0 until they span one blade angle 2*pi/n (eq. (6)).
-    Returns the buffer (``H_ROWS x capacity``, larger if needed) with the nodes in increasing
-    time. Raises ValueError if the history is not finite or Phi decreases (the bit would rotate
-    backwards, outside the model).
+    Parameters
+    ----------
+    params : ScaledParams
+        The scaled parameter set (v0, omega0 and the blade angle 2*pi/n of eq. (6)).
+    history : callable
+        tau <= 0 -> (u, du/dtau, phi, dphi/dtau), perturbations from the nominal motion;
+        :func:`nominal_history` is built without calling it.
+    h : float
+        Node spacing (the engine's nominal step).
+    capacity : int
+        Minimum number of columns of the buffer.
+
+    Returns
+    -------
+    H : ndarray
+        ``H_ROWS x max(capacity, 2 n + 16)``: nodes tau_k = -k h in increasing time (tau = 0
+        last) until they span one blade angle, the rest zero.
+    n : int
+        The number of nodes.
+
+    Raises
+    ------
+    ValueError
+        If the history is not finite, dPhi/dtau < 0 or Phi decreases in time (the bit would
+        rotate backwards, outside the model), or the nodes never span a blade angle.
     """
-    if history is nominal_history:
-        nodes = _nominal_nodes(params, h)
-    else:
-        nodes = _sampled_nodes(params, history, h)
-    nodes = nodes[::-1]
+    nodes = _nodes(params, None if history is nominal_history else history, h)[::-1]
     cap = max(capacity, 2 * len(nodes) + 16)
     H = np.zeros((H_ROWS, cap))
     H[:, : len(nodes)] = nodes.T
