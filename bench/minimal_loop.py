@@ -7,7 +7,8 @@ guess, stopping rule and iteration bound), and one history node appended per ste
 else: no modes, no events, no diagnostics, no status checks, no bracketing safeguard of the
 Newton iteration, no buffer management (the history array is large enough for the whole run).
 It is the kernel stripped to its arithmetic, so the ratio of the two is the cost of the
-kernel's structure; ``bench/engine.py`` checks that both compute the same trajectory.
+kernel's structure; ``bench/engine.py`` checks that, started from the kernel's state past the
+delayed discontinuity of tau = 0, both compute the same trajectory bit for bit.
 """
 
 from __future__ import annotations
@@ -74,19 +75,14 @@ def _axpy(y, a, k):
 
 
 @numba.njit(cache=True, nogil=True)
-def minimal_start(p, H, end, y):
-    """The loop's state at tau = 0: (tau, y, dy/dtau, end of the history, interval hint)."""
-    k, f = _rhs(p, 0, H, end, 0.0, y)
-    return 0.0, y, f, end, k
-
-
-@numba.njit(cache=True, nogil=True)
 def minimal_loop(p, H, state, tau_end, h_nom):
     """RK4 from ``state`` to tau_end in equal steps no longer than h_nom; appends nodes to H.
 
     ``p`` = (n, n*psi, gamma, eta, v0, d0, rho, 2*pi/n); H holds the history in the kernel's
-    rows ``H_*``, with room for all steps. Each step's end is computed from the interval's
-    end, as the kernel does (its results depend on it). Returns (state, steps).
+    rows ``H_*``, with room for all steps. ``state`` = (tau, y, dy/dtau at y, end of the
+    history, interval of the last delay look-up), e.g. taken from the kernel's state. Each
+    step's end is computed from the interval's end, as the kernel does (its results depend on
+    it). Returns (state, steps).
     """
     tau, y, f1, end, k = state
     steps = 0
