@@ -4,12 +4,16 @@ convergence order, invariance, recomputation of d and tau_n, bit-exact restore).
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.kernel.jit import numba_available
 from drillstring.model.params import REFERENCE
 from drillstring.model.simulate import simulate
 
@@ -312,3 +316,58 @@ def test_bit_bounce_stop_or_continue():
     r2 = simulate(P, 2.0, initial=kick, options=opts, progress=False)
     assert r2.status.ok and r2.counters["bit_bounce_events"] >= 1
     assert r2.flags["bit_bounce"]
+
+
+#: The runs compared between the compiled and the plain-Python kernel: stick-slip with axial
+#: stick events, and torsional stick with the feedback switched on inside the run.
+_PLAIN_RUNS = r"""
+import sys
+import numpy as np
+from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import EngineOptions
+from drillstring.model.kernel.jit import numba_available
+from drillstring.model.params import REFERENCE
+from drillstring.model.simulate import simulate
+
+def runs():
+    law = AffineFeedback((-3353.5916, -2028.4214, 520.6036, -57.1065), 0.183892, -0.183892,
+                         t_on=1.5, latch="angle")
+    yield simulate(REFERENCE, 2.0, initial={"dphi": -2.5}, options=EngineOptions(h=1e-3),
+                   progress=False)
+    yield simulate(REFERENCE, 2.0, initial={"dphi": -4.9, "theta": -1.0}, control=law,
+                   options=EngineOptions(h=1e-3, torsional_stick=True), progress=False)
+
+if __name__ == "__main__":
+    assert not numba_available()
+    out = {}
+    for i, r in enumerate(runs()):
+        for c, v in r.data.items():
+            out[f"{i}.{c}"] = v
+        out[f"{i}.events"] = np.array([(e.tau, e.V, e.gstar, e.u, e.g_integral)
+                                       for e in r.events])
+        out[f"{i}.counters"] = np.array(list(r.counters.values()))
+    np.savez(sys.argv[1], **out)
+"""
+
+
+def test_plain_python_kernel_is_bit_identical(tmp_path):
+    """DRILLSTRING_JIT=0 runs the same source as plain Python: the same numbers, bit for bit,
+    through axial stick, torsional stick, a switch-on and its events."""
+    assert numba_available()  # the comparison needs the compiled kernel here
+    script = tmp_path / "plain_runs.py"
+    script.write_text(_PLAIN_RUNS)
+    env = {**os.environ, "DRILLSTRING_JIT": "0"}
+    subprocess.run([sys.executable, str(script), str(tmp_path / "plain.npz")], env=env, check=True)
+    plain = np.load(tmp_path / "plain.npz")
+    namespace: dict = {}
+    exec(compile(_PLAIN_RUNS, str(script), "exec"), namespace)  # the same runs, compiled here
+    for i, r in enumerate(namespace["runs"]()):
+        assert r.status.ok and r.counters["stick_events"] >= 2
+        if i == 1:
+            assert any(e.kind == "switch_on" for e in r.events)
+            assert r.counters["torsional_stick_events"] >= 1
+        for c, v in r.data.items():
+            assert np.array_equal(plain[f"{i}.{c}"], v), (i, c)
+        ev = np.array([(e.tau, e.V, e.gstar, e.u, e.g_integral) for e in r.events])
+        assert np.array_equal(plain[f"{i}.events"], ev)
+        assert np.array_equal(plain[f"{i}.counters"], np.array(list(r.counters.values())))
