@@ -672,10 +672,12 @@ class SampledAffine:
 
     @property
     def R_ff(self) -> float:
+        """Feed-forward torque (31) of the feedback (scaled, units of C)."""
         return self.feedback.R_ff
 
     @property
     def t_on(self) -> float:
+        """Switch-on time of the feedback (scaled)."""
         return self.feedback.t_on
 
     def initial_state(self, m: Measurement) -> LawState:
