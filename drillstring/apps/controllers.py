@@ -415,7 +415,7 @@ def write_controller_map(
     tau_end, window, Ts, dphi0_rel : float
         Run length, late window, sample period, initial bit speed as a fraction of omega0
         (options of the study, :mod:`drillstring.apps.sweep.spec`).
-    serial, workers, client, resume, progress :
+    serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
         Receives the per-controller table (None: silent).
