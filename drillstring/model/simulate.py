@@ -98,7 +98,21 @@ class SimulationResult:
 
 
 def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
-    """0, dt, 2 dt, ..., with tau_end as the last point (each point k*dt, no accumulation)."""
+    """The output times of a run: 0, dt_out, 2 dt_out, ..., and tau_end last.
+
+    Parameters
+    ----------
+    tau_end : float
+        End of the run (scaled time), >= 0.
+    dt_out : float
+        Sampling step, > 0.
+
+    Returns
+    -------
+    ndarray
+        Each point is k*dt_out (no accumulated rounding); tau_end replaces the last point
+        within 1e-9 dt_out of it, else is appended.
+    """
     tau_end = check_real("tau_end", tau_end, lower=0.0)
     dt_out = check_real("dt_out", dt_out, lower=0.0)
     n = int(math.floor(tau_end / dt_out + 1e-9))
