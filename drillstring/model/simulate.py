@@ -103,7 +103,7 @@ def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
     Parameters
     ----------
     tau_end : float
-        End of the run (scaled time), >= 0.
+        End of the run (scaled time), > 0.
     dt_out : float
         Sampling step, > 0.
 
