@@ -7,6 +7,10 @@ Every comparison is measured side by side in this run (interleaved rounds, media
    on a smooth run without mode events: the stable axial set (taubar_n0 = 0.5 taubar_crit, the
    axial kick of ``tests/test_engine.py``), u(0) = 1e-4, dphi/dtau(0) = -0.5, tau in [0, 20],
    h = 5e-4. Target: ratio <= 2. Also the RK4 trials per event location (target <= 8).
+   The ratio depends on the machine's load: on the shared 2-core machine a whole process
+   sees either about 1.55 (kernel ~275 ns, minimal loop ~178 ns) or, while other jobs run,
+   up to 2.0 (kernel ~370 ns, the minimal loop nearly unchanged); it is not the memory
+   layout (the same with address randomisation off and a fixed hash seed).
 2. Work-precision of Fig. 5 (``drillstring.model.experiments.FIG5``, tau in [0, 60]) closed
    with the paper's gain and K0 of the averaged model at A = 0.3855 (``docs/model.md``,
    "Equation (30)"), and open (R = R0): max error of du/dtau and dphi/dtau on the output grid
