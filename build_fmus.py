@@ -770,7 +770,8 @@ def build_fmus(
     gains_path: str | os.PathLike[str] | None = None,
     source_date_epoch: int | None = None,
 ) -> dict[str, Path]:
-    """Build both FMUs into ``out_dir``; returns {model identifier: path}.
+    """Build every FMU (plant, LMI and top-drive controller; scaled and SI) and the SSP packages
+    into ``out_dir``; returns {model identifier or package name: path}.
 
     ``gains_path`` defaults to ``drillstring.controller.gains.DEFAULT_GAINS_PATH``;
     ``source_date_epoch`` defaults to the environment variable ``SOURCE_DATE_EPOCH``.
