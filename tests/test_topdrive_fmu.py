@@ -322,9 +322,10 @@ def test_ecos_runs_the_si_topdrive_package_like_the_master(built):
     with kept_sys_path(), Master.from_ssp(ssp, "z-torque") as m:
         ref = m.run(stop, H, progress=False, exchange="simple", grid="sum")
     assert ref.completed
-    # the plant's signals, which integrate the torque the plant was given. (The controller
-    # output Ecos records is read at another point of its step: it differs from the master's
-    # recorded one by up to 2.5 % on this run while the plants agree exactly.)
+    # the plant's signals, which integrate the torque the plant was given, as tests/test_ssp.py
+    # compares the LMI package: the controller output Ecos records is read at another point of
+    # its step than the master's (on this run it differs by up to 2.5 %, on the LMI package's
+    # fig5 by 20 kN m), while the plants and the controllers' inputs agree exactly
     names = [f"plant.{q}" for q in (*tl.FEEDBACK_SI, *AXIAL)]
     got = run_ecos(ssp, "z-torque", stop, H, names)
     assert len(got) == len(ref.time) - 1
