@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import fmu_testlib as tl
@@ -25,6 +26,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
+from drillstring.apps.cosim import cosim_main
 from drillstring.controller.lineup import INDUSTRIAL, industrial_lineup
 from drillstring.controller.tuning import soft_torque
 from drillstring.model.control import AffineFeedback
@@ -336,3 +338,18 @@ def test_ecos_runs_the_si_topdrive_package_like_the_master(built):
     print("Ecos vs master, DrillStringTopDriveSI.ssp, z-torque:", max(worst.values()))
     assert max(worst.values()) <= 1e-9, worst
     assert np.ptp(ref["controller.table_torque"]) > 10.0
+
+
+def test_cosim_command_applies_several_sets_in_order(built, tmp_path, capsys):
+    """``drillstring cosim PKG --parameter-set fig6,z-torque``: the master of those two sets."""
+    out = tmp_path / "zt"
+    code = cosim_main(
+        [str(built.topdrive_ssp), "--out", str(out), "--parameter-set", "fig6,z-torque",
+         "--stop-time", "1.0", "--no-progress"]
+    )  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    data = np.genfromtxt(out / "cosim.csv", delimiter=",", names=True)
+    ref = _master(built.topdrive_ssp, ["fig6", "z-torque"], 1.0, H)
+    assert np.array_equal(data["plantdphi"], ref["plant.dphi"])
+    assert json.loads((out / "cosim.json").read_text())["parameter_set"] == ["fig6", "z-torque"]
+    assert data["plantdphi"][0] == FIG6.dphi0  # Fig. 6's initial state, not the FMU's -2.5
