@@ -164,7 +164,14 @@ class GainsFile:
         return params_hash(self.params)
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The JSON object of the file (module docstring), ready for :func:`json.dumps`."""
+        """The JSON object of the gains file (layout in the module docstring).
+
+        Returns
+        -------
+        dict
+            Plain JSON types (lists, floats, str, nested dicts), ready for :func:`json.dumps`;
+            ``params_sha256`` is recomputed from ``params``.
+        """
         return {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,

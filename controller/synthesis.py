@@ -161,7 +161,15 @@ class Certificate:
         return self.lmi_ok and self.spectrum_ok
 
     def margins(self) -> dict[str, float]:
-        """Numbers for the gains file and reports."""
+        """The certificate's numbers for the gains file and reports.
+
+        Returns
+        -------
+        dict of str to float
+            ``lmi32_max_eig`` and ``lmi32_decay_margin`` (Lemma 1, (32)), ``P_min_eig``,
+            ``abscissa_nominal`` (at tau_n0) and ``abscissa_sweep_max`` (the largest spectral
+            abscissa over the delay sweep and tau_n0).
+        """
         return {
             "lmi32_max_eig": self.lmi_max_eig,
             "lmi32_decay_margin": self.lmi_decay_margin,

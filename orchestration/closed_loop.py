@@ -512,8 +512,16 @@ def closed_loop_master(
 
 @contextlib.contextmanager
 def kept_sys_path() -> Iterator[None]:
-    """Undo the ``sys.path`` entries pythonfmu adds on every instantiation (the FMU's
-    resources): processes started later must import the repository's ``drillstring``."""
+    """Context manager that restores ``sys.path`` on exit.
+
+    pythonfmu adds the FMU's resources folder to ``sys.path`` on every instantiation; processes
+    started later must import the repository's ``drillstring``, not the FMU's copy.
+
+    Yields
+    ------
+    None
+        ``sys.path`` is restored to its value at entry when the block exits, also on an error.
+    """
     saved = list(sys.path)
     try:
         yield

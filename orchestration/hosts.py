@@ -45,6 +45,11 @@ __all__ = [
 def tbb_library_dir() -> Path:
     """The folder of ``libtbb.so.12`` (the ``tbb`` wheel installs it into ``<prefix>/lib``).
 
+    Returns
+    -------
+    Path
+        ``<sys.prefix>/lib`` or ``<sys.base_prefix>/lib``, the first that holds the library.
+
     Raises
     ------
     RuntimeError
@@ -58,6 +63,11 @@ def tbb_library_dir() -> Path:
 
 def load_ecospy() -> ModuleType:
     """``ecospy`` in this process (its library needs ``libtbb.so.12`` loaded first).
+
+    Returns
+    -------
+    module
+        The imported ``ecospy`` module, with ``libtbb.so.12`` loaded globally before it.
 
     Raises
     ------
@@ -73,9 +83,27 @@ def load_ecospy() -> ModuleType:
 
 
 def ecos_command(*args: str) -> list[str]:
-    """``ecos ARGS``: the ecospy wheel's command line, started through the dynamic loader with
-    the tbb wheel's library folder (no ``LD_LIBRARY_PATH`` needed; pip installs the wheel's
-    binary without the executable bit)."""
+    """``ecos ARGS``: the ecospy wheel's command line, as an argument list for :mod:`subprocess`.
+
+    It is started through the dynamic loader with the tbb wheel's library folder (no
+    ``LD_LIBRARY_PATH`` needed; pip installs the wheel's binary without the executable bit).
+    ecospy is located, not imported.
+
+    Parameters
+    ----------
+    *args : str
+        The ``ecos`` arguments (``"simulate"``, ``"--path"``, PKG, ...).
+
+    Returns
+    -------
+    list of str
+        ``[/lib64/ld-linux-x86-64.so.2, --library-path, <tbb folder>, <ecos binary>, *args]``.
+
+    Raises
+    ------
+    RuntimeError
+        ecospy or tbb is not installed.
+    """
     spec = importlib.util.find_spec("ecospy")  # not imported: its library needs libtbb first
     if spec is None or spec.origin is None:
         raise RuntimeError("Ecos is not installed (pip install ecospy)")
@@ -146,6 +174,23 @@ def fmpy_parameter_set(package: SspPackage, parameter_set: str | Sequence[str]) 
     fmpy applies only this argument (not the package's bindings) and matches names of the form
     ``component.variable``. Its value conversion for Booleans is ``value != 0.0``, which makes a
     string ``"false"`` true, so the values are given as Python values of their types.
+
+    Parameters
+    ----------
+    package : SspPackage
+        The package (:func:`~drillstring.orchestration.ssp.read_ssp`).
+    parameter_set : str or sequence of str
+        The named set(s), applied in order (:meth:`SspPackage.start_values`).
+
+    Returns
+    -------
+    fmpy.ssp.ssd.ParameterSet
+        Named after the set(s) (joined by ``+``), one ``component.variable`` parameter per value.
+
+    Raises
+    ------
+    SspError
+        A name that no component of the package binds.
     """
     from fmpy.ssp.ssd import Parameter, ParameterSet
 

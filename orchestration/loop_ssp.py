@@ -119,9 +119,27 @@ def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float
 
 
 def loop_default_experiment(variant: LoopVariant) -> tuple[float, float, float]:
-    """(start, stop, step) of a package: Fig. 5's run (tau in [0, 60]; in SI t* 60 s rounded up
-    to a whole number of steps, 55.352 s, so that every host takes the same equal steps) with
-    the fixed step :data:`DEFAULT_STEP`."""
+    """The default experiment (start, stop, step) of a loop package: Fig. 5's run.
+
+    See ``docs/model.md``, "Experiments of Figs. 5 and 6".
+
+    Parameters
+    ----------
+    variant : LoopVariant
+        :data:`~drillstring.orchestration.closed_loop.SCALED` or ``SI``.
+
+    Returns
+    -------
+    tuple of 3 float
+        ``(0, stop, step)`` with the fixed step :data:`DEFAULT_STEP` of the variant. Scaled:
+        stop = tau_end = 60. SI: 60 t* on the reference rig rounded up to a whole number of
+        steps, 55.352 s, so that every host takes the same equal steps.
+
+    Raises
+    ------
+    KeyError
+        ``variant.name`` is not in :data:`DEFAULT_STEP`.
+    """
     step = DEFAULT_STEP[variant.name]
     stop = FIG5.tau_end
     if variant.name == SI.name:

@@ -87,12 +87,25 @@ class Recorder:
         self.n = k + 1
 
     def times(self) -> np.ndarray:
-        """The communication points recorded so far."""
+        """The communication points recorded so far.
+
+        Returns
+        -------
+        numpy.ndarray
+            1-D view (not a copy) of the time column, one entry per recorded row.
+        """
         return self.rows[: self.n, 0]
 
     def table(self) -> np.ndarray:
-        """The rows as a structured array: ``time``, connected outputs, connected inputs (the
-        value of their source), recorded variables."""
+        """The rows recorded so far as a structured array (a copy).
+
+        Returns
+        -------
+        numpy.ndarray
+            One row per communication point, float64 fields ``time``, the connected outputs
+            (``"unit.var"``), the connected inputs (the value of their source) and the recorded
+            variables.
+        """
         sysm = self.instances.system
         names = ("time", *sysm.outputs, *sysm.input_source, *self.record_keys)
         out = np.empty(self.n, dtype=np.dtype([(n, np.float64) for n in names]))

@@ -113,7 +113,14 @@ class SspParameter:
             raise SspError(f"parameter {self.name!r}: unknown type {self.type!r}")
 
     def text(self) -> str:
-        """The value as the ``value`` attribute of its ``ssv:<type>`` element."""
+        """The value as the ``value`` attribute of its ``ssv:<type>`` element.
+
+        Returns
+        -------
+        str
+            ``repr`` of the float for Real, ``"true"``/``"false"`` for Boolean, the ``int`` for
+            Integer, else ``str(value)``.
+        """
         if self.type == "Real":
             return repr(float(self.value))
         if self.type == "Boolean":
@@ -168,7 +175,28 @@ def _units_element(parent_tag: str, units: Mapping[str, UnitDef]) -> etree._Elem
 def ssv_document(
     name: str, parameters: Sequence[SspParameter], units: Mapping[str, UnitDef]
 ) -> bytes:
-    """The ``.ssv`` file of one parameter set (with the definitions of the units it uses)."""
+    """The ``.ssv`` file of one parameter set (with the definitions of the units it uses).
+
+    Parameters
+    ----------
+    name : str
+        Name of the ``ssv:ParameterSet``.
+    parameters : sequence of SspParameter
+        Its parameters, in order; an Enumeration is written as ``ssv:Integer``, a unit only for
+        a Real.
+    units : mapping
+        Unit name -> UnitDef, at least the units the Real parameters name.
+
+    Returns
+    -------
+    bytes
+        The UTF-8 XML document, with declaration (not validated here).
+
+    Raises
+    ------
+    KeyError
+        A Real parameter names a unit missing from ``units``.
+    """
     root = etree.Element(
         _q("ssv", "ParameterSet"),
         nsmap={k: NS[k] for k in ("ssv", "ssc")},
@@ -200,7 +228,37 @@ def ssd_document(
     default_experiment: tuple[float, float, float] | None,
     description: str = "",
 ) -> bytes:
-    """``SystemStructure.ssd`` (``sources``: (component, set) -> path of its ``.ssv``)."""
+    """The ``SystemStructure.ssd`` document of a package.
+
+    Parameters
+    ----------
+    name : str
+        Name of the system structure and of its system.
+    components : sequence of SspComponent
+        The components, their connectors (Enumerations as ``ssc:Integer``) and parameter
+        bindings in the order of ``parameter_sets``.
+    connections : sequence of SspConnection
+        The connections.
+    units : mapping
+        Unit name -> UnitDef, at least the units the Real connectors name.
+    sources : mapping
+        (component name, set name) -> path of its ``.ssv`` in the package.
+    default_experiment : (start, stop, step) or None
+        ``ssd:DefaultExperiment`` with the OSP fixed-step annotation (module docstring).
+    description : str
+        Description of the system (omitted when empty).
+
+    Returns
+    -------
+    bytes
+        The UTF-8 XML document, with declaration (not validated here).
+
+    Raises
+    ------
+    KeyError
+        A bound set has no entry in ``sources``, or a connector's unit is missing from
+        ``units``.
+    """
     root = etree.Element(
         _q("ssd", "SystemStructureDescription"),
         nsmap={k: NS[k] for k in ("ssd", "ssc", "ssv", "osp")},
@@ -410,9 +468,28 @@ def _package_entries(path: Path) -> dict[str, bytes]:
 
 
 def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
-    """The problems of an SSP package (archive or folder) against the SSP 1.0 schemas that fmpy
-    ships (``SystemStructureDescription.xsd``, ``SystemStructureParameterValues.xsd``) and its
-    references (every FMU and ``.ssv`` it names is in it); ``[]`` for a valid package."""
+    """The problems of an SSP package against the SSP 1.0 schemas and its own references.
+
+    The schemas are those fmpy ships (``SystemStructureDescription.xsd``,
+    ``SystemStructureParameterValues.xsd``); the references: every FMU and ``.ssv`` the
+    ``.ssd`` names is in the package.
+
+    Parameters
+    ----------
+    path : path
+        An ``.ssp`` archive or a folder.
+
+    Returns
+    -------
+    list of str
+        One message per problem, naming the file (and line for a schema error); ``[]`` for a
+        valid package, ``["<path> does not exist"]`` for a missing path.
+
+    Raises
+    ------
+    SspError
+        ``path`` is a file that is not a readable zip archive.
+    """
     path = Path(path)
     if not path.exists():
         return [f"{path} does not exist"]
@@ -495,7 +572,23 @@ class SspPackage:
         return tuple(names)
 
     def component(self, name: str) -> SspComponent:
-        """The component called ``name``."""
+        """The component called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            The component's instance name.
+
+        Returns
+        -------
+        SspComponent
+            The first component of that name.
+
+        Raises
+        ------
+        SspError
+            No component has that name (the message lists the components).
+        """
         for comp in self.components:
             if comp.name == name:
                 return comp
@@ -503,7 +596,23 @@ class SspPackage:
         raise SspError(f"{self.path.name}: no component {name!r} (components: {known})")
 
     def fmu(self, name: str) -> Path:
-        """The FMU file of component ``name``."""
+        """The FMU file of component ``name``.
+
+        Parameters
+        ----------
+        name : str
+            The component's instance name.
+
+        Returns
+        -------
+        Path
+            ``root / source`` of the component (in the folder or the unpacked archive).
+
+        Raises
+        ------
+        SspError
+            No component has that name.
+        """
         return self.root / self.component(name).source
 
     def start_values(
@@ -511,10 +620,22 @@ class SspPackage:
     ) -> dict[str, dict[str, tuple[str, Any]]]:
         """Component -> variable -> (SSV type, value) of the named set(s), applied in order.
 
+        Parameters
+        ----------
+        parameter_set : str, sequence of str or None
+            The set name(s); a later set overrides an earlier one's values. None: no set.
+
+        Returns
+        -------
+        dict
+            Every component's name -> {variable name: (SSV type, value)}; empty dicts for
+            components the sets do not bind.
+
         Raises
         ------
         SspError
-            For a name that no component binds.
+            A name that no component binds, or ``parameter_set`` is not a name or a sequence of
+            names.
         """
         names = _set_names(parameter_set)
         known = self.parameter_set_names

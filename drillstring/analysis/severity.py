@@ -67,7 +67,25 @@ def utr(omega_bit: ArrayLike, omega0: float) -> float:
 
 
 def speed_severity(omega_bit: ArrayLike) -> float:
-    """Severity ``(max - min)/(2*mean)`` of the bit speed; NaN when the mean is not > 0."""
+    """Severity ``(max - min)/(2*mean)`` of the bit speed, the industry's stick-slip index.
+
+    See ``docs/controllers.md``, "Severity metrics".
+
+    Parameters
+    ----------
+    omega_bit : array_like
+        Bit speed (total, omega0 + dphi/dtau, scaled) over the window; flattened.
+
+    Returns
+    -------
+    float
+        The severity; NaN when the mean speed is not > 0.
+
+    Raises
+    ------
+    ValueError
+        ``omega_bit`` is empty or has non-finite values.
+    """
     w = _nonempty(omega_bit, "omega_bit")
     mean = float(np.mean(w))
     if not mean > 0.0:
@@ -100,7 +118,31 @@ def stick_fraction(events: Iterable[Event], t0: float, t1: float, mode_at_t0: st
 
 
 def peak_torque(tau: ArrayLike, R_minus_R0: ArrayLike, R0: float, t_from: float = 0.0) -> float:
-    """Largest top-drive torque ``R = R0 + (R - R0)`` from ``t_from`` on (scaled, units of C)."""
+    """Largest top-drive torque ``R = R0 + max(R - R0)`` from ``t_from`` on.
+
+    See ``docs/controllers.md``, "Severity metrics".
+
+    Parameters
+    ----------
+    tau : array_like
+        Sample times (scaled).
+    R_minus_R0 : array_like
+        Torque deviation R - R0 at those times (scaled, units of C), same shape as ``tau``.
+    R0 : float
+        Nominal table torque (scaled, units of C), eq. (16).
+    t_from : float
+        First time included (the switch-on time).
+
+    Returns
+    -------
+    float
+        The peak torque R (scaled, units of C).
+
+    Raises
+    ------
+    ValueError
+        ``tau`` and ``R_minus_R0`` differ in shape, or no sample lies at or after ``t_from``.
+    """
     t = np.asarray(tau, dtype=float)
     r = np.asarray(R_minus_R0, dtype=float)
     if t.shape != r.shape:
@@ -112,7 +154,25 @@ def peak_torque(tau: ArrayLike, R_minus_R0: ArrayLike, R0: float, t_from: float 
 
 
 def window_start(tau: ArrayLike, window: float) -> int:
-    """Index of the first sample of the late window ``[tau[-1] - window, tau[-1]]``."""
+    """Index of the first sample of the late window ``[tau[-1] - window, tau[-1]]``.
+
+    Parameters
+    ----------
+    tau : array_like
+        Increasing sample times (scaled); flattened.
+    window : float
+        Window length (scaled time), > 0 and not longer than the run.
+
+    Returns
+    -------
+    int
+        The first index ``j`` with ``tau[j] >= tau[-1] - window`` (to a relative 1e-9).
+
+    Raises
+    ------
+    ValueError
+        ``tau`` is empty or non-finite, ``window`` is not > 0 or is longer than the run.
+    """
     t = _nonempty(tau, "tau")
     window = check_real("window", window, lower=0.0)
     if window > t[-1] - t[0] + 1e-9 * max(1.0, abs(t[-1])):
@@ -142,12 +202,39 @@ class Severity:
     tau_reached: float
 
     def to_dict(self) -> dict[str, Any]:
+        """The fields as a plain dict.
+
+        Returns
+        -------
+        dict
+            Field name to value (floats, bool, str), as :func:`dataclasses.asdict` gives.
+        """
         return asdict(self)
 
 
 def outcome(severity: float, stick: float, stall: bool, *, vibration_tol: float = 0.05) -> str:
-    """The outcome of a complete run: "stall" (stuck over the whole window), "stick-slip" (any
-    torsional stick in it), "vibration" (severity above ``vibration_tol``), else "steady"."""
+    """The outcome of a complete run, one of :data:`OUTCOMES`.
+
+    "stall" (stuck over the whole window), else "stick-slip" (any torsional stick in it), else
+    "vibration" (severity above ``vibration_tol``, or NaN), else "steady"; see
+    ``docs/controllers.md``, "Severity metrics".
+
+    Parameters
+    ----------
+    severity : float
+        Speed severity of the window (:func:`speed_severity`).
+    stick : float
+        Fraction of the window in torsional stick (:func:`stick_fraction`).
+    stall : bool
+        Whether the bit was in torsional stick over the whole window.
+    vibration_tol : float
+        Severity above which a run without stick counts as a vibration.
+
+    Returns
+    -------
+    str
+        The outcome.
+    """
     if stall:
         return "stall"
     if stick > 0.0:

@@ -19,7 +19,14 @@ __all__ = ["axial_main"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Argument parser of the ``axial`` subcommand."""
+    """Argument parser of the ``axial`` subcommand.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        ``what`` (stability, limit-cycle, average, all) and the options ``--out``,
+        ``--points``, ``--fit``, ``--gammabar``, ``--etabar2``, ``--taubar``.
+    """
     ap = argparse.ArgumentParser(
         prog="drillstring axial", description="Axial analysis of Section III (Figs. 2-4)."
     )

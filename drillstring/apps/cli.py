@@ -32,7 +32,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 
 def _usage() -> str:
     lines = ["usage: drillstring COMMAND [options]   (drillstring COMMAND -h for help)", ""]
-    lines += [f"  {name:<11} {desc}" for name, (_, _, desc) in COMMANDS.items()]
+    width = max(len(name) for name in COMMANDS)
+    lines += [f"  {name:<{width}}  {desc}" for name, (_, _, desc) in COMMANDS.items()]
     return "\n".join(lines)
 
 

@@ -158,8 +158,25 @@ def _row(
 
 
 def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
-    """The comparison table as fixed-width text (what ``drillstring controllers compare``
-    prints)."""
+    """The comparison table as fixed-width text (what ``drillstring controllers compare`` prints).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Rows of :attr:`Comparison.rows` (keys of :data:`COMPARISON_COLUMNS`; ``controller``,
+        ``evaluation``, ``outcome``, ``utr``, ``severity``, ``stick_fraction``,
+        ``peak_torque_over_R0``, ``peak_torque_Nm`` and ``stick_entries_after_on`` are read).
+
+    Returns
+    -------
+    str
+        A header line, a rule and one line per row, joined by newlines (no trailing newline).
+
+    Raises
+    ------
+    KeyError
+        A row lacks one of the keys read.
+    """
     head = (
         f"{'controller':<15} {'evaluation':<13} {'outcome':<11} {'UTR':>7} {'severity':>8} "
         f"{'stick':>6} {'peak R/R0':>10} {'peak R [N m]':>13} {'sticks':>6}"
@@ -398,7 +415,7 @@ def write_controller_map(
     tau_end, window, Ts, dphi0_rel : float
         Run length, late window, sample period, initial bit speed as a fraction of omega0
         (options of the study, :mod:`drillstring.apps.sweep.spec`).
-    serial, workers, client, resume, progress :
+    serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
         Receives the per-controller table (None: silent).
@@ -506,7 +523,24 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def controllers_main(argv: Sequence[str] | None = None) -> int:
-    """Run ``drillstring controllers compare|map``; exit code 0 done, 2 bad input."""
+    """Run ``drillstring controllers compare|map`` (``docs/controllers.md``, "Fig. 6-like
+    comparison" and "Maps").
+
+    ``compare`` writes :func:`write_controller_comparison`'s files, ``map`` the controller map of
+    :func:`write_controller_map`; either prints where. A bad gains file, sweep spec, value or
+    file error is printed to stderr.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after ``controllers`` (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit code: 0 done, 2 bad input (also argparse's exit code for bad options, which it
+        raises as ``SystemExit``).
+    """
     args = _parser().parse_args(argv)
     prog = f"drillstring controllers {args.job}"
     try:

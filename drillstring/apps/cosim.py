@@ -78,7 +78,19 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def variant_of(connections: Sequence[str]) -> LoopVariant | None:
-    """The closed-loop variant whose connections these are (None: another system)."""
+    """The closed-loop variant whose connections these are.
+
+    Parameters
+    ----------
+    connections : sequence of str
+        Connections as ``"unit.var -> unit.var"`` (spaces are ignored).
+
+    Returns
+    -------
+    LoopVariant or None
+        The first variant of :data:`~drillstring.orchestration.closed_loop.VARIANTS` all of
+        whose connections are among ``connections``; None for another system.
+    """
     given = {c.replace(" ", "") for c in connections}
     for variant in VARIANTS.values():
         if {c.replace(" ", "") for c in variant.connections} <= given:
@@ -130,8 +142,23 @@ def plot_speeds(
 
 
 def cosim_main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``drillstring cosim``; 0 (completed), 1 (an FMU stopped the run: the
-    partial results are written), 2 (bad input)."""
+    """Entry point of ``drillstring cosim``: run an SSP package on the project's master.
+
+    Writes ``cosim.csv``, ``cosim.json`` (the run's summary) and, for a closed-loop package,
+    ``speeds.png`` into ``--out``, and prints a one-line summary.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after ``cosim`` (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit code: 0 completed, 1 an FMU stopped the run (the partial results are written),
+        2 bad input (package, values or files; also argparse's code for bad options, raised
+        as ``SystemExit``).
+    """
     args = _parser().parse_args(argv)
     try:
         names: str | list[str] | None = None
@@ -330,7 +357,20 @@ def run_si_demo(
 
 
 def si_demo_lines(summary: dict[str, Any]) -> list[str]:
-    """The lines the demo prints for :func:`run_si_demo`'s summary."""
+    """The lines the demo prints for :func:`run_si_demo`'s summary.
+
+    Parameters
+    ----------
+    summary : dict
+        As :func:`run_si_demo` returns it (``ssp``, ``parameter_set``, ``steps``, ``step``,
+        ``stop_time``, ``coupling``, ``max_error``, ``relative_error``, ``ecos_vs_master``).
+
+    Returns
+    -------
+    list of str
+        One heading line, one line per host (master, Ecos) with its error against the
+        monolithic run in SI units, and the Ecos-vs-master difference.
+    """
     err, rel = summary["max_error"], summary["relative_error"]
     lines = [
         f"Fig. 5 in SI from {Path(summary['ssp']).name} ({summary['parameter_set']}): "

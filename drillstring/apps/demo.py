@@ -68,7 +68,14 @@ class DemoSummary:
     seconds: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        """The summary as plain JSON types (paths as strings, numpy scalars as numbers)."""
+        """The summary as plain JSON types.
+
+        Returns
+        -------
+        dict
+            The fields (:func:`dataclasses.asdict`) with paths as strings, numpy scalars as
+            Python numbers, tuples as lists and keys as strings, ready for :func:`json.dumps`.
+        """
         return _jsonable(asdict(self))
 
 

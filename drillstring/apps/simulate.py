@@ -27,7 +27,13 @@ __all__ = ["simulate_main"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Argument parser of the ``simulate`` subcommand."""
+    """Argument parser of the ``simulate`` subcommand.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser (``prog="drillstring simulate"``); its options are listed by ``--help``.
+    """
     ap = argparse.ArgumentParser(
         prog="drillstring simulate", description="One run of the full model (11)-(14), (17)."
     )

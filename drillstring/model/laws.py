@@ -143,13 +143,71 @@ class Law(Protocol):
     R_ff: float
     t_on: float
 
-    def initial_state(self, m: Measurement) -> LawState: ...
+    def initial_state(self, m: Measurement) -> LawState:
+        """The law's state at switch-on, from the measurements at that instant.
 
-    def output(self, state: LawState, m: Measurement) -> float: ...
+        Parameters
+        ----------
+        m : Measurement
+            The measurements at the first sample at or after ``t_on``.
 
-    def update(self, state: LawState, m: Measurement, Ts: float) -> LawState: ...
+        Returns
+        -------
+        tuple of float
+            The state, chosen so that the switch-on is bumpless for this law.
+        """
+        ...
 
-    def to_si(self, rig: PhysicalParams) -> dict[str, Any]: ...
+    def output(self, state: LawState, m: Measurement) -> float:
+        """R - R0 at a sample instant (pure: does not change ``state``).
+
+        Parameters
+        ----------
+        state : tuple of float
+            The law's state at the instant.
+        m : Measurement
+            The measurements at the instant.
+
+        Returns
+        -------
+        float
+            The torque deviation R - R0 (scaled, units of C), held until the next sample.
+        """
+        ...
+
+    def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
+        """The state one sample period later, the measurements ``m`` held over it (pure).
+
+        Parameters
+        ----------
+        state : tuple of float
+            The state at the start of the period.
+        m : Measurement
+            The measurements at the start of the period.
+        Ts : float
+            Sample period (scaled time), > 0.
+
+        Returns
+        -------
+        tuple of float
+            The state at the end of the period.
+        """
+        ...
+
+    def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
+        """The law's parameters in SI units; the class's ``from_si(rig, values)`` inverts it.
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* and C (eqs. (15)-(16)).
+
+        Returns
+        -------
+        dict
+            Parameter name to SI value (``docs/controllers.md``, "SI form").
+        """
+        ...
 
 
 def sample_output(law: Law, tau: float, state: LawState | None, m: Measurement) -> float:
@@ -283,19 +341,74 @@ class SpeedPI:
         object.__setattr__(self, "t_on", check_real("SpeedPI.t_on", self.t_on))
 
     def initial_state(self, m: Measurement) -> LawState:
-        """The integral preset for a continuous torque: ``ki*I = -kp*e`` (0 when ``ki = 0``)."""
+        """The integral preset for a continuous torque: ``ki*I = -kp*e`` (0 when ``ki = 0``).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurements at switch-on; only ``dtheta`` is read (``e = -dtheta``).
+
+        Returns
+        -------
+        tuple of 1 float
+            ``(I,)``.
+        """
         return (_preset(self.kp, self.ki, -m.dtheta),)
 
     def output(self, state: LawState, m: Measurement) -> float:
-        """``R_ff + kp*e + ki*I`` with ``e = -dtheta`` (eq. (13)'s input R - R0)."""
+        """``R_ff + kp*e + ki*I`` with ``e = -dtheta`` (eq. (13)'s input R - R0).
+
+        Parameters
+        ----------
+        state : tuple of 1 float
+            ``(I,)``.
+        m : Measurement
+            The measurements; only ``dtheta`` is read.
+
+        Returns
+        -------
+        float
+            R - R0 (scaled, units of C).
+        """
         return self.R_ff - self.kp * m.dtheta + self.ki * state[0]
 
     def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """``I <- I + Ts*e``."""
+        """``I <- I + Ts*e`` (forward Euler).
+
+        Parameters
+        ----------
+        state : tuple of 1 float
+            ``(I,)`` at the start of the period.
+        m : Measurement
+            The measurements at the start of the period; only ``dtheta`` is read.
+        Ts : float
+            Sample period (scaled time).
+
+        Returns
+        -------
+        tuple of 1 float
+            ``(I,)`` at the end of the period.
+        """
         return (state[0] - Ts * m.dtheta,)
 
     def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """Parameters in SI units: kp [N m s/rad], ki [N m/rad], R_ff [N m], t_on [s]."""
+        """The parameters in SI units (``docs/controllers.md``, "SI form").
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* = sqrt(I1/C) and C (eqs. (15)-(16)).
+
+        Returns
+        -------
+        dict
+            ``kp`` [N m s/rad], ``ki`` [N m/rad], ``R_ff`` [N m], ``t_on`` [s].
+
+        Raises
+        ------
+        TypeError
+            ``rig`` is not a PhysicalParams.
+        """
         t = _si_time(rig)
         return {
             "kp": self.kp * rig.C * t,
@@ -306,7 +419,28 @@ class SpeedPI:
 
     @classmethod
     def from_si(cls, rig: PhysicalParams, values: Mapping[str, Any]) -> SpeedPI:
-        """Inverse of :meth:`to_si`."""
+        """The law from SI parameters, the inverse of :meth:`to_si`.
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* and C.
+        values : mapping
+            ``kp`` [N m s/rad] and ``ki`` [N m/rad], required; ``R_ff`` [N m] and ``t_on`` [s],
+            default 0.
+
+        Returns
+        -------
+        SpeedPI
+            The law in scaled units.
+
+        Raises
+        ------
+        TypeError
+            ``rig`` is not a PhysicalParams.
+        ValueError
+            A key is unknown or missing, or a value is not a finite real or out of range.
+        """
         t = _si_time(rig)
         v = _si_values(values, ("kp", "ki"), ("R_ff", "t_on"), "SpeedPI.from_si")
         return cls(
@@ -371,18 +505,61 @@ class ZTorque:
         object.__setattr__(self, "t_on", check_real("ZTorque.t_on", self.t_on))
 
     def initial_state(self, m: Measurement) -> LawState:
-        """(integral, high-pass's low-pass state, low-pass output) = (preset, torque, 0)."""
+        """The state at switch-on: (integral, high-pass state, low-pass output).
+
+        The integral is preset for a continuous torque as in :class:`SpeedPI` (with y = 0,
+        ``e = -dtheta``), the high-pass sits at rest on the current torque (output 0) and the
+        low-pass at 0.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurements at switch-on; ``dtheta`` and ``torque`` are read.
+
+        Returns
+        -------
+        tuple of 3 float
+            ``(I, torque, 0.0)``.
+        """
         return (_preset(self.kp, self.ki, -m.dtheta), float(m.torque), 0.0)
 
     def _error(self, state: LawState, m: Measurement) -> float:
         return -m.dtheta - self.z_gain * state[2]
 
     def output(self, state: LawState, m: Measurement) -> float:
-        """``R_ff + kp*e + ki*I`` with the corrected speed error e."""
+        """``R_ff + kp*e + ki*I`` with the corrected speed error ``e = -dtheta - z_gain*y``.
+
+        Parameters
+        ----------
+        state : tuple of 3 float
+            ``(I, z, y)``: integral, the high-pass's internal low-pass state, filtered torque.
+        m : Measurement
+            The measurements; only ``dtheta`` is read (the torque enters through the state).
+
+        Returns
+        -------
+        float
+            R - R0 (scaled, units of C).
+        """
         return self.R_ff + self.kp * self._error(state, m) + self.ki * state[0]
 
     def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """Integral by forward Euler; the filters exactly for the torque held over Ts."""
+        """The integral by forward Euler; the filters exactly for the torque held over Ts.
+
+        Parameters
+        ----------
+        state : tuple of 3 float
+            ``(I, z, y)`` at the start of the period.
+        m : Measurement
+            The measurements at the start of the period; ``dtheta`` and ``torque`` are read.
+        Ts : float
+            Sample period (scaled time).
+
+        Returns
+        -------
+        tuple of 3 float
+            ``(I, z, y)`` at the end of the period.
+        """
         integral, z, y = state
         hp = m.torque - z
         a_hp = -math.expm1(-self.omega_hp * Ts)
@@ -394,9 +571,25 @@ class ZTorque:
         )
 
     def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """SI parameters: kp [N m s/rad], ki [N m/rad], z_gain as a speed correction per torque
-        ``z_gain/Z`` [rad/s per N m] with Z = sqrt(C*I1) [N m s/rad], the corners [rad/s],
-        R_ff [N m], t_on [s]."""
+        """The parameters in SI units (``docs/controllers.md``, "SI form").
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* = sqrt(I1/C) and C (eqs. (15)-(16)).
+
+        Returns
+        -------
+        dict
+            ``kp`` [N m s/rad], ``ki`` [N m/rad], ``z_gain`` as a speed correction per torque
+            ``z_gain/Z`` [rad/s per N m] with Z = C*t* = sqrt(C*I1) [N m s/rad], ``omega_hp``
+            and ``omega_lp`` [rad/s], ``R_ff`` [N m], ``t_on`` [s].
+
+        Raises
+        ------
+        TypeError
+            ``rig`` is not a PhysicalParams.
+        """
         t = _si_time(rig)
         Z = rig.C * t
         return {
@@ -411,7 +604,28 @@ class ZTorque:
 
     @classmethod
     def from_si(cls, rig: PhysicalParams, values: Mapping[str, Any]) -> ZTorque:
-        """Inverse of :meth:`to_si`."""
+        """The law from SI parameters, the inverse of :meth:`to_si`.
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* and C.
+        values : mapping
+            ``kp``, ``ki``, ``z_gain``, ``omega_hp``, ``omega_lp`` required, ``R_ff`` and
+            ``t_on`` default 0; units as :meth:`to_si` returns them.
+
+        Returns
+        -------
+        ZTorque
+            The law in scaled units.
+
+        Raises
+        ------
+        TypeError
+            ``rig`` is not a PhysicalParams.
+        ValueError
+            A key is unknown or missing, or a value is not a finite real or out of range.
+        """
         t = _si_time(rig)
         Z = rig.C * t
         required = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
@@ -458,15 +672,35 @@ class SampledAffine:
 
     @property
     def R_ff(self) -> float:
+        """Feed-forward torque (31) of the feedback (scaled, units of C)."""
         return self.feedback.R_ff
 
     @property
     def t_on(self) -> float:
+        """Switch-on time of the feedback (scaled)."""
         return self.feedback.t_on
 
     def initial_state(self, m: Measurement) -> LawState:
-        """(phi_ref, twist_ref) by the latch of the feedback (``docs/model.md``, "Bumpless
-        switch-on")."""
+        """The references (phi_ref, twist_ref) latched by the feedback's ``latch`` mode.
+
+        See :func:`~drillstring.model.control.switch_on_references` and ``docs/model.md``,
+        "Bumpless switch-on".
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurements at switch-on; ``phi``, ``dphi`` must be finite, ``theta`` is read.
+
+        Returns
+        -------
+        tuple of 2 float
+            ``(phi_ref, twist_ref)``.
+
+        Raises
+        ------
+        ValueError
+            ``m.phi`` or ``m.dphi`` is not finite (the law needs the downhole measurements).
+        """
         if not (math.isfinite(m.phi) and math.isfinite(m.dphi)):
             raise ValueError(
                 f"the paper's law needs the bit angle and speed, got phi={m.phi!r}, dphi={m.dphi!r}"
@@ -476,7 +710,20 @@ class SampledAffine:
         return (float(phi_ref), float(twist_ref))
 
     def output(self, state: LawState, m: Measurement) -> float:
-        """``R_ff + F x`` of (29)-(31) with the latched references."""
+        """``R_ff + F x`` of (29)-(31) with the latched references.
+
+        Parameters
+        ----------
+        state : tuple of 2 float
+            ``(phi_ref, twist_ref)``.
+        m : Measurement
+            The measurements; ``phi``, ``dphi``, ``theta``, ``dtheta`` are read.
+
+        Returns
+        -------
+        float
+            R - R0 (scaled, units of C).
+        """
         f = self.feedback
         return float(
             feedback_torque(
@@ -485,12 +732,43 @@ class SampledAffine:
         )
 
     def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """The references stay as latched."""
+        """The references stay as latched: the state is returned unchanged.
+
+        Parameters
+        ----------
+        state : tuple of 2 float
+            ``(phi_ref, twist_ref)``.
+        m : Measurement
+            Not read.
+        Ts : float
+            Not read.
+
+        Returns
+        -------
+        tuple of 2 float
+            ``state``.
+        """
         return state
 
     def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """SI parameters: F = [F1 (N m/rad), F2 (N m s/rad), F3 (N m/rad), F4 (N m s/rad)],
-        K0 [rad], R_ff [N m], t_on [s], latch."""
+        """The parameters in SI units (``docs/controllers.md``, "SI form").
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* = sqrt(I1/C) and C (eqs. (15)-(16)).
+
+        Returns
+        -------
+        dict
+            ``F`` = (F1 [N m/rad], F2 [N m s/rad], F3 [N m/rad], F4 [N m s/rad]), ``K0`` [rad]
+            (an angle, unchanged by the scaling), ``R_ff`` [N m], ``t_on`` [s], ``latch`` (str).
+
+        Raises
+        ------
+        TypeError
+            ``rig`` is not a PhysicalParams.
+        """
         t = _si_time(rig)
         F1, F2, F3, F4 = self.feedback.F
         C = rig.C
@@ -504,7 +782,29 @@ class SampledAffine:
 
     @classmethod
     def from_si(cls, rig: PhysicalParams, values: Mapping[str, Any]) -> SampledAffine:
-        """Inverse of :meth:`to_si`."""
+        """The law from SI parameters, the inverse of :meth:`to_si`.
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            Gives t* and C.
+        values : mapping
+            ``F`` (4 entries) and ``K0`` required, ``R_ff`` and ``t_on`` default 0, ``latch``
+            default ``"none"``; units as :meth:`to_si` returns them.
+
+        Returns
+        -------
+        SampledAffine
+            The law in scaled units.
+
+        Raises
+        ------
+        TypeError
+            ``rig`` is not a PhysicalParams.
+        ValueError
+            A key is unknown or missing, ``F`` has not 4 entries, a value is not a finite real,
+            or ``latch`` is not one of :data:`~drillstring.model.control.LATCH_MODES`.
+        """
         t = _si_time(rig)
         rest = {k: v for k, v in values.items() if k not in ("F", "latch")}
         v = _si_values(rest, ("K0",), ("R_ff", "t_on"), "SampledAffine.from_si")
@@ -533,8 +833,29 @@ _LAW_CLASSES: dict[str, type] = {
 
 
 def law_from_si(kind: str, rig: PhysicalParams, values: Mapping[str, Any]) -> Law:
-    """A law from its SI parameters; ``kind`` is the class name (``"SpeedPI"``, ``"ZTorque"``,
-    ``"SampledAffine"``)."""
+    """A law from its SI parameters (``docs/controllers.md``, "SI form").
+
+    Parameters
+    ----------
+    kind : str
+        The class name: ``"SpeedPI"``, ``"ZTorque"`` or ``"SampledAffine"``.
+    rig : PhysicalParams
+        Gives t* and C (eqs. (15)-(16)).
+    values : mapping
+        The SI parameters, as the class's ``to_si`` returns them.
+
+    Returns
+    -------
+    Law
+        The law in scaled units.
+
+    Raises
+    ------
+    ValueError
+        ``kind`` is unknown, or the class's ``from_si`` rejects ``values``.
+    TypeError
+        ``rig`` is not a PhysicalParams.
+    """
     if kind not in _LAW_CLASSES:
         raise ValueError(f"unknown law kind {kind!r} (known: {', '.join(_LAW_CLASSES)})")
     return _LAW_CLASSES[kind].from_si(rig, values)  # type: ignore[attr-defined, no-any-return]

@@ -347,15 +347,40 @@ class PhysicalParams:
     def weight_on_bit(self, d: Any, g: Any = 0.0) -> Any:
         """Weight on bit W^c + W^f [N] at depth of cut ``d`` [m]: eq. (4) plus eq. (7).
 
-        ``g`` is the contact multiplier of (17) (0: full wearflat contact, dU/dt > 0; 1: none,
-        dU/dt < 0; in between in axial stick): W^f = n*a*l*sigma_bar*(1 - g). Floats or numpy
-        arrays.
+        Parameters
+        ----------
+        d : float or ndarray
+            Depth of cut [m], eq. (5).
+        g : float or ndarray
+            Contact multiplier of (17): 0 full wearflat contact (dU/dt > 0), 1 none (dU/dt < 0),
+            in between in axial stick; W^f = n*a*l*sigma_bar*(1 - g).
+
+        Returns
+        -------
+        float or ndarray
+            W^c + W^f [N], broadcast over ``d`` and ``g`` (no input check: plain arithmetic).
         """
         return self.n * self.a * (self.zeta * self.eps * d + self.l * self.sigma_bar * (1.0 - g))
 
     def torque_on_bit(self, d: Any, g: Any = 0.0) -> Any:
-        """Torque on bit T^c + T^f [N m] at depth of cut ``d`` [m]: eq. (4) plus eq. (7),
-        T^f = a*xi*mu*W^f/2 with W^f as in :meth:`weight_on_bit` (while the bit slips)."""
+        """Torque on bit T^c + T^f [N m] at depth of cut ``d`` [m]: eq. (4) plus eq. (7).
+
+        T^c = n*a^2*eps*d/2 and T^f = a*xi*mu*W^f/2 with W^f as in :meth:`weight_on_bit`: the
+        torque while the bit slips torsionally (in torsional stick the torque is what holds the
+        bit, ``docs/model.md``, "Torsional stick").
+
+        Parameters
+        ----------
+        d : float or ndarray
+            Depth of cut [m], eq. (5).
+        g : float or ndarray
+            Contact multiplier of (17), as in :meth:`weight_on_bit`.
+
+        Returns
+        -------
+        float or ndarray
+            T^c + T^f [N m], broadcast over ``d`` and ``g`` (no input check: plain arithmetic).
+        """
         cutting = 0.5 * self.n * self.a**2 * self.eps * d
         contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
         return cutting + contact * (1.0 - g)

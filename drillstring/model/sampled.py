@@ -47,7 +47,27 @@ class SampledResult(SimulationResult):
 
 
 def sample_count(tau: float, Ts: float, what: str) -> int:
-    """``tau/Ts`` as an integer, or a ValueError naming ``what`` if it is not one (to 1e-9)."""
+    """``tau/Ts`` as an integer: the number of sample periods in ``tau``.
+
+    Parameters
+    ----------
+    tau : float
+        A time (scaled) that must be a whole multiple of ``Ts``.
+    Ts : float
+        Sample period (scaled), > 0 (checked by the caller).
+    what : str
+        Name of ``tau`` for the error message (``"tau_end"``, ``"dt_out"``).
+
+    Returns
+    -------
+    int
+        ``round(tau/Ts)``.
+
+    Raises
+    ------
+    ValueError
+        ``tau`` differs from ``round(tau/Ts)*Ts`` by more than 1e-9 of ``max(Ts, |tau|)``.
+    """
     k = round(tau / Ts)
     if abs(tau - k * Ts) > 1e-9 * max(Ts, abs(tau)):
         raise ValueError(f"{what} = {tau!r} is not a multiple of the sample period Ts = {Ts!r}")

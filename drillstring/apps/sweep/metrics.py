@@ -28,7 +28,20 @@ CONTROLLER_METRICS: tuple[tuple[str, str], ...] = (
 
 
 def controller_column(metric: str, controller: str) -> str:
-    """Column of ``metric`` for ``controller`` in the controllers study (``utr.stiff-pi``)."""
+    """Column name of ``metric`` for ``controller`` in the controllers study.
+
+    Parameters
+    ----------
+    metric : str
+        A name of :data:`CONTROLLER_METRICS` (``"utr"``).
+    controller : str
+        A name of :data:`~drillstring.controller.lineup.CONTROLLERS` (``"stiff-pi"``).
+
+    Returns
+    -------
+    str
+        ``"<metric>.<controller>"`` (``"utr.stiff-pi"``); not checked against the names.
+    """
     return f"{metric}.{controller}"
 
 
@@ -83,9 +96,25 @@ METRICS: dict[str, tuple[tuple[str, str], ...]] = {
 
 
 def plottable(study: str) -> tuple[str, ...]:
-    """Metric names that get a map: every metric (strings as categorical maps); for the
-    controllers study the severity metrics (one figure with a panel per controller, one shared
-    colour scale) and ``best``."""
+    """Metric names that get a map in a study.
+
+    Parameters
+    ----------
+    study : str
+        A key of :data:`METRICS`.
+
+    Returns
+    -------
+    tuple of str
+        Every metric of the study (strings as categorical maps); for the controllers study the
+        names of :data:`CONTROLLER_METRICS` (one figure each, a panel per controller on one
+        colour scale) and ``"best"``.
+
+    Raises
+    ------
+    KeyError
+        ``study`` is not a study of :data:`METRICS`.
+    """
     if study == "controllers":
         return (*(m for m, _ in CONTROLLER_METRICS), "best")
     return tuple(name for name, _ in METRICS[study])

@@ -22,7 +22,25 @@ def _figure(figsize: tuple[float, float]) -> Any:
 
 
 def cell_edges(values: np.ndarray, scale: str) -> np.ndarray:
-    """Edges of the cells centred on the grid values (geometric midpoints on a log scale)."""
+    """Edges of the cells centred on the grid values (geometric midpoints on a log scale).
+
+    Parameters
+    ----------
+    values : ndarray
+        Monotone grid values of one axis, at least two (positive for ``"log"``).
+    scale : str
+        ``"log"`` for midpoints in log space; anything else is linear.
+
+    Returns
+    -------
+    ndarray
+        ``len(values) + 1`` edges; the outer two mirror the first and last midpoints.
+
+    Raises
+    ------
+    IndexError
+        ``values`` has fewer than two entries.
+    """
     v = np.log(values) if scale == "log" else np.asarray(values, dtype=float)
     mid = 0.5 * (v[1:] + v[:-1])
     edges = np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
@@ -66,9 +84,36 @@ def metric_figure(
     categories: Sequence[str] | None = None,
     palette: Mapping[str, str] | None = None,
 ) -> Any:
-    """Figure of one metric; ``values`` in point-index order (row-major over ``axes``; None or ''
-    for a failed point), ``axes`` the spec's :class:`~drillstring.apps.sweep.spec.Axis` objects;
-    ``categories`` orders the labels of a string metric, ``palette`` colours them."""
+    """Figure of one sweep metric: a line plot over one axis or a heat map over two.
+
+    The reference point is marked; failed points are grey in a heat map.
+
+    Parameters
+    ----------
+    metric : str
+        The metric's name (axis or colour-bar label).
+    kind : str
+        Its type in :data:`~drillstring.apps.sweep.metrics.METRICS`; ``"str"`` is drawn as
+        categories, any other as numbers.
+    values : sequence
+        One value per point in point-index order (row-major over ``axes``); None for a failed
+        point of a numeric metric, ``""`` for one of a string metric.
+    axes : sequence of Axis
+        The spec's one or two :class:`~drillstring.apps.sweep.spec.Axis` objects.
+    reference : dict of str to float
+        The reference value of each swept parameter (:meth:`SweepSpec.reference_values`).
+    title : str
+        Figure title.
+    categories : sequence of str, optional
+        Order of a string metric's labels (others found follow, sorted).
+    palette : mapping of str to colour, optional
+        Colours of a string metric's labels (tab10 for the others).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, on an Agg canvas, not saved.
+    """
     z, labels = _encode(values, kind, categories)
     fig = _figure((6.4, 4.8))
     ax = fig.add_subplot(1, 1, 1)
@@ -139,11 +184,35 @@ def panel_figure(
 ) -> Any:
     """One metric for several runs side by side (one panel each) on one shared colour scale.
 
-    ``panels`` maps each panel's label to its values in point-index order (as
-    :func:`metric_figure`); a 2-D sweep gives heat maps with one colour bar, a 1-D sweep one
-    line per panel on shared axes. ``log``: logarithmic colour scale (positive values);
-    ``categories`` orders the labels of a string metric, shared by the panels, and ``palette``
-    colours them.
+    A 2-D sweep gives heat maps with one colour bar, a 1-D sweep one line per panel on shared
+    axes.
+
+    Parameters
+    ----------
+    metric : str
+        The metric's name.
+    kind : str
+        Its type (``"str"``: categories shared by all panels, so a colour means one label).
+    panels : mapping of str to sequence
+        Each panel's label -> its values in point-index order (as in :func:`metric_figure`).
+    axes : sequence of Axis
+        The spec's one or two axes.
+    reference : dict of str to float
+        The reference value of each swept parameter.
+    title : str
+        Figure title.
+    log : bool
+        Logarithmic colour scale in 2-D (values <= 0 shown grey, as failed), logarithmic y
+        axis in 1-D.
+    categories : sequence of str, optional
+        Order of a string metric's labels.
+    palette : mapping of str to colour, optional
+        Colours of a string metric's labels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, on an Agg canvas, not saved.
     """
     import matplotlib as mpl
     from matplotlib.colors import LogNorm, Normalize

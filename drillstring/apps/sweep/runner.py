@@ -88,7 +88,19 @@ class SweepError(RuntimeError):
 
 
 def columns(spec: SweepSpec) -> list[str]:
-    """Header of ``results.csv``."""
+    """Header of ``results.csv`` (module docstring).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+
+    Returns
+    -------
+    list of str
+        ``index``, ``i`` (and ``j``), the swept names, the study's metrics, ``seconds``,
+        ``error``.
+    """
     grid = ["i", "j"][: len(spec.axes)]
     return ["index", *grid, *spec.names, *(m for m, _ in METRICS[spec.study]), "seconds", "error"]
 
@@ -114,7 +126,30 @@ def compute_row(
     design: DesignInputs | None,
     point_fn: PointFunction | None = None,
 ) -> list[str]:
-    """Evaluate one point and format its CSV row; an exception becomes the ``error`` column."""
+    """Evaluate one point and format its CSV row (the task a Dask worker runs).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    index : int
+        The point's index (row-major), in ``0 .. spec.n_points - 1``.
+    design : DesignInputs or None
+        The point's axial design inputs (None for the axial study).
+    point_fn : callable, optional
+        Replaces :func:`~drillstring.apps.sweep.studies.evaluate_point`.
+
+    Returns
+    -------
+    list of str
+        The row in the order of :func:`columns`. An exception of the point function becomes
+        the ``error`` column (one line, at most ``MAX_ERROR_CHARS``) with empty metrics.
+
+    Raises
+    ------
+    IndexError
+        ``index`` is outside the sweep (raised while formatting, not caught).
+    """
     t0 = time.perf_counter()
     metrics: dict[str, Any] = {}
     error = ""
@@ -142,7 +177,28 @@ def read_results(path: str | os.PathLike[str], header: Sequence[str]) -> tuple[d
     """Rows of a results file by point index, and whether the file needs a clean rewrite.
 
     A last line without its newline (the run was killed while writing it) is dropped; a point
-    present twice keeps its first row. The header must be ``header``.
+    present twice keeps its first row.
+
+    Parameters
+    ----------
+    path : path
+        The ``results.csv``.
+    header : sequence of str
+        The expected header (:func:`columns`).
+
+    Returns
+    -------
+    rows : dict of int to list of str
+        Each point's row (all fields as strings), by index.
+    dirty : bool
+        True if a truncated last line or a duplicate was dropped, or the file is empty.
+
+    Raises
+    ------
+    SweepError
+        The header differs, a line has the wrong number of fields or a bad point index.
+    OSError
+        The file cannot be read.
     """
     text = Path(path).read_text(encoding="utf-8")
     dirty = False
@@ -181,7 +237,15 @@ def _rewrite(path: Path, header: Sequence[str], rows: dict[int, list[str]]) -> N
 
 
 def kernel_warmup() -> dict[str, Any]:
-    """:func:`drillstring.model.simulate.warm_up` with this process's id (for the summary)."""
+    """Load (or compile) the numba kernel in this process, for the sweep's summary.
+
+    Returns
+    -------
+    dict
+        ``pid`` and what :func:`drillstring.model.simulate.warm_up` reports (``jit`` and,
+        with the compiled kernel, ``cache_hits``, ``cache_misses``: nonzero when it was
+        compiled here rather than loaded from numba's cache, and ``seconds``).
+    """
     return {"pid": os.getpid(), **warm_up()}
 
 
@@ -350,10 +414,46 @@ def run_sweep(
 ) -> SweepReport:
     """Run (or resume) a sweep into ``out_dir``; see the module docstring.
 
-    ``serial``: in this process, no Dask. Otherwise ``client`` (an existing
-    ``dask.distributed.Client``), else ``scheduler`` (address), else a new LocalCluster with
-    ``workers`` processes. ``point_fn`` replaces the study's point function (tests); on Dask it
-    must be importable by the workers.
+    Parameters
+    ----------
+    spec : SweepSpec
+        The validated sweep.
+    out_dir : path
+        Output folder (created); ``results.csv`` is appended row by row as points finish.
+    serial : bool
+        Run in this process, without Dask.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (used when ``serial`` is false and no
+        ``client`` is given).
+    workers : int, optional
+        Processes of a new LocalCluster (default: the CPU count).
+    resume : bool
+        Continue a sweep in ``out_dir`` with the same spec, skipping its finished points.
+    retry_failed : bool
+        With ``resume``: recompute the points that recorded an error.
+    progress : bool
+        Show a progress bar.
+    plots : bool
+        Draw the maps (:func:`write_plots`) once every point is done.
+    point_fn : callable, optional
+        Replaces the study's point function (tests); on Dask it must be importable by the
+        workers.
+    client : dask.distributed.Client, optional
+        An existing client (takes precedence over ``scheduler`` and ``workers``).
+
+    Returns
+    -------
+    SweepReport
+        Counts of points (skipped, computed, failed), completeness, wall time, plots and the
+        execution details also written to ``summary.json``.
+
+    Raises
+    ------
+    SweepError
+        ``out_dir`` holds results and ``resume`` is false, the spec differs from the one
+        resumed, or the results file is malformed or holds indices outside the sweep.
+    OSError
+        A file cannot be read or written.
     """
     t0 = time.perf_counter()
     out = Path(out_dir)
@@ -440,9 +540,26 @@ def run_sweep(
 
 
 def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> list[Path]:
-    """One PNG per metric of ``spec.metrics`` over the swept plane (or line); for the
-    controllers study one figure per severity metric with a panel per controller on a shared
-    colour scale, and the map of the best controller."""
+    """Draw the maps of a finished sweep: one PNG per metric of ``spec.metrics``.
+
+    Over the swept plane (or line); for the controllers study one figure per severity metric
+    with a panel per controller on a shared colour scale, and the map of the best controller.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    rows : dict of int to list of str
+        The results rows by point index (as :func:`read_results` gives them); missing points
+        and empty fields are drawn as failed.
+    out_dir : Path
+        Folder of the PNGs (``<metric>.png``, written atomically).
+
+    Returns
+    -------
+    list of Path
+        The PNG files, in the order of ``spec.metrics``.
+    """
     header = columns(spec)
     kinds = dict(METRICS[spec.study])
     reference = spec.reference_values()
@@ -511,7 +628,19 @@ def _controller_plots(
 
 
 def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
-    """Argument parser of the ``sweep`` subcommand."""
+    """Argument parser of the ``sweep`` subcommand.
+
+    Parameters
+    ----------
+    prog : str
+        Program name shown in usage and error messages.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        ``spec`` and the options ``--out`` (required), ``--scheduler``, ``--workers``,
+        ``--resume``, ``--retry-failed``, ``--no-plots``, ``--no-progress``.
+    """
     ap = argparse.ArgumentParser(
         prog=prog,
         description="Parameter sweep on Dask: open-loop / closed-loop / axial / controllers maps "
@@ -541,7 +670,20 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
 
 
 def sweep_main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``sweep`` subcommand; exit code 0 done, 2 bad input, 130 interrupted."""
+    """Run the ``sweep`` subcommand: load the spec, :func:`run_sweep`, print the counts.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after ``sweep`` (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit code: 0 done (failed points included), 2 bad input (options, spec, resume
+        mismatch, files; also argparse's code for bad options, raised as ``SystemExit``),
+        130 interrupted (the finished points are kept for ``--resume``).
+    """
     args = build_parser().parse_args(argv)
     prog = "drillstring sweep"
     if args.workers is not None and args.workers < 0:

@@ -189,12 +189,26 @@ class Axis:
     scale: str = "linear"
 
     def values(self) -> np.ndarray:
-        """The grid values (np.linspace or np.geomspace)."""
+        """The grid values of the axis.
+
+        Returns
+        -------
+        ndarray
+            ``num`` values from ``start`` to ``stop`` (both included): :func:`numpy.geomspace`
+            on a log scale, else :func:`numpy.linspace`.
+        """
         if self.scale == "log":
             return np.geomspace(self.start, self.stop, self.num)
         return np.linspace(self.start, self.stop, self.num)
 
     def to_dict(self) -> dict[str, Any]:
+        """The axis as a table of the spec file.
+
+        Returns
+        -------
+        dict
+            ``param``, ``start``, ``stop``, ``num``, ``scale``.
+        """
         return {
             "param": self.param,
             "start": self.start,
@@ -215,9 +229,31 @@ class SweepOptions:
         return dict(self.values)[key]
 
     def get(self, key: str, default: Any = None) -> Any:
+        """An option's value, like :meth:`dict.get`.
+
+        Parameters
+        ----------
+        key : str
+            The option name.
+        default : object
+            Returned when the study has no such option.
+
+        Returns
+        -------
+        object
+            The value (a default of :data:`OPTION_DEFAULTS` where the file gave none).
+        """
         return dict(self.values).get(key, default)
 
     def to_dict(self) -> dict[str, Any]:
+        """The options as a JSON-able dict (compared on ``--resume``).
+
+        Returns
+        -------
+        dict
+            Every option by name; with a gains file also ``gains_F``, ``gains_K0`` and
+            ``gains_params_sha256``, so that a changed file does not pass as the same spec.
+        """
         out = dict(self.values)
         if self.gains_file is not None:
             out["gains_F"] = list(self.gains_file.F)
@@ -242,32 +278,93 @@ class SweepSpec:
 
     @property
     def shape(self) -> tuple[int, ...]:
+        """Points per axis, ``(num_0,)`` or ``(num_0, num_1)``."""
         return tuple(a.num for a in self.axes)
 
     @property
     def n_points(self) -> int:
+        """Number of points of the sweep (the product of :attr:`shape`)."""
         return int(np.prod(self.shape))
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The swept parameter names, in axis order."""
         return tuple(a.param for a in self.axes)
 
     @property
     def scaled_base(self) -> ScaledParams:
+        """The base set in scaled form (a physical base converted by eqs. (15)-(16))."""
         return self.base.to_scaled() if isinstance(self.base, PhysicalParams) else self.base
 
     def grid_index(self, index: int) -> tuple[int, ...]:
+        """The grid indices of point ``index``.
+
+        Parameters
+        ----------
+        index : int
+            Row-major point index, in ``0 .. n_points - 1``.
+
+        Returns
+        -------
+        tuple of int
+            ``(i,)`` or ``(i, j)``.
+
+        Raises
+        ------
+        IndexError
+            ``index`` is outside the sweep.
+        """
         if not 0 <= index < self.n_points:
             raise IndexError(f"point index {index} outside 0..{self.n_points - 1}")
         return tuple(int(k) for k in np.unravel_index(index, self.shape))
 
     def point_values(self, index: int) -> dict[str, float]:
-        """Swept parameter values at point ``index``."""
+        """Swept parameter values at point ``index``.
+
+        Parameters
+        ----------
+        index : int
+            Row-major point index.
+
+        Returns
+        -------
+        dict of str to float
+            Each axis's ``param`` -> its value at the point.
+
+        Raises
+        ------
+        IndexError
+            ``index`` is outside the sweep.
+        """
         ij = self.grid_index(index)
         return {a.param: float(a.values()[k]) for a, k in zip(self.axes, ij, strict=True)}
 
     def point_params(self, index: int) -> ScaledParams:
-        """The scaled parameter set of point ``index`` (full-model studies)."""
+        """The scaled parameter set of point ``index`` (full-model studies).
+
+        A physical base takes the swept values and is converted by eqs. (15)-(16); a scaled
+        base takes the swept fields, then ``gammabar`` (gamma = gammabar*sqrt(n*psi)) and
+        ``etabar2`` (eta = sqrt(etabar2*n*psi)), eq. (18).
+
+        Parameters
+        ----------
+        index : int
+            Row-major point index.
+
+        Returns
+        -------
+        ScaledParams
+            The point's set, validated.
+
+        Raises
+        ------
+        ValueError
+            For the axial study (no full parameter set per point).
+        IndexError
+            ``index`` is outside the sweep.
+        ParameterError
+            A swept value makes an invalid parameter set.
+        """
         if self.study == "axial":
             raise ValueError("the axial study has no full parameter set per point")
         values = self.point_values(index)
@@ -283,13 +380,47 @@ class SweepSpec:
         return p.replace(**changes) if changes else p
 
     def axial_point(self, index: int) -> tuple[float, float, float]:
-        """(gammabar, etabar2, taubar_n) of point ``index`` (axial study)."""
+        """The fast-model parameters of point ``index`` (axial study), eq. (18).
+
+        Parameters
+        ----------
+        index : int
+            Row-major point index.
+
+        Returns
+        -------
+        tuple of 3 float
+            (gammabar, etabar2, taubar_n): the swept values, the base set's (taubar_n0 for
+            the delay) for those not swept.
+
+        Raises
+        ------
+        IndexError
+            ``index`` is outside the sweep.
+        """
         ref = self.reference_values(AXIAL_NAMES)
         ref.update(self.point_values(index))
         return ref["gammabar"], ref["etabar2"], ref["taubar_n"]
 
     def reference_values(self, names: tuple[str, ...] | None = None) -> dict[str, float]:
-        """The base set's value of each swept (or given) parameter: the reference point."""
+        """The base set's value of each swept (or given) parameter: the reference point.
+
+        Parameters
+        ----------
+        names : tuple of str, optional
+            Parameter names (default: the swept ones); ``taubar_n`` gives taubar_n0, the
+            derived ``gammabar``/``etabar2`` come from the scaled base, ``lambda`` is ``lam``.
+
+        Returns
+        -------
+        dict of str to float
+            Name -> value (SI for a physical base's fields).
+
+        Raises
+        ------
+        AttributeError
+            A name that is no parameter of the base set.
+        """
         out: dict[str, float] = {}
         s = self.scaled_base
         for name in names or self.names:
@@ -305,7 +436,14 @@ class SweepSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical JSON-able form (resolved base set): written next to the results and compared
-        on ``--resume``."""
+        on ``--resume``.
+
+        Returns
+        -------
+        dict
+            ``study``, ``base`` (``kind`` and every field), ``base_label``, ``sweep`` (the
+            axes), ``tau_end``, ``options`` (:meth:`SweepOptions.to_dict`), ``metrics``.
+        """
         kind = "physical" if isinstance(self.base, PhysicalParams) else "scaled"
         return {
             "study": self.study,
@@ -466,7 +604,30 @@ def _check_sampling(out: dict[str, Any]) -> None:
 def spec_from_dict(
     data: Mapping[str, Any], source: str = "sweep spec", base_dir: str | os.PathLike[str] = "."
 ) -> SweepSpec:
-    """Validate a parsed sweep description; relative file names are taken from ``base_dir``."""
+    """Validate a parsed sweep description (layout in the module docstring).
+
+    Every key, value and grid point is checked (each point's parameter set is built).
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed file's top-level table.
+    source : str
+        How error messages name the description (prefix).
+    base_dir : path
+        Folder relative file names (base set, gains file) are taken from.
+
+    Returns
+    -------
+    SweepSpec
+        The validated sweep.
+
+    Raises
+    ------
+    SweepSpecError
+        An unknown or missing key, a bad value, an unreadable base or gains file, or an
+        invalid grid point, naming the key and the value.
+    """
     try:
         return _spec_from_dict(data, source, Path(base_dir))
     except SweepSpecError as exc:
@@ -570,7 +731,24 @@ def _check_points(spec: SweepSpec) -> None:
 
 
 def load_spec(path: str | os.PathLike[str]) -> SweepSpec:
-    """Read and validate a sweep file (.toml or .json)."""
+    """Read and validate a sweep file (.toml or .json, chosen by suffix).
+
+    Parameters
+    ----------
+    path : path
+        The file; relative names in it are taken from its folder.
+
+    Returns
+    -------
+    SweepSpec
+        The validated sweep (:func:`spec_from_dict`).
+
+    Raises
+    ------
+    SweepSpecError
+        Another suffix, an unreadable or unparsable file, a top level that is not a table, or
+        any problem :func:`spec_from_dict` finds.
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".toml", ".json"):

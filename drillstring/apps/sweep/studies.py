@@ -70,6 +70,13 @@ class DesignInputs:
     error: str = ""
 
     def check(self) -> None:
+        """Raise if the design inputs failed; the point cannot be computed without them.
+
+        Raises
+        ------
+        RuntimeError
+            ``error`` is set (the message names gammabar, etabar2 and the error).
+        """
         if self.error:
             raise RuntimeError(
                 f"axial design inputs at gammabar = {self.gammabar!r}, etabar2 = "
@@ -78,8 +85,19 @@ class DesignInputs:
 
 
 def design_key(params: Any) -> tuple[float, float]:
-    """(gammabar, etabar^2): all that :func:`~drillstring.analysis.limit_cycles.design_inputs`
-    reads."""
+    """The key of the axial design inputs of a parameter set.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        Any object with ``gammabar`` and ``etabar2``.
+
+    Returns
+    -------
+    tuple of 2 float
+        (gammabar, etabar^2) of (18): all that
+        :func:`~drillstring.analysis.limit_cycles.design_inputs` reads.
+    """
     return (float(params.gammabar), float(params.etabar2))
 
 
@@ -87,9 +105,23 @@ _DESIGN_CACHE: dict[tuple[float, float], DesignInputs] = {}
 
 
 def axial_design(params: Any) -> DesignInputs:
-    """:func:`~drillstring.analysis.limit_cycles.design_inputs` for ``params``, cached by
-    :func:`design_key` (exact floats: the function depends on nothing else). Never raises; errors
-    are recorded."""
+    """A and taubar_crit of (22) for ``params``, cached per process by :func:`design_key`.
+
+    The cache uses exact floats: :func:`~drillstring.analysis.limit_cycles.design_inputs`
+    depends on nothing else.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The point's parameter set.
+
+    Returns
+    -------
+    DesignInputs
+        A and taubar_crit, or NaN and ``error`` (the exception's type and message) if the
+        computation failed: this function never raises, every point that needs the inputs
+        reports the error (:meth:`DesignInputs.check`).
+    """
     key = design_key(params)
     if key not in _DESIGN_CACHE:
         try:
@@ -112,6 +144,19 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
     In (29) the angle phi enters only as c*(phi(tau - tau_n) - phi(tau)) and through the twist, so
     s = 0 is a root for every parameter set; it is not a torsional instability. The root with the
     smallest modulus is dropped if it is below ``tol``.
+
+    Parameters
+    ----------
+    roots : ndarray of complex
+        Characteristic roots (e.g. :func:`~drillstring.controller.averaged.open_loop_roots`).
+    tol : float
+        Modulus below which the smallest root counts as s = 0.
+
+    Returns
+    -------
+    complex
+        The root of largest real part, imaginary part taken >= 0; NaN + NaN j if no root
+        remains.
     """
     r = np.asarray(roots, dtype=complex)
     if r.size and np.min(np.abs(r)) < tol:
@@ -153,7 +198,32 @@ def _outcome(result: SimulationResult) -> dict[str, Any]:
 def open_loop_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
-    """Open-loop metrics at one point (see the module docstring)."""
+    """Open-loop metrics at one point (see the module docstring).
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The point's parameter set.
+    design : DesignInputs
+        Its axial design inputs.
+    tau_end : float
+        Run length (scaled).
+    opts : SweepOptions
+        ``h``, ``dphi0``, ``dt_out`` of the open-loop study.
+
+    Returns
+    -------
+    dict
+        The open-loop columns of :data:`~drillstring.apps.sweep.metrics.METRICS`: A,
+        taubar_crit, R_ff = -K0 (31), the rightmost nonzero root of (29) with R_fb = 0, the
+        run's outcome (torsional stick reached and when, axial stick fraction, bit bounce,
+        status, tau reached).
+
+    Raises
+    ------
+    RuntimeError
+        The design inputs failed (:meth:`DesignInputs.check`).
+    """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
     root = rightmost_nonzero_root(open_loop_roots(model))
@@ -173,7 +243,35 @@ def open_loop_metrics(
 def closed_loop_metrics(
     params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
 ) -> dict[str, Any]:
-    """Closed-loop metrics at one point (see the module docstring)."""
+    """Closed-loop metrics at one point (see the module docstring).
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The point's parameter set.
+    design : DesignInputs
+        Its axial design inputs.
+    tau_end : float
+        Run length (scaled).
+    opts : SweepOptions
+        Options of the closed-loop study (``gains``, ``feedforward``, ``gain_max``, ``h``,
+        ``dphi0``, ``dt_out``, ``window``, ``tol``).
+
+    Returns
+    -------
+    dict
+        The closed-loop columns of :data:`~drillstring.apps.sweep.metrics.METRICS`: ||F||, the
+        closed-loop spectral abscissa at tau_n0, max |R - R0|, and over the late ``window``
+        the largest |dphi/dtau| and its peak-to-peak ripple; ``converged`` when that largest
+        |dphi/dtau| is below ``tol*|dphi0|`` (NaN and 0 for a run that stopped).
+
+    Raises
+    ------
+    RuntimeError
+        The design inputs failed (:meth:`DesignInputs.check`).
+    SynthesisInfeasible
+        The LMI (33) has no admissible gain at the point (``gains = "design"``).
+    """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
     gain = lmi_gain(
@@ -208,7 +306,32 @@ def controllers_metrics(
 
     A failed LMI design (no admissible gain at the point) is recorded in ``lmi_design_error``
     with the outcome "no_design" for the LMI law; the industrial laws still run, with the
-    point's feed-forward R_ff = -K0 (31).
+    point's feed-forward R_ff = -K0 (31). See ``docs/controllers.md``, "Maps".
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The point's parameter set.
+    design : DesignInputs
+        Its axial design inputs.
+    tau_end : float
+        Run length (scaled), a multiple of ``Ts``.
+    opts : SweepOptions
+        Options of the controllers study (``controllers``, ``Ts``, ``dphi0_rel``, ``t_on``,
+        ``latch``, ``window``, ``gains``, ``feedforward``, ``tie``, ``vibration_tol``, ...).
+
+    Returns
+    -------
+    dict
+        A, taubar_crit, the LMI gain's norm and abscissa (None when ``lmi`` is not run),
+        ``lmi_design_error``, one ``<metric>.<controller>`` column per severity metric of each
+        selected controller (flags as 0/1) and ``best``
+        (:func:`~drillstring.analysis.severity.best_controller`).
+
+    Raises
+    ------
+    RuntimeError
+        The design inputs failed (:meth:`DesignInputs.check`).
     """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
@@ -273,7 +396,23 @@ def _first_line(exc: BaseException) -> str:
 
 
 def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
-    """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4)."""
+    """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4).
+
+    Parameters
+    ----------
+    gammabar, etabar2, taubar_n : float
+        Fast-model damping, stiffness and delay of (18).
+    opts : SweepOptions
+        ``lam_over_vbar0``, ``h``, ``kick``, ``max_periods`` of the axial study.
+
+    Returns
+    -------
+    dict
+        ``average`` ((lambda/vbar0)<gbar>_a of (22), 0 at the equilibrium), ``period``,
+        ``stick_fraction``, ``stick_phases``, ``kind`` (periodic, equilibrium, not_converged,
+        invalid) and ``time_simulated`` of
+        :func:`~drillstring.analysis.limit_cycles.limit_cycle`.
+    """
     lc = limit_cycle(
         gammabar,
         etabar2,
@@ -295,8 +434,31 @@ def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepO
 
 
 def evaluate_point(spec: SweepSpec, index: int, design: DesignInputs | None) -> dict[str, Any]:
-    """The metrics of point ``index`` of ``spec`` (``design``: the point's axial design inputs,
-    None for the axial study)."""
+    """The metrics of point ``index`` of ``spec``: the default point function of a sweep.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep; its study selects :func:`axial_metrics`, :func:`open_loop_metrics`,
+        :func:`closed_loop_metrics` or :func:`controllers_metrics`.
+    index : int
+        Row-major point index.
+    design : DesignInputs or None
+        The point's axial design inputs (:func:`axial_design`); None for the axial study.
+
+    Returns
+    -------
+    dict
+        Metric name -> value, the study's columns of
+        :data:`~drillstring.apps.sweep.metrics.METRICS`.
+
+    Raises
+    ------
+    ValueError
+        ``design`` is None for a full-model study.
+    IndexError
+        ``index`` is outside the sweep.
+    """
     if spec.study == "axial":
         return axial_metrics(*spec.axial_point(index), spec.options)
     if design is None:
