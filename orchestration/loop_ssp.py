@@ -64,7 +64,6 @@ __all__ = [
     "TOPDRIVE_PARAMETERS",
     "TOPDRIVE_SETS",
     "loop_default_experiment",
-    "package_sets",
     "topdrive_tunings",
     "write_loop_package",
 ]
@@ -82,11 +81,6 @@ TOPDRIVE_PARAMETERS = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
 TOPDRIVE_DEFAULT = "soft-torque"
 #: The parameter sets of a top-drive package, in binding order.
 TOPDRIVE_SETS = ("fig5", "fig6", "reference", *INDUSTRIAL)
-
-
-def package_sets(variant: LoopVariant) -> tuple[str, ...]:
-    """The parameter sets of the variant's package, in binding order."""
-    return TOPDRIVE_SETS if variant.controller == "topdrive" else PACKAGE_SETS
 
 
 def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float]]:
