@@ -1,5 +1,6 @@
-"""Build the drillstring FMUs: the plant and the torsional controller (FMI 2.0 co-simulation),
-each in the paper's scaled quantities and in SI units, and the closed loop as SSP 1.0 packages.
+"""Build the drillstring FMUs: the plant, the torsional controller and the top-drive controller
+(FMI 2.0 co-simulation), each in the paper's scaled quantities and in SI units, and the closed
+loops as SSP 1.0 packages.
 
 Usage::
 
@@ -9,7 +10,10 @@ For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``),
 ``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``) and their SI variants
 ``fmu_src/drillstring_plant_si.py`` (``DrillStringPlantSI.fmu``) and
 ``fmu_src/torsional_controller_si.py`` (``TorsionalControllerSI.fmu``, thin subclasses: the scaled
-script they derive from is bundled beside them; ``docs/si_fmus.md``):
+script they derive from is bundled beside them; ``docs/si_fmus.md``), and of
+``fmu_src/topdrive_controller.py`` (``TopDriveController.fmu``: the industrial laws, tunings of
+the reference set in its build configuration) with its SI variant
+``fmu_src/topdrive_controller_si.py`` (``TopDriveControllerSI.fmu``):
 
 1. stage the files bundled into the FMU's ``resources/``: the ``drillstring`` package (the physics;
    no model code is in the FMU scripts), the shared lifecycle ``drillstring_fmu_support.py``, the
@@ -38,7 +42,10 @@ script they derive from is bundled beside them; ``docs/si_fmus.md``):
 Then ``DrillStringClosedLoop.ssp`` and ``DrillStringClosedLoopSI.ssp``
 (:mod:`drillstring.orchestration.loop_ssp`): both FMUs of a unit system, their connections and
 units, the parameter sets ``fig5``, ``fig6``, ``reference`` and ``gains``, the default experiment
-with a fixed step, validated against the SSP 1.0 schemas that fmpy ships.
+with a fixed step, validated against the SSP 1.0 schemas that fmpy ships; and
+``DrillStringTopDrive.ssp``, ``DrillStringTopDriveSI.ssp``, the same loops closed by the
+top-drive controller, with the sets ``stiff-pi``, ``soft-torque`` and ``z-torque`` instead of
+``gains``.
 
 Building twice gives identical ``modelDescription.xml`` apart from ``generationDateAndTime``, and
 identical FMUs byte for byte when ``SOURCE_DATE_EPOCH`` is set.
@@ -124,10 +131,15 @@ PLANT_SI = FmuSpec(FMU_SRC / "drillstring_plant_si.py", "DrillStringPlantSI", (P
 CONTROLLER_SI = FmuSpec(
     FMU_SRC / "torsional_controller_si.py", "TorsionalControllerSI", (CONTROLLER.script,)
 )
+#: The industrial top-drive controllers (stiff PI, SoftTorque, Z-Torque), in both unit systems.
+TOPDRIVE = FmuSpec(FMU_SRC / "topdrive_controller.py", "TopDriveController")
+TOPDRIVE_SI = FmuSpec(
+    FMU_SRC / "topdrive_controller_si.py", "TopDriveControllerSI", (TOPDRIVE.script,)
+)
 #: The Python modules of the FMUs, dropped from ``sys.modules`` around each build so that every
 #: build imports its own staged copies.
 _FMU_MODULES = ("drillstring_fmu_support", "drillstring_fmu_boot") + tuple(
-    spec.script.stem for spec in (PLANT, CONTROLLER, PLANT_SI, CONTROLLER_SI)
+    spec.script.stem for spec in (PLANT, CONTROLLER, PLANT_SI, CONTROLLER_SI, TOPDRIVE, TOPDRIVE_SI)
 )
 
 
@@ -758,7 +770,8 @@ def build_fmus(
     gains_path: str | os.PathLike[str] | None = None,
     source_date_epoch: int | None = None,
 ) -> dict[str, Path]:
-    """Build both FMUs into ``out_dir``; returns {model identifier: path}.
+    """Build every FMU (plant, LMI and top-drive controller; scaled and SI) and the SSP packages
+    into ``out_dir``; returns {model identifier or package name: path}.
 
     ``gains_path`` defaults to ``drillstring.controller.gains.DEFAULT_GAINS_PATH``;
     ``source_date_epoch`` defaults to the environment variable ``SOURCE_DATE_EPOCH``.
@@ -779,6 +792,7 @@ def build_fmus(
     gains = load_gains(gains_file)  # before building anything: a bad file fails at once
     base = {"version": _package_version(), "format": 1}
     control = {**base, "gains": gains}
+    topdrive = {**control, "topdrive": topdrive_config()}
     built = {
         spec.model: build_fmu(spec, out, config, source_date_epoch)
         for spec, config in (
@@ -786,21 +800,32 @@ def build_fmus(
             (CONTROLLER, control),
             (PLANT_SI, base),
             (CONTROLLER_SI, control),
+            (TOPDRIVE, topdrive),
+            (TOPDRIVE_SI, topdrive),
         )
     }
     built.update(build_packages(out, source_date_epoch))
     return built
 
 
+def topdrive_config() -> dict[str, Any]:
+    """The top-drive controller's tunings (scaled, reference set) and which one is its start
+    values (:func:`drillstring.orchestration.loop_ssp.topdrive_tunings`)."""
+    from drillstring.orchestration.loop_ssp import TOPDRIVE_DEFAULT, topdrive_tunings
+
+    return {"default": TOPDRIVE_DEFAULT, "tunings": topdrive_tunings()}
+
+
 def build_packages(out_dir: Path, source_date_epoch: int | None = None) -> dict[str, Path]:
     """The SSP 1.0 packages of the closed loop (:mod:`drillstring.orchestration.loop_ssp`) from
-    the FMUs in ``out_dir``, validated against the SSP 1.0 schemas that fmpy ships."""
-    from drillstring.orchestration.closed_loop import SCALED, SI
+    the FMUs in ``out_dir``, validated against the SSP 1.0 schemas that fmpy ships: the loop
+    closed by the LMI controller and by the top-drive controller, in both unit systems."""
+    from drillstring.orchestration.closed_loop import SCALED, SI, TOPDRIVE, TOPDRIVE_SI
     from drillstring.orchestration.loop_ssp import write_loop_package
     from drillstring.orchestration.ssp import SspError, validate_ssp
 
     built = {}
-    for variant in (SCALED, SI):
+    for variant in (SCALED, SI, TOPDRIVE, TOPDRIVE_SI):
         try:
             path = write_loop_package(out_dir, variant, source_date_epoch=source_date_epoch)
         except SspError as exc:

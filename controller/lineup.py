@@ -18,14 +18,24 @@ from drillstring.controller.gains import GainsFile
 from drillstring.controller.synthesis import synthesize
 from drillstring.controller.tuning import soft_torque, stiff_pi, z_torque
 from drillstring.model.control import AffineFeedback
-from drillstring.model.laws import Law, SampledAffine
+from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import ScaledParams
 from drillstring.validation import check_choice
 
-__all__ = ["CONTROLLERS", "FEEDFORWARD", "LmiGain", "controller_lineup", "lmi_gain"]
+__all__ = [
+    "CONTROLLERS",
+    "FEEDFORWARD",
+    "INDUSTRIAL",
+    "LmiGain",
+    "controller_lineup",
+    "industrial_lineup",
+    "lmi_gain",
+]
 
 #: The controllers, in the order of every table and figure.
 CONTROLLERS = ("stiff-pi", "soft-torque", "z-torque", "lmi")
+#: The surface-only (industrial) controllers of :data:`CONTROLLERS`.
+INDUSTRIAL = CONTROLLERS[:3]
 #: Where the LMI law's K0 and R_ff come from with a gains file: the file, or the point's (31).
 FEEDFORWARD = ("file", "point")
 
@@ -106,10 +116,34 @@ def controller_lineup(
     dict
         Name -> law, in the order of :data:`CONTROLLERS`.
     """
-    common = {"R_ff": gain.R_ff, "t_on": t_on}
+    return {
+        **industrial_lineup(params, R_ff=gain.R_ff, t_on=t_on),
+        "lmi": SampledAffine(AffineFeedback(gain.F, gain.K0, gain.R_ff, t_on, latch)),
+    }
+
+
+def industrial_lineup(
+    params: ScaledParams, *, R_ff: float = 0.0, t_on: float = 0.0
+) -> dict[str, SpeedPI | ZTorque]:
+    """The industrial controllers of :data:`INDUSTRIAL` at ``params``, tuned from the lumped
+    string (:mod:`drillstring.controller.tuning`); also the tunings the top-drive controller
+    FMU is built with.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The operating point (rho).
+    R_ff, t_on : float
+        Feed-forward (31) and switch-on time of every law.
+
+    Returns
+    -------
+    dict
+        Name -> law, in the order of :data:`INDUSTRIAL`.
+    """
+    common = {"R_ff": R_ff, "t_on": t_on}
     return {
         "stiff-pi": stiff_pi(params, **common),
         "soft-torque": soft_torque(params, **common),
         "z-torque": z_torque(params, **common),
-        "lmi": SampledAffine(AffineFeedback(gain.F, gain.K0, gain.R_ff, t_on, latch)),
     }

@@ -51,6 +51,8 @@ from drillstring.orchestration.results import CosimResult
 __all__ = [
     "SCALED",
     "SI",
+    "TOPDRIVE",
+    "TOPDRIVE_SI",
     "VARIANTS",
     "LoopVariant",
     "PLANT_FMU",
@@ -127,6 +129,9 @@ class LoopVariant:
         Plant outputs recorded besides the connected ones.
     ssp : str
         File name of the SSP package of the loop.
+    controller : str
+        Which controller FMU closes the loop: ``"lmi"`` (the paper's law, ``TorsionalController``)
+        or ``"topdrive"`` (the industrial laws, ``TopDriveController``, the same connectors).
     """
 
     name: str
@@ -136,6 +141,7 @@ class LoopVariant:
     torque: str
     record: tuple[str, ...]
     ssp: str
+    controller: str = "lmi"
 
     @property
     def connections(self) -> tuple[str, ...]:
@@ -169,6 +175,19 @@ SI = LoopVariant(
     "DrillStringClosedLoopSI.ssp",
 )
 VARIANTS: dict[str, LoopVariant] = {v.name: v for v in (SCALED, SI)}
+#: The same loops closed by the industrial top-drive controller FMU instead of the LMI one.
+TOPDRIVE = dataclasses.replace(
+    SCALED,
+    controller_fmu="TopDriveController.fmu",
+    ssp="DrillStringTopDrive.ssp",
+    controller="topdrive",
+)
+TOPDRIVE_SI = dataclasses.replace(
+    SI,
+    controller_fmu="TopDriveControllerSI.fmu",
+    ssp="DrillStringTopDriveSI.ssp",
+    controller="topdrive",
+)
 
 
 @dataclass(frozen=True)
@@ -288,7 +307,8 @@ def experiment_start_values(
     -------
     dict
         ``{"plant": {dphi0, h, torsional_stick_model}, "controller": {t_on, latch,
-        enabled}}``; the gains and the parameter set are the FMUs' own.
+        enabled}}`` (no latch for the top-drive controller); the gains and the parameter set
+        are the FMUs' own.
     """
     initial = dict(dataclasses.asdict(InitialState.coerce(experiment.initial())))
     h, t_on = float(experiment.h), float(experiment.t_on)
@@ -305,8 +325,13 @@ def experiment_start_values(
         },
         "controller": {
             "t_on": t_on,
-            # an Enumeration of the FMU: item values 1, 2, 3 in the order of LATCH_MODES
-            "latch": LATCH_MODES.index(experiment.latch) + 1,
+            # an Enumeration of the FMU: item values 1, 2, 3 in the order of LATCH_MODES; the
+            # top-drive laws have no latch (their integrators are preset instead)
+            **(
+                {"latch": LATCH_MODES.index(experiment.latch) + 1}
+                if variant.controller == "lmi"
+                else {}
+            ),
             "enabled": bool(experiment.enabled),
         },
     }
@@ -375,6 +400,11 @@ def loop_model(
     LoopModel
         Parameter set, initial state, engine options and law, validated like the Python API.
     """
+    if variant.controller != "lmi":
+        raise ValueError(
+            f"loop_model describes the loop closed by the paper's law, not by the "
+            f"{variant.controller!r} controller (its law: drillstring.model.laws)"
+        )
     if variant.name == SI.name:
         return _si_loop_model(plant, controller)
     params = ScaledParams(**{field: plant[name] for field, name in _PARAMS.items()})

@@ -13,7 +13,15 @@ its unit, four named parameter sets and the default experiment of Fig. 5 with a 
 * ``gains``: the controller's gains as built (the synthesis's gains file, in SI units in the SI
   package).
 
-Each component binds, in this order, ``fig5``, ``fig6`` and its own nominal set, so libcosim
+The packages of the loop closed by the industrial top-drive controller,
+``DrillStringTopDrive.ssp`` and ``DrillStringTopDriveSI.ssp`` (variants
+:data:`~drillstring.orchestration.closed_loop.TOPDRIVE`, ``TOPDRIVE_SI``), have the same
+connections and plant sets; the controller binds ``fig5``, ``fig6`` (switch-on time and enabled
+flag: the PI laws have no latch) and one set per tuning of the reference set,
+``stiff-pi``, ``soft-torque`` and ``z-torque`` (:func:`topdrive_tunings`; ``soft-torque`` is the
+FMU's start values).
+
+Each component binds, in this order, ``fig5``, ``fig6`` and its own nominal set(s), so libcosim
 (which applies the first binding of each component) runs Fig. 5, and Ecos runs the set named by
 ``--parameterSet``. The values are the FMUs' start values where the set is theirs (``reference``,
 ``gains``), so the package describes exactly the FMUs it holds.
@@ -28,8 +36,10 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
+from drillstring.controller.lineup import INDUSTRIAL, industrial_lineup
 from drillstring.model.experiments import FIG5, FIG6
-from drillstring.model.params import REFERENCE_RIG
+from drillstring.model.laws import ZTorque
+from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.units import UNITS, SIScaling
 from drillstring.orchestration.closed_loop import (
     SCALED,
@@ -47,7 +57,16 @@ from drillstring.orchestration.ssp import (
     write_ssp,
 )
 
-__all__ = ["DEFAULT_STEP", "PACKAGE_SETS", "loop_default_experiment", "write_loop_package"]
+__all__ = [
+    "DEFAULT_STEP",
+    "PACKAGE_SETS",
+    "TOPDRIVE_DEFAULT",
+    "TOPDRIVE_PARAMETERS",
+    "TOPDRIVE_SETS",
+    "loop_default_experiment",
+    "topdrive_tunings",
+    "write_loop_package",
+]
 
 #: The fixed macro step of the packages' default experiment (scaled time; 1 ms in SI).
 DEFAULT_STEP = {SCALED.name: 1e-3, SI.name: 1e-3}
@@ -56,6 +75,41 @@ PACKAGE_SETS = ("fig5", "fig6", "reference", "gains")
 _NOMINAL = {"plant": "reference", "controller": "gains"}
 _EXPERIMENTS = {"fig5": FIG5, "fig6": FIG6}
 _GAINS = ("F[1]", "F[2]", "F[3]", "F[4]", "K0", "R_ff")
+#: The top-drive controller FMU's parameters a tuning sets.
+TOPDRIVE_PARAMETERS = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
+#: The tuning that is the top-drive controller FMU's start values.
+TOPDRIVE_DEFAULT = "soft-torque"
+#: The parameter sets of a top-drive package, in binding order.
+TOPDRIVE_SETS = ("fig5", "fig6", "reference", *INDUSTRIAL)
+
+
+def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float]]:
+    """The industrial tunings of the reference set as values of the top-drive FMU's parameters.
+
+    :func:`~drillstring.controller.lineup.industrial_lineup` of the scaled reference set; a
+    SpeedPI is the FMU's law with ``z_gain = 0`` (its filter corners, unread, are ZTorque's
+    defaults). In the SI variant the values are converted on the reference rig
+    (:meth:`~drillstring.model.laws.ZTorque.to_si`), as the SI FMU converts its start values.
+
+    Parameters
+    ----------
+    variant : LoopVariant
+        The unit system (``variant.name``).
+
+    Returns
+    -------
+    dict
+        Tuning name (:data:`~drillstring.controller.lineup.INDUSTRIAL`) -> parameter -> value.
+    """
+    out = {}
+    for name, law in industrial_lineup(REFERENCE).items():
+        z = law if isinstance(law, ZTorque) else ZTorque(kp=law.kp, ki=law.ki, z_gain=0.0)
+        if variant.name == SI.name:
+            values = z.to_si(REFERENCE_RIG)
+        else:
+            values = {k: getattr(z, k) for k in TOPDRIVE_PARAMETERS}
+        out[name] = {k: float(values[k]) for k in TOPDRIVE_PARAMETERS}
+    return out
 
 
 def loop_default_experiment(variant: LoopVariant) -> tuple[float, float, float]:
@@ -110,7 +164,8 @@ def write_loop_package(
     fmus_dir : path
         Folder with the variant's two FMUs (``build_fmus.py``'s output).
     variant : LoopVariant
-        :data:`~drillstring.orchestration.closed_loop.SCALED` or ``SI``.
+        :data:`~drillstring.orchestration.closed_loop.SCALED`, ``SI``, ``TOPDRIVE`` or
+        ``TOPDRIVE_SI``.
     out : path, optional
         The ``.ssp`` file (default ``fmus_dir/<variant.ssp>``).
     source_date_epoch : int, optional
@@ -147,27 +202,34 @@ def write_loop_package(
                 for v in md.modelVariables
                 if v.causality == "parameter" and v.name in _plant_parameter_names(variant)
             }
+            sets[_NOMINAL[name]] = _parameters(md, nominal)
+        elif variant.controller == "topdrive":
+            for tuning, values in topdrive_tunings(variant).items():
+                sets[tuning] = _parameters(md, values)
         else:
             gains = _GAINS + (("Omega0",) if variant.name == SI.name else ())
-            nominal = {g: starts[g] for g in gains}
-        sets[_NOMINAL[name]] = _parameters(md, nominal)
+            sets[_NOMINAL[name]] = _parameters(md, {g: starts[g] for g in gains})
         components.append(SspComponent(name, f"resources/{fmu.name}", connectors, sets))
     connections = []
     for spec in variant.connections:
         src, dst = (part.strip().split(".", 1) for part in spec.split("->"))
         connections.append(SspConnection(src[0], src[1], dst[0], dst[1]))
     kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
+    if variant.controller == "topdrive":
+        system, law = "DrillStringTopDrive", "industrial top-drive controller"
+    else:
+        system, law = "DrillStringClosedLoop", "torsional controller (29)-(31)"
     return write_ssp(
         target,
-        name="DrillStringClosedLoop" + ("SI" if variant.name == SI.name else ""),
+        name=system + ("SI" if variant.name == SI.name else ""),
         components=components,
         fmus=paths,
         connections=connections,
         units=UNITS,
         default_experiment=loop_default_experiment(variant),
         description=(
-            "Drill-string plant (11)-(14), (17) and torsional controller (29)-(31) of Besselink, "
-            f"van de Wouw and Nijmeijer (IEEE CCA 2011) in closed loop, in {kind}"
+            f"Drill-string plant (11)-(14), (17) of Besselink, van de Wouw and Nijmeijer (IEEE "
+            f"CCA 2011) and {law} in closed loop, in {kind}"
         ),
         source_date_epoch=source_date_epoch,
     )

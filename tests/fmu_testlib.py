@@ -58,6 +58,9 @@ RECORD_PLANT = ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n")
 #: The same loop in SI units (DrillStringPlantSI, TorsionalControllerSI).
 PLANT_SI = "DrillStringPlantSI"
 CONTROLLER_SI = "TorsionalControllerSI"
+#: The industrial top-drive controller, in both unit systems (the LMI controller's connectors).
+TOPDRIVE = "TopDriveController"
+TOPDRIVE_SI = "TopDriveControllerSI"
 FEEDBACK_SI = ("bit_angle", "bit_speed", "table_angle", "table_speed")
 RECORD_PLANT_SI = (
     "bit_position",
@@ -104,6 +107,9 @@ class Built:
     record: tuple[str, ...] = RECORD_PLANT
     ssp: Path | None = None
     other: Built | None = None
+    #: the top-drive controller of the same unit system, and the package of its loop
+    topdrive: Unit | None = None
+    topdrive_ssp: Path | None = None
 
     @property
     def si(self) -> Built:
@@ -204,7 +210,7 @@ def _unit(model: str, fmu: Path, root: Path) -> Unit:
 
 
 def built_fmus(tmp_path_factory: Any) -> Built:
-    """Build both FMUs once per session (cached across the FMU test modules)."""
+    """Build the FMUs once per session (cached across the FMU test modules)."""
     if "built" not in _CACHE:
         root = Path(tmp_path_factory.mktemp("fmus"))
         gains = root / "gains.json"
@@ -218,6 +224,8 @@ def built_fmus(tmp_path_factory: Any) -> Built:
             out=out,
             gains_values=values,
             ssp=out / "DrillStringClosedLoop.ssp",
+            topdrive=_unit(TOPDRIVE, out / f"{TOPDRIVE}.fmu", root),
+            topdrive_ssp=out / "DrillStringTopDrive.ssp",
         )
         si = Built(
             plant=_unit(PLANT_SI, out / f"{PLANT_SI}.fmu", root),
@@ -231,6 +239,8 @@ def built_fmus(tmp_path_factory: Any) -> Built:
             record=RECORD_PLANT_SI,
             ssp=out / "DrillStringClosedLoopSI.ssp",
             other=scaled,
+            topdrive=_unit(TOPDRIVE_SI, out / f"{TOPDRIVE_SI}.fmu", root),
+            topdrive_ssp=out / "DrillStringTopDriveSI.ssp",
         )
         scaled.other = si
         _CACHE["built"] = scaled

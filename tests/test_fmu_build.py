@@ -1,4 +1,4 @@
-"""build_fmus.py and the modelDescription.xml of both FMUs.
+"""build_fmus.py and the modelDescription.xml of the FMUs (plant, LMI and top-drive controller).
 
 Checked against the FMI 2.0 standard (fmpy's validator) and against independent sources of truth:
 the start values against the gains file and the reference set, the computed outputs against a
@@ -31,10 +31,10 @@ from drillstring.model.params import REFERENCE
 
 
 def _units(built):
-    return {"plant": built.plant, "controller": built.controller}
+    return {"plant": built.plant, "controller": built.controller, "topdrive": built.topdrive}
 
 
-@pytest.mark.parametrize("which", ["plant", "controller"])
+@pytest.mark.parametrize("which", ["plant", "controller", "topdrive"])
 def test_validate_fmu_reports_zero_problems(built, which):
     problems = validate_fmu(str(_units(built)[which].fmu))
     assert problems == []
@@ -71,7 +71,7 @@ def test_capabilities_default_experiment_and_module_names(built):
         ]
         assert not [f for f in files if "__pycache__" in f or f.endswith((".pyc", ".nbi"))]
     # both FMUs run in one interpreter: their Python modules need distinct names (pythonfmu #228)
-    assert names == {"drillstring_plant", "torsional_controller"}
+    assert names == {"drillstring_plant", "torsional_controller", "topdrive_controller"}
 
 
 def test_front_layer_is_not_linked_to_python(built, tmp_path):
@@ -282,7 +282,7 @@ def test_rebuild_is_deterministic(built, tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     tl.run_build(a, built.gains, env=pinned)
     tl.run_build(b, built.gains, env=pinned)
-    models = (tl.PLANT, tl.CONTROLLER, tl.PLANT_SI, tl.CONTROLLER_SI)
+    models = (tl.PLANT, tl.CONTROLLER, tl.PLANT_SI, tl.CONTROLLER_SI, tl.TOPDRIVE, tl.TOPDRIVE_SI)
     for model in models:
         fa, fb = a / f"{model}.fmu", b / f"{model}.fmu"
         assert _sha(fa) == _sha(fb), f"{model}.fmu differs between two pinned builds"
@@ -290,10 +290,15 @@ def test_rebuild_is_deterministic(built, tmp_path):
         # the session build (build time not pinned) differs only in generationDateAndTime
         strip = re.compile(rb' generationDateAndTime="[^"]*"')
         assert strip.sub(b"", _xml(fa)) == strip.sub(b"", _xml(built.out / f"{model}.fmu"))
-    for package in ("DrillStringClosedLoop.ssp", "DrillStringClosedLoopSI.ssp"):
+    for package in (
+        "DrillStringClosedLoop.ssp",
+        "DrillStringClosedLoopSI.ssp",
+        "DrillStringTopDrive.ssp",
+        "DrillStringTopDriveSI.ssp",
+    ):
         assert _sha(a / package) == _sha(b / package), f"{package} differs between two builds"
     guids = {read_model_description(str(a / f"{m}.fmu")).guid for m in models}
-    assert len(guids) == 4
+    assert len(guids) == len(models)
 
 
 def _build_module():

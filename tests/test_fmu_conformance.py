@@ -19,6 +19,9 @@ table torque for R - R0, the bit's angle and speed for phi and dphi, the physica
 the scaled ones), the time scaled by t* (so the SI runs are the scaled runs in seconds) and their
 own model names in the messages.
 
+The rows ``K1``... concern the industrial top-drive controller (``TopDriveController``,
+``TopDriveControllerSI``): its own values and that its law's state goes on alike.
+
 The README's table ("Using the FMUs in other tools") is the scaled one:
 ``test_readme_carries_the_table`` compares them; ``python tests/test_fmu_conformance.py`` prints
 it.
@@ -445,7 +448,7 @@ def _last_time_inside(width: float):
 
 
 R, INT, B, S = "Real", "Integer", "Boolean", "String"
-P, C = "plant", "controller"
+P, C, K = "plant", "controller", "topdrive"
 
 
 def make_cases(sy: System) -> list[Case]:
@@ -1073,6 +1076,128 @@ def _table(sy: System, H: float) -> list[Case]:
             r"fmi2SetDebugLogging: unknown log category 'logEverything' \(declared: "
             r"logStatusWarning, .*logAll\); nothing changed",
         ),
+        *_topdrive_rows(sy, H),
+    ]
+
+
+def _topdrive_rows(sy: System, H: float) -> list[Case]:
+    """The rows of the top-drive controller (the front layer and lifecycle are shared: these
+    check its own values and that its state goes on alike)."""
+    model = sy.controller_model.replace("TorsionalController", "TopDriveController")
+    return [
+        Case(
+            "K1",
+            K,
+            "instantiated",
+            "gain kp = -1 (out of range)",
+            _set(R, "kp", -1.0),
+            ERROR,
+            r"parameter kp = -1\.0 rejected: kp must be in its declared range \[0\.0, inf\], "
+            r"got -1\.0; the value is not applied",
+        ),
+        Case(
+            "K2",
+            K,
+            "instantiated",
+            "filter corner omega_hp = 0 (out of range)",
+            _set(R, "omega_hp", 0.0),
+            ERROR,
+            r"parameter omega_hp = 0\.0 rejected: omega_hp must be in its declared range "
+            r"\[5e-324, inf\], got 0\.0",
+        ),
+        Case(
+            "K3",
+            K,
+            "instantiated",
+            "z_gain = NaN",
+            _set(R, "z_gain", math.nan),
+            ERROR,
+            r"parameter z_gain = nan rejected: z_gain must be finite, got nan",
+        ),
+        Case(
+            "K4",
+            K,
+            "initialization",
+            "t_on = +inf in initialization mode",
+            _set(R, "t_on", math.inf),
+            ERROR,
+            r"parameter t_on = inf rejected: t_on must be finite",
+        ),
+        Case(
+            "K5",
+            K,
+            "stepping",
+            f"input {sy.ctrl_in4} = NaN",
+            _set(R, sy.ctrl_in4, math.nan),
+            ERROR,
+            rf"input {sy.ctrl_in4} = nan rejected: {sy.ctrl_in4} must be finite, got nan",
+        ),
+        Case(
+            "K6",
+            K,
+            "stepping",
+            "gain ki set after initialization",
+            _set(R, "ki", 1.0),
+            ERROR,
+            r"parameter ki \(value reference \d+\) is fixed: it can be set only before "
+            r"fmi2ExitInitializationMode",
+        ),
+        Case(
+            "K7",
+            K,
+            "instantiated",
+            "fmi2SetInteger on the Boolean enabled",
+            _set(INT, "enabled", 1),
+            ERROR,
+            r"fmi2SetInteger: variable enabled \(value reference \d+\) is a Boolean, not an "
+            r"Integer",
+        ),
+        Case(
+            "K8",
+            K,
+            "stepping",
+            "communication point 0.0 again (a step back)",
+            _step(0.0, H),
+            ERROR,
+            rf"communication point t = 0\.0 is not the FMU's time {rx(2 * H)}",
+        ),
+        Case(
+            "K9",
+            K,
+            "stepping",
+            "step size 0",
+            _step(2 * H, 0.0),
+            ERROR,
+            rf"fmi2DoStep: step size must be > 0, got 0\.0 at t = {rx(2 * H)}",
+        ),
+        Case(
+            "K10",
+            K,
+            "stepping",
+            "fmi2DeSerializeFMUstate of the LMI controller's bytes",
+            _bytes_of_other,
+            ERROR,
+            rf"the bytes are an FMU state of {sy.controller_model} \(GUID "
+            rf"\{{[-0-9a-f]+\}}\), not of this FMU {model}",
+        ),
+        Case(
+            "K11",
+            K,
+            "stepping",
+            "fmi2DeSerializeFMUstate of bytes with one bit flipped",
+            _corrupted,
+            ERROR,
+            r"corrupted FMU state: checksum mismatch; nothing done",
+        ),
+        Case(
+            "K12",
+            K,
+            "terminated",
+            "fmi2DoStep after fmi2Terminate",
+            _step(2 * H, H),
+            ERROR,
+            r"fmi2DoStep: illegal call sequence: not allowed in state Terminated",
+        ),
     ]
 
 
@@ -1265,7 +1390,7 @@ def markdown_table() -> str:
         "| # | FMU | State | Call or value | Status | Message (excerpt) |",
         "|---|-----|-------|---------------|--------|-------------------|",
     ]
-    names = {P: "plant", C: "controller"}
+    names = {P: "plant", C: "controller", K: "top-drive controller"}
     for c in CASES:
         rows.append(
             f"| {c.id} | {names[c.unit]} | {c.state} | {c.situation} | {STATUS[c.status]} "

@@ -131,6 +131,9 @@ def test_base_unit_exponents_by_dimensional_analysis():
     assert exps("N.s/m") == {"kg": 1, "s": -1}
     assert exps("Pa") == {"kg": 1, "m": -1, "s": -2}
     assert exps("rad/s") == {"rad": 1, "s": -1}
+    # (rad/s) / (N m): the inverse of the impedance N.m.s/rad
+    inverse = {k: -v for k, v in exps("N.m.s/rad").items()}
+    assert exps("rad/(N.m.s)") == inverse
     assert UNITS["rad/s"].display_unit("rpm").factor == pytest.approx(60 / (2 * math.pi))
     assert UNITS["m/s"].display_unit("m/h").factor == 3600.0
     assert UNITS["N.m"].display_unit("kN.m").factor == 1e-3

@@ -4,6 +4,7 @@ Examples::
 
     drillstring cosim build/DrillStringClosedLoopSI.ssp --out out/cosim            # Fig. 5, SI
     drillstring cosim build/DrillStringClosedLoop.ssp --out out/fig6 --parameter-set fig6
+    drillstring cosim build/DrillStringTopDrive.ssp --out out/zt --parameter-set fig6,z-torque
     drillstring cosim my_loop.ssp --out out/mine --stop-time 10 --step 1e-3
 
 The package's components, connections and the named parameter set (default: the first one it
@@ -60,7 +61,8 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--parameter-set",
         default=None,
-        help="parameter set of the package to apply (default: the first it binds; 'none': none)",
+        help="parameter set(s) of the package to apply, comma-separated and applied in that "
+        "order, e.g. fig6,z-torque (default: the first it binds; 'none': none)",
     )
     ap.add_argument("--stop-time", type=float, default=None, help="default: the package's")
     ap.add_argument("--step", type=float, default=None, help="macro step (default: the package's)")
@@ -159,7 +161,10 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
     """
     args = _parser().parse_args(argv)
     try:
-        names = None if args.parameter_set in (None, "none") else args.parameter_set
+        names: str | list[str] | None = None
+        if args.parameter_set not in (None, "none"):
+            given = [n.strip() for n in args.parameter_set.split(",")]
+            names = given[0] if len(given) == 1 else given  # several: applied in this order
         if args.parameter_set is None:
             sets = read_ssp(args.ssp, unpack=False).parameter_set_names
             names = sets[0] if sets else None

@@ -137,7 +137,9 @@ def simulate_sampled(
         if k == n:
             break
         state = sample_update(law, tau, state, m, Ts)
-        status = engine.advance((k + 1) * Ts)
+        # tau_k + Ts, not (k + 1)*Ts: the end a unit reaches when a fixed-step master steps
+        # it from t_k by Ts (they differ by rounding), so that an FMU host can match it exactly
+        status = engine.advance(tau + Ts)
         if not status.ok:
             if engine.tau > rows[n_rows - 1, 0]:
                 rows[n_rows] = _row(engine)

@@ -125,6 +125,7 @@ UNITS: dict[str, UnitDef] = {
         UnitDef("N.s/m", {"kg": 1, "s": -1}),
         UnitDef("N.m/rad", {"kg": 1, "m": 2, "s": -2, "rad": -1}),
         UnitDef("N.m.s/rad", {"kg": 1, "m": 2, "s": -1, "rad": -1}),
+        UnitDef("rad/(N.m.s)", {"kg": -1, "m": -2, "s": 1, "rad": 1}),
         UnitDef("Pa", {"kg": 1, "m": -1, "s": -2}, (DisplayUnit("MPa", 1e-6),)),
     )
 }
