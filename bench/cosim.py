@@ -7,10 +7,18 @@
    initialization cancel), the median over rounds that run the three side by side. The third
    is a bare loop of the same FMI calls (set, doStep, get through ctypes, no master logic): the
    FMUs' own cost, so that ``per-step time - bare loop`` is each master's overhead.
-2. Total co-simulation time of the Fig. 5 case (tau in [0, 60], H = 1e-3) against the
-   monolithic twin of the same loop (sampled every 1e-3 and every 1e-2).
+2. The costs inside one macro step, from the bare loop with a timer around each call (the
+   timer's own cost subtracted), over the second half of a run of 2N steps: the plant's
+   ``fmi2DoStep`` against the engine's own advance over the same interval (``Engine.sample`` on
+   the grid of H from Python, the kernel filling the output grid, as the monolithic solver
+   does; the slope between N and 2N intervals, the same window), the controller's
+   ``fmi2DoStep``, and the master's overhead per step (master - bare loop).
+3. Total co-simulation time of the Fig. 5 case (tau in [0, 60], H = 1e-3) against the
+   monolithic twin of the same loop (sampled every 1e-3 and every 1e-2), interleaved rounds.
 
-Target: per-step master overhead no worse than libcosim's. Run:
+Targets: per-step master overhead no worse than libcosim's; at H = 1e-3 a plant
+``fmi2DoStep`` <= 2x the engine's advance over the same interval; the controller's
+``fmi2DoStep`` <= 5 us; the Fig. 5 co-simulation <= 1.5x the monolithic run sampled at H. Run:
 ``.venv/bin/python bench/cosim.py [--fmus DIR | --gains G] [--H 1e-3] [--steps 2000]``
 (without ``--fmus`` the FMUs are built into a temporary folder from ``--gains``, or from a gains
 file designed first).
@@ -26,7 +34,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from drillstring.apps.design import design_main
+from drillstring.model.engine import Engine
 from drillstring.model.experiments import FIG5
 from drillstring.orchestration.closed_loop import (
     CONNECTIONS,
@@ -89,9 +100,29 @@ def libcosim_time(fmus: dict[str, Path], starts: dict[str, dict], H: float, n: i
     return time.perf_counter() - t0
 
 
-def bare_loop_time(master, H: float, n: int) -> float:
-    """Wall time of ``n`` Jacobi steps of the bare FMI calls (get x, set x, get R, set R,
-    two doSteps through ctypes) on fresh instances of the master's extracted FMUs."""
+#: Calls timed one by one in the bare loop (``bare_loop``'s ``parts``).
+PARTS = ("plant get", "controller set", "controller get", "plant set", "plant step",
+         "controller step")  # fmt: skip
+
+
+def _timer_cost(n: int = 20000) -> float:
+    """Cost of one ``perf_counter_ns`` pair around nothing [s] (subtracted from each part)."""
+    clock = time.perf_counter_ns
+    total = 0
+    for _ in range(n):
+        t0 = clock()
+        total += clock() - t0
+    return total * 1e-9 / n
+
+
+def bare_loop(master, H: float, n: int, timed_from: int | None = None):
+    """``n`` Jacobi steps of the bare FMI calls (get x, set x, get R, set R, two doSteps
+    through ctypes) on fresh instances of the master's extracted FMUs.
+
+    Returns the wall time of the loop and, if ``timed_from`` is given, the summed time of each
+    call of :data:`PARTS` over the steps ``k >= timed_from`` (each call then between two
+    ``perf_counter_ns``; the caller subtracts :func:`_timer_cost`).
+    """
     from fmpy.fmi2 import FMU2Slave
 
     sysm = master.system
@@ -128,8 +159,11 @@ def bare_loop_time(master, H: float, n: int) -> float:
         p_step, c_step = plant.dll.fmi2DoStep, ctrl.dll.fmi2DoStep  # typed by fmpy
         p_get, c_set = plant.dll.fmi2GetReal, ctrl.dll.fmi2SetReal
         c_get, p_set = ctrl.dll.fmi2GetReal, plant.dll.fmi2SetReal
+        parts = dict.fromkeys(PARTS, 0)
+        clock = time.perf_counter_ns
+        first = n if timed_from is None else timed_from
         t0 = time.perf_counter()
-        for k in range(n):
+        for k in range(first):
             t = k * H
             p_get(pc, vr_out, 4, x)
             c_set(cc, vr_in, 4, x)
@@ -137,11 +171,64 @@ def bare_loop_time(master, H: float, n: int) -> float:
             p_set(pc, vr_pr, 1, r)
             if p_step(pc, t, H, 1) > 1 or c_step(cc, t, H, 1) > 1:
                 raise RuntimeError(f"bare loop: doStep failed at t = {t}")
+        for k in range(first, n):
+            t = k * H
+            a = clock()
+            p_get(pc, vr_out, 4, x)
+            b = clock()
+            c_set(cc, vr_in, 4, x)
+            c = clock()
+            c_get(cc, vr_r, 1, r)
+            d = clock()
+            p_set(pc, vr_pr, 1, r)
+            e = clock()
+            sp = p_step(pc, t, H, 1)
+            f = clock()
+            sc = c_step(cc, t, H, 1)
+            g = clock()
+            if sp > 1 or sc > 1:
+                raise RuntimeError(f"bare loop: doStep failed at t = {t}")
+            parts["plant get"] += b - a
+            parts["controller set"] += c - b
+            parts["controller get"] += d - c
+            parts["plant set"] += e - d
+            parts["plant step"] += f - e
+            parts["controller step"] += g - f
         wall = time.perf_counter() - t0
         for fmu in slaves:
             fmu.terminate()
             fmu.freeInstance()
+    return wall, {name: v * 1e-9 for name, v in parts.items()}
+
+
+def bare_loop_time(master, H: float, n: int) -> float:
+    """Wall time of :func:`bare_loop` (no timers)."""
+    return bare_loop(master, H, n)[0]
+
+
+def engine_time(model, H: float, n: int) -> float:
+    """Wall time of ``Engine.sample`` over the grid ``H, 2H, ..., nH`` of the closed loop (the
+    LMI law evaluated in the kernel, the kernel filling the output rows: the monolithic
+    solver's own advance), on a fresh engine (its construction not timed)."""
+    times = H * np.arange(1, n + 1)
+    eng = Engine(model.params, options=model.options, initial=model.initial, control=model.control)
+    t0 = time.perf_counter()
+    _, status = eng.sample(times)
+    wall = time.perf_counter() - t0
+    if not status.ok:
+        raise RuntimeError(f"engine: {status.message}")
     return wall
+
+
+def _median_slopes(rows, n: int, repeat: int) -> dict[str, float]:
+    """Per-step slope (runs of n and 2n) of each row, medians over interleaved rounds (a load
+    spike on the shared machine hits one round, not one contestant)."""
+    slopes: dict[str, list[float]] = {name: [] for name in rows}
+    for _ in range(repeat):
+        for name, fn in rows.items():
+            t1, t2 = fn(n), fn(2 * n)
+            slopes[name].append((t2 - t1) / n)
+    return {name: statistics.median(v) for name, v in slopes.items()}
 
 
 def main() -> int:
@@ -151,6 +238,7 @@ def main() -> int:
     ap.add_argument("--H", type=float, default=1e-3, help="macro step")
     ap.add_argument("--steps", type=int, default=2000, help="N (runs of N and 2N steps)")
     ap.add_argument("--repeat", type=int, default=7, help="interleaved rounds (median)")
+    ap.add_argument("--fig5-repeat", type=int, default=3, help="rounds of the Fig. 5 totals")
     ap.add_argument("--tau-end", type=float, default=60.0, help="Fig. 5 horizon")
     args = ap.parse_args()
 
@@ -169,27 +257,37 @@ def main() -> int:
         plant_fmu, ctrl_fmu = fmu_paths(fmus_dir)
         fmus = {"plant": plant_fmu, "controller": ctrl_fmu}
         starts = experiment_start_values(FIG5)
+        model = read_loop_model(fmus_dir, FIG5)
+        T = args.tau_end
         with closed_loop_master(fmus_dir, FIG5, record=()) as master:
             run_cosim(master, 10 * H, H)  # warm-up (imports, numba kernel)
             libcosim_time(fmus, starts, H, 10)
+            engine_time(model, H, 10)
+            bare_loop(master, H, 20, timed_from=10)
 
             def master_time(k: int) -> float:
                 return run_cosim(master, k * H, H).stats.wall_time
 
-            # interleaved: one slope of each per round, medians over the rounds (a load spike
-            # on the shared machine hits one round, not one contestant)
+            # 1. per macro step: the three side by side, and the engine's own advance
             rows = {
                 "master": master_time,
                 "libcosim": lambda k: libcosim_time(fmus, starts, H, k),
                 "bare FMI": lambda k: bare_loop_time(master, H, k),
+                "engine": lambda k: engine_time(model, H, k),
             }
-            slopes: dict[str, list[float]] = {name: [] for name in rows}
-            for _ in range(args.repeat):
-                for name, fn in rows.items():
-                    t1, t2 = fn(n), fn(2 * n)
-                    slopes[name].append((t2 - t1) / n)
-            per_step = {name: statistics.median(v) for name, v in slopes.items()}
+            per_step = _median_slopes(rows, n, args.repeat)
             bare = per_step["bare FMI"]
+
+            # 2. the calls inside a macro step (second half of runs of 2N steps), interleaved
+            # with the engine's slope over the same window
+            tick = _timer_cost()
+            part_runs: dict[str, list[float]] = {name: [] for name in PARTS}
+            for _ in range(args.repeat):
+                _, parts = bare_loop(master, H, 2 * n, timed_from=n)
+                for name in PARTS:
+                    part_runs[name].append(parts[name] / n - tick)
+            part = {name: statistics.median(v) for name, v in part_runs.items()}
+            eng = per_step["engine"]
 
             print(
                 f"\nper macro step, H = {H:g}, slope over {n} -> {2 * n} steps, median of "
@@ -210,27 +308,58 @@ def main() -> int:
                 f"{verdict} the target"
             )
 
-            T = args.tau_end
-            res = run_cosim(master, T, H)
-            if not res.completed:
-                print(f"Fig. 5 co-simulation failed: {res.failure}", file=sys.stderr)
-                return 1
-        walls = {}
-        model = read_loop_model(fmus_dir, FIG5)
-        for dt in (H, 1e-2):
-            t0 = time.perf_counter()
-            run_monolithic(model, T, dt_out=dt)
-            walls[dt] = time.perf_counter() - t0
-        cos = res.stats.wall_time
-        print(
-            f"\nFig. 5, tau in [0, {T:g}], H = {H:g}: co-simulation {cos:.2f} s "
-            f"({res.stats.accepted} steps, {cos / res.stats.accepted * 1e6:.0f} us/step)"
-        )
-        for dt, w in walls.items():
             print(
-                f"  monolithic sampled every {dt:g}: {w:.2f} s -> co-simulation / monolithic "
-                f"= {cos / w:.2f}"
+                f"\ninside a macro step (each call timed, timer cost {tick * 1e9:.0f} ns "
+                f"subtracted; steps {n} -> {2 * n}, median of {args.repeat} rounds):"
             )
+            for name in PARTS:
+                print(f"{name:>16} {part[name] * 1e6:8.2f} us")
+            print(f"{'engine advance':>16} {eng * 1e6:8.2f} us  (Engine.sample, per interval H)")
+            p_ratio = part["plant step"] / eng
+            print(
+                f"plant fmi2DoStep / engine advance = {p_ratio:.2f} (target <= 2: "
+                f"{'meets' if p_ratio <= 2.0 else 'misses'})"
+            )
+            c_us = part["controller step"] * 1e6
+            print(
+                f"controller fmi2DoStep = {c_us:.2f} us (target <= 5 us: "
+                f"{'meets' if c_us <= 5.0 else 'misses'})"
+            )
+            print(
+                f"master overhead per step = {over_m * 1e6:.1f} us = "
+                f"{over_m / per_step['master']:.0%} of the master's step"
+            )
+
+            # 3. Fig. 5 totals, interleaved with the monolithic runs
+            walls: dict[str, list[float]] = {"cosim": [], "mono H": [], "mono 1e-2": []}
+            steps = 0
+            for _ in range(args.fig5_repeat):
+                res = run_cosim(master, T, H)
+                if not res.completed:
+                    print(f"Fig. 5 co-simulation failed: {res.failure}", file=sys.stderr)
+                    return 1
+                walls["cosim"].append(res.stats.wall_time)
+                steps = res.stats.accepted
+                for key, dt in (("mono H", H), ("mono 1e-2", 1e-2)):
+                    t0 = time.perf_counter()
+                    run_monolithic(model, T, dt_out=dt)
+                    walls[key].append(time.perf_counter() - t0)
+        w = {key: statistics.median(v) for key, v in walls.items()}
+        cos = w["cosim"]
+        print(
+            f"\nFig. 5, tau in [0, {T:g}], H = {H:g}, median of {args.fig5_repeat} interleaved "
+            f"rounds: co-simulation {cos:.2f} s ({steps} steps, {cos / steps * 1e6:.0f} us/step)"
+        )
+        for key, dt in (("mono H", H), ("mono 1e-2", 1e-2)):
+            print(
+                f"  monolithic sampled every {dt:g}: {w[key]:.2f} s -> co-simulation / "
+                f"monolithic = {cos / w[key]:.2f}"
+            )
+        r5 = cos / w["mono H"]
+        print(
+            f"Fig. 5 co-simulation / monolithic at the same sampling = {r5:.2f} (target <= 1.5: "
+            f"{'meets' if r5 <= 1.5 else 'misses'})"
+        )
     return 0
 
 
