@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
+    "controllers": ("drillstring.apps.controllers", "controllers_main", "industrial vs LMI"),
     "demo": ("drillstring.apps.demo", "demo_main", "the main job (make demo)"),
 }
 

@@ -10,7 +10,11 @@
 3. ``drillstring demo --design out/design --fmus build --out out`` (:func:`run_demo`):
    Section III (Fig. 2, Fig. 3, Fig. 4 with the design's own line reused), then Figs. 5 and 6
    by co-simulation of the FMUs on the fmpy master with the monolithic solver of the same loop
-   overlaid, and their measured agreement. ``summary.json`` lists every file and number.
+   overlaid, and their measured agreement; then Fig. 5 in SI units from the SSP package in Ecos
+   and in the project's master, against the monolithic solver in SI; then the industrial
+   controllers beside the LMI design: every one switched on from the Fig. 6 state, and a 6 x 6
+   map of their outcomes over surface speed and feed (Dask). ``summary.json`` lists every file
+   and number.
 """
 
 from __future__ import annotations
@@ -29,6 +33,12 @@ from drillstring.analysis.figures import (
     write_limit_cycle_figure,
     write_stability_diagram,
 )
+from drillstring.apps.controllers import (
+    format_comparison,
+    write_controller_comparison,
+    write_controller_map,
+)
+from drillstring.apps.cosim import run_si_demo, si_demo_lines
 from drillstring.controller.design import FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import write_json
@@ -52,6 +62,9 @@ class DemoSummary:
     figures: dict[str, dict[str, str]] = field(default_factory=dict)
     fig5: dict[str, Any] = field(default_factory=dict)
     fig6: dict[str, Any] = field(default_factory=dict)
+    si: dict[str, Any] = field(default_factory=dict)
+    controllers: list[dict[str, Any]] = field(default_factory=list)
+    controller_map: list[dict[str, Any]] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -65,6 +78,7 @@ def run_demo(
     out_dir: str | Path,
     *,
     H: float = 1e-3,
+    workers: int | None = 2,
     log: Any = print,
 ) -> DemoSummary:
     """Run the demo (module docstring) and write ``summary.json`` into ``out_dir``.
@@ -79,6 +93,8 @@ def run_demo(
         Where the figures, data and ``summary.json`` go.
     H : float
         Macro step of the co-simulations.
+    workers : int, optional
+        Dask workers of the controller map (0: serially in this process).
     log : callable
         Receives one line of progress text per step.
 
@@ -117,6 +133,23 @@ def run_demo(
     summary.fig6 = dict(write_fig6(out / "fig6", fmus_dir, H=H))
     summary.figures["fig6"] = {k: str(summary.fig6.pop(k)) for k in ("png", "csv")}
     summary.seconds["fig6"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    log("Fig. 5 in SI units from the SSP package, in Ecos and in the project's master")
+    summary.si = run_si_demo(fmus_dir, out / "si")
+    summary.seconds["si"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    log("Industrial controllers beside the LMI design: Fig. 6-like comparison, 6 x 6 map")
+    comparison = write_controller_comparison(out / "controllers", gains, log=None)
+    summary.controllers = list(comparison.rows)
+    summary.figures["controllers"] = {k: str(v) for k, v in comparison.files.items()}
+    cmap = write_controller_map(
+        out / "controllers" / "map", design_dir / GAINS_FILE, n=6, workers=workers, log=None
+    )
+    summary.controller_map = list(cmap.by_controller)
+    summary.figures["controller_map"] = {k: str(v) for k, v in cmap.files.items()}
+    summary.seconds["controllers"] = time.perf_counter() - t0
 
     write_json(out / "summary.json", summary.to_json())
     return summary
@@ -194,6 +227,15 @@ def print_summary(summary: DemoSummary) -> None:
         f"{r['torsional_stick_before_t_on_cosim']}/{r['torsional_stick_after_t_on_cosim']}, "
         f"suppressed: {r['suppressed']}"
     )
+    for line in si_demo_lines(summary.si):
+        print(f"   {line}")
+    print("   controllers switched on at tau = 25 from the Fig. 6 state:")
+    for line in format_comparison(summary.controllers).splitlines():
+        print(f"     {line}")
+    print("   6 x 6 map over omega0 x v0, outcomes per controller:")
+    for row in summary.controller_map:
+        counts = ", ".join(f"{k} {v}" for k, v in row.items() if k != "controller")
+        print(f"     {row['controller']:<11} {counts}")
     for name, paths in summary.figures.items():
         print(f"   {name}: {', '.join(paths.values())}")
 
@@ -221,10 +263,18 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("--fmus", type=Path, default=Path("build"), help="folder with the two FMUs")
     ap.add_argument("--H", type=float, default=1e-3, help="macro step of the co-simulation")
+    ap.add_argument(
+        "--workers", type=int, default=2, help="Dask workers of the controller map (0: serial)"
+    )
     args = ap.parse_args(argv)
     try:
         summary = run_demo(
-            args.design, args.fmus, args.out, H=args.H, log=lambda s: print(f"\n== {s}", flush=True)
+            args.design,
+            args.fmus,
+            args.out,
+            H=args.H,
+            workers=args.workers,
+            log=lambda s: print(f"\n== {s}", flush=True),
         )
     except (GainsFileError, ValueError, OSError) as exc:
         print(

@@ -1,5 +1,6 @@
 """The model of Section II: parameters, the stepping engine, the monolithic simulation, the
-controller law and the paper's experiments (``docs/model.md``)."""
+controller law, the digital top-drive laws and their sampled loop, and the paper's experiments
+(``docs/model.md``, ``docs/controllers.md``)."""
 
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import (
@@ -11,6 +12,7 @@ from drillstring.model.engine import (
     Status,
 )
 from drillstring.model.experiments import DEFAULT_H, FIG5, FIG6, Experiment
+from drillstring.model.laws import Measurement, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import (
     REFERENCE,
     REFERENCE_RIG,
@@ -24,6 +26,7 @@ from drillstring.model.params import (
     read_params,
     save_params,
 )
+from drillstring.model.sampled import SampledResult, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 
 __all__ = [
@@ -39,11 +42,16 @@ __all__ = [
     "Event",
     "Experiment",
     "InitialState",
+    "Measurement",
     "ParameterError",
     "PhysicalParams",
+    "SampledAffine",
+    "SampledResult",
     "ScaledParams",
     "SimulationResult",
+    "SpeedPI",
     "Status",
+    "ZTorque",
     "get_params",
     "get_physical",
     "load_params",
@@ -51,4 +59,5 @@ __all__ = [
     "read_params",
     "save_params",
     "simulate",
+    "simulate_sampled",
 ]

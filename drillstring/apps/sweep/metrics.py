@@ -6,7 +6,31 @@ Defined apart from the point functions (:mod:`.studies`) so that the sweep descr
 
 from __future__ import annotations
 
-__all__ = ["METRICS", "plottable"]
+from drillstring.controller.lineup import CONTROLLERS
+
+__all__ = [
+    "CONTROLLER_METRICS",
+    "METRICS",
+    "controller_column",
+    "plottable",
+]
+
+#: Severity metrics recorded for every controller of the controllers study
+#: (:mod:`drillstring.analysis.severity`), (name, type).
+CONTROLLER_METRICS: tuple[tuple[str, str], ...] = (
+    ("utr", "float"),
+    ("severity", "float"),
+    ("stick_fraction", "float"),
+    ("peak_torque", "float"),
+    ("stall", "flag"),
+    ("outcome", "str"),
+)
+
+
+def controller_column(metric: str, controller: str) -> str:
+    """Column of ``metric`` for ``controller`` in the controllers study (``utr.stiff-pi``)."""
+    return f"{metric}.{controller}"
+
 
 #: Metric columns per study: (name, type) with type "float", "flag" (0/1), "int" or "str".
 METRICS: dict[str, tuple[tuple[str, str], ...]] = {
@@ -46,9 +70,22 @@ METRICS: dict[str, tuple[tuple[str, str], ...]] = {
         ("kind", "str"),
         ("time_simulated", "float"),
     ),
+    "controllers": (
+        ("A", "float"),
+        ("taubar_crit", "float"),
+        ("lmi_gain_norm", "float"),
+        ("lmi_abscissa", "float"),
+        ("lmi_design_error", "str"),
+        *((controller_column(m, c), kind) for c in CONTROLLERS for m, kind in CONTROLLER_METRICS),
+        ("best", "str"),
+    ),
 }
 
 
 def plottable(study: str) -> tuple[str, ...]:
-    """Metric names that get a heat map (all of them; strings as categorical maps)."""
+    """Metric names that get a map: every metric (strings as categorical maps); for the
+    controllers study the severity metrics (one figure with a panel per controller, one shared
+    colour scale) and ``best``."""
+    if study == "controllers":
+        return (*(m for m, _ in CONTROLLER_METRICS), "best")
     return tuple(name for name, _ in METRICS[study])

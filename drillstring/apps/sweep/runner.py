@@ -40,8 +40,10 @@ from typing import Any
 
 from tqdm import tqdm
 
-from drillstring.apps.sweep.metrics import METRICS
-from drillstring.apps.sweep.plots import metric_figure
+from drillstring.analysis.severity import OUTCOMES
+from drillstring.apps.colors import CONTROLLER_COLORS, OUTCOME_COLORS
+from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, METRICS, controller_column
+from drillstring.apps.sweep.plots import metric_figure, panel_figure
 from drillstring.apps.sweep.spec import SweepSpec, SweepSpecError, load_spec
 from drillstring.apps.sweep.studies import (
     DesignInputs,
@@ -49,6 +51,7 @@ from drillstring.apps.sweep.studies import (
     design_key,
     evaluate_point,
 )
+from drillstring.controller.lineup import CONTROLLERS
 from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.simulate import warm_up
 
@@ -437,11 +440,15 @@ def run_sweep(
 
 
 def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> list[Path]:
-    """One PNG per metric of ``spec.metrics`` over the swept plane (or line)."""
+    """One PNG per metric of ``spec.metrics`` over the swept plane (or line); for the
+    controllers study one figure per severity metric with a panel per controller on a shared
+    colour scale, and the map of the best controller."""
     header = columns(spec)
     kinds = dict(METRICS[spec.study])
     reference = spec.reference_values()
     title_base = f"{spec.study} sweep, base {Path(spec.base_label).name}"
+    if spec.study == "controllers":
+        return _controller_plots(spec, rows, out_dir, title_base)
     paths = []
     for metric in spec.metrics:
         col = header.index(metric)
@@ -449,6 +456,51 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
         kind = kinds[metric]
         values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
         fig = metric_figure(metric, kind, values, spec.axes, reference, f"{title_base}: {metric}")
+        paths.append(save_figure(fig, out_dir / f"{metric}.png"))
+    return paths
+
+
+def _column(spec: SweepSpec, rows: dict[int, list[str]], name: str) -> list[str]:
+    col = columns(spec).index(name)
+    return [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
+
+
+def _controller_plots(
+    spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path, title_base: str
+) -> list[Path]:
+    kinds = dict(CONTROLLER_METRICS)
+    reference = spec.reference_values()
+    paths = []
+    for metric in spec.metrics:
+        if metric == "best":
+            values = _column(spec, rows, "best")
+            fig = metric_figure(
+                "best",
+                "str",
+                values,
+                spec.axes,
+                reference,
+                f"{title_base}: best controller",
+                categories=CONTROLLERS,
+                palette=CONTROLLER_COLORS,
+            )
+        else:
+            kind = kinds[metric]
+            panels: dict[str, list[Any]] = {}
+            for c in spec.options["controllers"]:
+                raw = _column(spec, rows, controller_column(metric, c))
+                panels[c] = raw if kind == "str" else [float(v) if v else None for v in raw]
+            fig = panel_figure(
+                metric,
+                kind,
+                panels,
+                spec.axes,
+                reference,
+                f"{title_base}: {metric}",
+                log=metric == "peak_torque",
+                categories=OUTCOMES if metric == "outcome" else None,
+                palette=OUTCOME_COLORS,
+            )
         paths.append(save_figure(fig, out_dir / f"{metric}.png"))
     return paths
 
@@ -462,7 +514,7 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
     """Argument parser of the ``sweep`` subcommand."""
     ap = argparse.ArgumentParser(
         prog=prog,
-        description="Parameter sweep on Dask: open-loop / closed-loop / axial maps "
+        description="Parameter sweep on Dask: open-loop / closed-loop / axial / controllers maps "
         "(one task per point, results streamed to CSV, heat maps).",
     )
     ap.add_argument("spec", type=Path, help="sweep description (.toml or .json)")

@@ -2,7 +2,7 @@
 
 TOML (``.toml``) or JSON (``.json``), chosen by suffix. Top-level keys (any other is an error)::
 
-    study = "open-loop"            # "open-loop" | "closed-loop" | "axial"
+    study = "open-loop"            # "open-loop" | "closed-loop" | "axial" | "controllers"
     tau_end = 60.0                 # run length in scaled time (full-model studies only)
     base = "reference"             # a known set name or a parameter file (relative to this file),
                                    # or a table: {name = ...} | {file = ...} |
@@ -24,7 +24,10 @@ Swept names: with a scaled base, the fields of :class:`~drillstring.model.params
 and ``etabar2`` (sets eta = sqrt(etabar2*n*psi)), eq. (18); with a physical base, the fields of
 :class:`~drillstring.model.params.PhysicalParams` (each point is converted by eqs. (15)-(16)).
 The axial study sweeps the fast-model quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18);
-those not swept are the base set's gammabar, etabar^2 and taubar_n0.
+those not swept are the base set's gammabar, etabar^2 and taubar_n0. The controllers study runs
+every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` at each point (sampled,
+torsional stick on) and records the severity metrics of :mod:`drillstring.analysis.severity`;
+its natural axes are the surface speed (``omega0`` or ``Omega0``) and the feed (``v0`` or ``V0``).
 
 Validation happens on load: every key, value and grid point is checked and any problem raises
 :class:`SweepSpecError` (a ``ValueError``) naming the key and the value.
@@ -45,9 +48,11 @@ from typing import Any
 import numpy as np
 
 from drillstring.analysis.limit_cycles import fast_params
-from drillstring.apps.sweep.metrics import METRICS, plottable
+from drillstring.apps.sweep.metrics import plottable
 from drillstring.controller.gains import GainsFileError, read_gains
+from drillstring.controller.lineup import CONTROLLERS, FEEDFORWARD
 from drillstring.fileio import load_table
+from drillstring.model.control import LATCH_MODES
 from drillstring.model.params import (
     KNOWN_PARAMS,
     ParameterError,
@@ -55,6 +60,7 @@ from drillstring.model.params import (
     ScaledParams,
     read_params,
 )
+from drillstring.model.sampled import sample_count
 
 __all__ = [
     "AXIAL_NAMES",
@@ -68,7 +74,9 @@ __all__ = [
     "spec_from_dict",
 ]
 
-STUDIES = ("open-loop", "closed-loop", "axial")
+STUDIES = ("open-loop", "closed-loop", "axial", "controllers")
+#: The full-model studies (a parameter set per point, axial design inputs per point).
+FULL_MODEL_STUDIES = ("open-loop", "closed-loop", "controllers")
 SCALES = ("linear", "log")
 DERIVED_NAMES = ("gammabar", "etabar2")
 SCALED_NAMES = ("n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0")
@@ -95,6 +103,28 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     },
     # drillstring.analysis.limit_cycles.limit_cycle: step, kick, period budget, lambda/vbar0
     "axial": {"h": 1e-2, "kick": 0.05, "max_periods": 400, "lam_over_vbar0": 50.0},
+    # controllers: which of CONTROLLERS to run (default all); Ts: sample period of the laws;
+    # dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch: switch-on
+    # of every law; window: late window of the metrics; gains, gain_max, feedforward: the LMI
+    # gain as in the closed-loop study (feedforward "point": K0 and R_ff of the point, shared
+    # by every law); tie: severity difference treated as equal when ranking; vibration_tol:
+    # severity below which a run is steady; on_invalid: what bit bouncing does to a run
+    "controllers": {
+        "controllers": CONTROLLERS,
+        "h": 5e-4,
+        "Ts": 1e-3,
+        "dt_out": 1e-2,
+        "dphi0_rel": -0.5,
+        "t_on": 0.0,
+        "latch": "angle",
+        "window": 20.0,
+        "gains": "design",
+        "gain_max": None,
+        "feedforward": "point",
+        "tie": 0.02,
+        "vibration_tol": 0.05,
+        "on_invalid": "stop",
+    },
 }
 
 
@@ -370,26 +400,38 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
     gains_file = None
     for key, v in data.items():
         where = f"options.{key}"
-        if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max"):
+        if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max", "Ts"):
             out[key] = _real(where, v, lower=0.0)
-        elif key == "dphi0":
+        elif key in ("tie", "vibration_tol"):
+            out[key] = _real(where, v, lower=0.0, strict=False)
+        elif key in ("dphi0", "t_on"):
             out[key] = _real(where, v)
+        elif key == "dphi0_rel":
+            out[key] = _real(where, v, lower=-1.0)
         elif key == "max_periods":
             out[key] = _int(where, v, lower=1)
         elif key == "feedforward":
-            out[key] = _str(where, v, ("file", "point"))
+            out[key] = _str(where, v, FEEDFORWARD)
+        elif key == "latch":
+            out[key] = _str(where, v, LATCH_MODES)
+        elif key == "on_invalid":
+            out[key] = _str(where, v, ("stop", "continue"))
         elif key == "gains":
             out[key] = _str(where, v)
-    if study in ("open-loop", "closed-loop") and out["h"] > out["dt_out"]:
+        elif key == "controllers":
+            out[key] = _controllers(where, v)
+    if study in FULL_MODEL_STUDIES and out["h"] > out["dt_out"]:
         raise SweepSpecError(
             f"options.h = {out['h']!r} must not exceed options.dt_out = {out['dt_out']!r}"
         )
+    if study == "controllers":
+        _check_sampling(out)
     if study == "closed-loop" and out["dphi0"] == 0.0:
         raise SweepSpecError(
             "options.dphi0 must be nonzero for the closed-loop study (convergence is measured "
             "relative to the initial deviation), got 0.0"
         )
-    if study == "closed-loop" and out["gains"] != "design":
+    if study in ("closed-loop", "controllers") and out["gains"] != "design":
         path = Path(out["gains"])
         path = (path if path.is_absolute() else base_dir / path).resolve()
         try:
@@ -398,6 +440,27 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             raise SweepSpecError(f"options.gains: {exc}") from None
         out["gains"] = str(path)
     return SweepOptions(values=tuple(out.items()), gains_file=gains_file)
+
+
+def _controllers(where: str, value: Any) -> tuple[str, ...]:
+    """A non-empty list of distinct names of CONTROLLERS, in CONTROLLERS' order."""
+    if not isinstance(value, list | tuple) or not value:
+        raise SweepSpecError(f"{where} must be a non-empty list of names, got {value!r}")
+    for k, name in enumerate(value):
+        _str(f"{where}[{k}]", name, CONTROLLERS)
+    if len(set(value)) != len(value):
+        raise SweepSpecError(f"{where} lists a controller twice: {list(value)!r}")
+    return tuple(c for c in CONTROLLERS if c in value)
+
+
+def _check_sampling(out: dict[str, Any]) -> None:
+    """The controllers study's grids: h <= Ts, dt_out a multiple of Ts."""
+    if out["h"] > out["Ts"]:
+        raise SweepSpecError(f"options.h = {out['h']!r} must not exceed options.Ts = {out['Ts']!r}")
+    try:
+        sample_count(out["dt_out"], out["Ts"], "options.dt_out")
+    except ValueError as exc:
+        raise SweepSpecError(str(exc)) from None
 
 
 def spec_from_dict(
@@ -446,10 +509,20 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
             raise SweepSpecError(f"missing key 'tau_end' (run length of the {study} study)")
         tau_end = _real("tau_end", data["tau_end"], lower=0.0)
     options = _options(study, data.get("options", {}), base_dir)
-    if study == "closed-loop" and options["window"] > tau_end:
+    if study in ("closed-loop", "controllers") and options["window"] > tau_end:
         raise SweepSpecError(
             f"options.window = {options['window']!r} exceeds tau_end = {tau_end!r}"
         )
+    if study == "controllers":
+        try:
+            sample_count(tau_end, options["Ts"], "tau_end")
+        except ValueError as exc:
+            raise SweepSpecError(str(exc)) from None
+        if not 0.0 <= options["t_on"] <= tau_end - options["window"]:
+            raise SweepSpecError(
+                f"options.t_on = {options['t_on']!r} must lie in [0, tau_end - window] = "
+                f"[0, {tau_end - options['window']!r}]: the metrics' window follows the switch-on"
+            )
 
     known = plottable(study)
     raw_metrics = data.get("metrics", list(known))
@@ -457,7 +530,7 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
         raise SweepSpecError(f"metrics must be a non-empty list of names, got {raw_metrics!r}")
     for m in raw_metrics:
         if m not in known:
-            all_names = ", ".join(name for name, _ in METRICS[study])
+            all_names = ", ".join(known)
             raise SweepSpecError(
                 f"metrics: unknown metric {m!r} for study {study!r} (known: {all_names})"
             )
@@ -482,6 +555,8 @@ def _check_points(spec: SweepSpec) -> None:
             if spec.study == "axial":
                 g, e2, tb = spec.axial_point(index)
                 fast_params(g, e2, tb, spec.options["lam_over_vbar0"])
+            elif spec.study == "controllers":
+                spec.point_params(index)
             else:
                 p = spec.point_params(index)
                 if p.omega0 + spec.options["dphi0"] <= 0.0:

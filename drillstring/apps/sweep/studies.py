@@ -13,6 +13,10 @@ in this process.
   file, and the full closed loop (29)-(31) from dphi/dtau(0) = ``dphi0``: convergence, residual
   ripple and the largest torque |R - R0| (Remark 1: the design can fail on the full model).
 * ``axial``: the averaged contact force (lambda/vbar0)<gbar>_a of the fast model (18) (Fig. 4).
+* ``controllers``: every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` (stiff
+  PI, SoftTorque, Z-Torque, the LMI law with a fixed or a point-wise gain) as a digital law on
+  the full model with torsional stick, from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity
+  metrics of :mod:`drillstring.analysis.severity` over the late window, and the best controller.
 
 A and taubar_crit of (22) depend on (gammabar, etabar^2) only; :func:`axial_design` computes them
 once per distinct pair (the sweep runs it as a separate task that the point tasks depend on).
@@ -27,11 +31,15 @@ from typing import Any
 import numpy as np
 
 from drillstring.analysis.limit_cycles import design_inputs, limit_cycle
+from drillstring.analysis.severity import Severity, best_controller, severity_metrics
+from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, controller_column
 from drillstring.apps.sweep.spec import SweepOptions, SweepSpec
-from drillstring.controller.averaged import averaged_model, closed_loop_roots, open_loop_roots
-from drillstring.controller.synthesis import synthesize
+from drillstring.controller.averaged import averaged_model, open_loop_roots
+from drillstring.controller.lineup import LmiGain, controller_lineup, lmi_gain
+from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
+from drillstring.model.sampled import simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 
 __all__ = [
@@ -39,6 +47,7 @@ __all__ = [
     "axial_design",
     "axial_metrics",
     "closed_loop_metrics",
+    "controllers_metrics",
     "design_key",
     "evaluate_point",
     "open_loop_metrics",
@@ -167,27 +176,16 @@ def closed_loop_metrics(
     """Closed-loop metrics at one point (see the module docstring)."""
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    gains = opts.gains_file
-    if gains is None:
-        kw = {} if opts["gain_max"] is None else {"gain_max": opts["gain_max"]}
-        syn = synthesize(model, **kw)
-        F = np.asarray(syn.F, dtype=float).reshape(4)
-        K0, R_ff = model.K0, model.R_ff
-        abscissa = float(syn.certificate.abscissa_nominal)
-    else:
-        F = np.asarray(gains.F, dtype=float)
-        if opts["feedforward"] == "file":
-            K0, R_ff = gains.K0, gains.R_ff
-        else:
-            K0, R_ff = model.K0, model.R_ff
-        abscissa = float(closed_loop_roots(model, F, None, 1)[0].real)
-    law = AffineFeedback(F=tuple(float(f) for f in F), K0=float(K0), R_ff=float(R_ff))
+    gain = lmi_gain(
+        model, opts.gains_file, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
+    )
+    law = AffineFeedback(F=gain.F, K0=gain.K0, R_ff=gain.R_ff)
     res = _run(params, tau_end, law, opts)
     out = {
         "A": design.A,
         "taubar_crit": design.taubar_crit,
-        "gain_norm": float(np.linalg.norm(F)),
-        "abscissa_closed": abscissa,
+        "gain_norm": float(np.linalg.norm(gain.F)),
+        "abscissa_closed": gain.abscissa,
         "max_dR": float(np.max(np.abs(res.R_minus_R0))),
         **_outcome(res),
     }
@@ -200,6 +198,78 @@ def closed_loop_metrics(
     else:
         out.update(dphi_amplitude=math.nan, ripple=math.nan, converged=0)
     return out
+
+
+def controllers_metrics(
+    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+) -> dict[str, Any]:
+    """Severity of every controller at one point (see the module docstring); the controllers
+    not selected by the option ``controllers`` get no values.
+
+    A failed LMI design (no admissible gain at the point) is recorded in ``lmi_design_error``
+    with the outcome "no_design" for the LMI law; the industrial laws still run, with the
+    point's feed-forward R_ff = -K0 (31).
+    """
+    design.check()
+    model = averaged_model(params, design.A, design.taubar_crit)
+    error = ""
+    gains = opts.gains_file
+    K0, R_ff = (
+        (gains.K0, gains.R_ff)
+        if gains is not None and opts["feedforward"] == "file"
+        else (model.K0, model.R_ff)
+    )
+    gain = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=K0, R_ff=R_ff, abscissa=math.nan)
+    run_lmi = "lmi" in opts["controllers"]
+    if run_lmi:
+        try:
+            gain = lmi_gain(
+                model, gains, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
+            )
+        except SynthesisInfeasible as exc:
+            error = _first_line(exc)
+    laws = controller_lineup(params, gain, t_on=opts["t_on"], latch=opts["latch"])
+    options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
+    out: dict[str, Any] = {
+        "A": design.A,
+        "taubar_crit": design.taubar_crit,
+        "lmi_gain_norm": (math.nan if error else float(np.linalg.norm(gain.F)))
+        if run_lmi
+        else None,
+        "lmi_abscissa": gain.abscissa if run_lmi else None,
+        "lmi_design_error": error,
+    }
+    found: dict[str, Severity] = {}
+    for name in opts["controllers"]:
+        law = laws[name]
+        if name == "lmi" and error:
+            nan = math.nan
+            sev = Severity(nan, nan, nan, nan, False, "no_design", nan)
+        else:
+            res = simulate_sampled(
+                params,
+                law,
+                tau_end,
+                opts["Ts"],
+                initial={"dphi": opts["dphi0_rel"] * params.omega0},
+                options=options,
+                dt_out=opts["dt_out"],
+            )
+            sev = severity_metrics(
+                res, opts["window"], t_from=opts["t_on"], vibration_tol=opts["vibration_tol"]
+            )
+        found[name] = sev
+        values = sev.to_dict()
+        for metric, kind in CONTROLLER_METRICS:
+            value = values[metric]
+            out[controller_column(metric, name)] = int(value) if kind == "flag" else value
+    out["best"] = best_controller(found, tie=opts["tie"])
+    return out
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}"
 
 
 def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
@@ -234,4 +304,6 @@ def evaluate_point(spec: SweepSpec, index: int, design: DesignInputs | None) -> 
     params = spec.point_params(index)
     if spec.study == "open-loop":
         return open_loop_metrics(params, design, spec.tau_end, spec.options)
+    if spec.study == "controllers":
+        return controllers_metrics(params, design, spec.tau_end, spec.options)
     return closed_loop_metrics(params, design, spec.tau_end, spec.options)

@@ -232,7 +232,7 @@ _ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 _ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
-@jit
+@inline
 def rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, ext):
     """Classical RK4 step of size h from (tau, y0), whose derivative is k0 and contact g0.
 
@@ -326,9 +326,8 @@ def locate(ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, f0, f1, 
 
 
 @inline
-def store(s: KernelState, y, k, dg) -> None:
-    """Make (y, dy/dtau, diagnostics) the current state of ``s``."""
-    Y, K, D = s.y, s.stages, s.diag
+def store(Y: np.ndarray, K: np.ndarray, D: np.ndarray, y, k, dg) -> None:
+    """Make (y, dy/dtau, diagnostics) the current state (arrays ``y``, ``stages``, ``diag``)."""
     for j in range(Y_SIZE):
         Y[j] = y[j]
         K[K_NOW, j] = k[j]
@@ -359,50 +358,44 @@ def refresh(s: KernelState, ext) -> int:
     I[I_KHINT] = hint
     if st != ST_OK:
         return st
-    store(s, y, k, diagnostics(P, mode, y, d, taun, g, gs, r, s.diag[D_QG]))
+    store(s.y, s.stages, s.diag, y, k, diagnostics(P, mode, y, d, taun, g, gs, r, s.diag[D_QG]))
     return ST_OK
 
 
 @inline
-def step(s: KernelState, P, C, h: float, t_end: float, ext) -> int:
-    """One step to t_end = tau + h, or to the first event inside it; returns a status.
+def attempt(P, C, H, hs, he, hint, mode, bouncing, frozen, tol, tau, y0, k0, d0, h, t_end, ext):
+    """An RK4 step of size h from (tau, y0) to t_end, cut at the first event inside it.
 
-    ``P``, ``C`` are the parameters and the control law as tuples (:func:`as_tuple_14`).
+    ``y0``, ``k0``, ``d0`` are the state, its derivative and its diagnostics. The event
+    functions watched in the mode are compared at both ends; each sign change is located
+    (:func:`locate`), and so is a stored discontinuity passed by the delayed instant. Returns
+    (status, hint, event, theta, far side, trials, locations): ``event`` is the earliest event
+    function (-1: none, ``EVF_DELAY``: a delayed discontinuity), theta its step fraction, the
+    far side (y, dy/dtau, diagnostics) the state that ends the step.
     """
-    H, I, X = s.history, s.ints, s.clock
-    tau = X[X_TAU]
-    mode = I[I_MODE]
-    frozen = s.options[O_FREEZE] > 0.0
-    tol = s.options[O_EVTOL]
-    hs = I[I_HSTART]
-    he = I[I_HEND]
-    y0 = as_tuple_6(s.y)
-    k0 = row_tuple_6(s.stages, K_NOW)
-    d0 = as_tuple_9(s.diag)
-    g0 = d0[D_G]
-    st, hint, yn, kn, dn = rk4(P, C, H, hs, he, I[I_KHINT], mode, frozen, tau, y0, k0, g0, h, ext)
+    st, hint, yn, kn, dn = rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, d0[D_G], h, ext)
     if st != ST_OK:
-        I[I_KHINT] = hint
-        return st
+        return st, hint, -1, 0.0, (y0, k0, d0), 0, 0
     best = 2.0
     best_ev = -1
     far = (yn, kn, dn)
-    mask = watched(mode, I[I_BOUNCING], frozen)
+    trials = 0
+    located = 0
+    mask = watched(mode, bouncing, frozen)
     for ev in range(N_EVF):
         if (mask >> ev) & 1 == 0:
             continue
         f1 = event_value(ev, yn, dn)
         f0 = event_value(ev, y0, d0)
         if f1 < 0.0 or (f1 == 0.0 and f0 > 0.0):
-            st, hint, th, trials, found = locate(
-                ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, f0, f1, 0.0, tol,
-                (yn, kn, dn), ext,
+            st, hint, th, n, found = locate(
+                ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, d0[D_G], h, f0, f1, 0.0,
+                tol, (yn, kn, dn), ext,
             )  # fmt: skip
-            I[I_NTRIALS] += trials
-            I[I_NLOCATE] += 1
+            trials += n
+            located += 1
             if st != ST_OK:
-                I[I_KHINT] = hint
-                return ST_DELAY
+                return ST_DELAY, hint, -1, 0.0, far, trials, located
             if th < best:
                 best = th
                 best_ev = ev
@@ -412,36 +405,59 @@ def step(s: KernelState, P, C, h: float, t_end: float, ext) -> int:
     s1 = t_end - dn[D_TAUN]
     tdisc = next_discontinuity(H, hs, he, hint, s0, s1)
     if tdisc > s0 and tdisc - s1 < 0.0:
-        st, hint, th, trials, found = locate(
-            EVF_DELAY, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, tdisc - s0,
+        st, hint, th, n, found = locate(
+            EVF_DELAY, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, d0[D_G], h, tdisc - s0,
             tdisc - s1, tdisc, tol, (yn, kn, dn), ext,
         )  # fmt: skip
-        I[I_NTRIALS] += trials
-        I[I_NLOCATE] += 1
+        trials += n
+        located += 1
         if st != ST_OK:
-            I[I_KHINT] = hint
-            return ST_DELAY
+            return ST_DELAY, hint, -1, 0.0, far, trials, located
         if th < best:
             best = th
             best_ev = EVF_DELAY
             far = found
+    return ST_OK, hint, best_ev, best, far, trials, located
+
+
+@inline
+def step(P, C, H, I, X, Y, K, D, frozen, tol, h, t_end, ext):
+    """One step to t_end = tau + h, or to the first event inside it.
+
+    ``P``, ``C`` are the parameters and the control law as tuples (:func:`as_tuple_14`); the
+    arrays are those of the kernel state (history, ints, clock, y, stages, diag). Returns
+    (status, event): the mode event that ended the step, for the caller to apply
+    (:func:`finish_event`), or -1.
+    """
+    tau = X[X_TAU]
+    st, hint, ev, th, far, trials, located = attempt(
+        P, C, H, I[I_HSTART], I[I_HEND], I[I_KHINT], I[I_MODE], I[I_BOUNCING], frozen, tol,
+        tau, as_tuple_6(Y), row_tuple_6(K, K_NOW), as_tuple_9(D), h, t_end, ext,
+    )  # fmt: skip
     I[I_KHINT] = hint
+    I[I_NTRIALS] += trials
+    I[I_NLOCATE] += located
+    if st != ST_OK:
+        return st, -1
     I[I_NSTEPS] += 1
     y, k, dg = far
-    store(s, y, k, dg)
+    store(Y, K, D, y, k, dg)
     X[X_GINT] += dg[D_QG]
-    if best_ev < 0:
-        X[X_TAU] = t_end
-        push_node(H, I, t_end, s.y, 0.0)
-        return ST_OK
-    X[X_TAU] = t_end if best == 1.0 else tau + best * h
-    if best_ev == EVF_DELAY:
-        push_node(H, I, X[X_TAU], s.y, 0.0)
-        return ST_OK
-    st = apply_event(best_ev, s.params, s.options, X, s.y, I, s.diag, s.events)
+    X[X_TAU] = t_end if ev < 0 or th == 1.0 else tau + th * h
+    if ev < 0 or ev == EVF_DELAY:
+        push_node(H, I, X[X_TAU], Y, 0.0)
+        return ST_OK, -1
+    return ST_OK, ev
+
+
+@jit
+def finish_event(s: KernelState, ev: int, ext) -> int:
+    """Apply mode event ``ev`` at the current state (the far side of the switching surface);
+    the event instant becomes a discontinuity node of the history. Returns a status."""
+    st = apply_event(ev, s.params, s.options, s.clock, s.y, s.ints, s.diag, s.events)
     if st == ST_OK:
         st = refresh(s, ext)
-    push_node(H, I, X[X_TAU], s.y, 1.0)
+    push_node(s.history, s.ints, s.clock[X_TAU], s.y, 1.0)
     return st
 
 
@@ -468,18 +484,24 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
     Returns early with ST_EVLOG_FULL / ST_HIST_FULL when a buffer must be drained or grown by
     the caller, and with the model's status codes when the run must stop.
     """
-    I, X, E, H = s.ints, s.clock, s.events, s.history
+    # the arrays are bound once: passing the state tuple into the loop's functions would cost
+    # reference counting on every one of its arrays at every step
+    H, I, X, E = s.history, s.ints, s.clock, s.events
+    Y, K, D = s.y, s.stages, s.diag
     h_nom = s.options[O_H]
+    frozen = s.options[O_FREEZE] > 0.0
+    tol = s.options[O_EVTOL]
     P = as_tuple_14(s.params)
+    C = as_tuple_13(s.control)
     zeno = 0
     while True:
-        C = s.control
         tau = X[X_TAU]
         # the feedback acts from the first instant at or after t_on (also a run's first sample)
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau >= C[C_TON]:
             if I[I_ENUM] >= E.shape[0]:
                 return ST_EVLOG_FULL
             switch_on(s)
+            C = as_tuple_13(s.control)
             st = refresh(s, ext)
             if st != ST_OK:
                 I[I_STATUS] = st
@@ -508,7 +530,9 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau < C[C_TON] < t_end:
             t_end = C[C_TON]
             h = t_end - tau
-        st = step(s, P, as_tuple_13(C), h, t_end, ext)
+        st, ev = step(P, C, H, I, X, Y, K, D, frozen, tol, h, t_end, ext)
+        if st == ST_OK and ev >= 0:
+            st = finish_event(s, ev, ext)
         if st != ST_OK:
             I[I_STATUS] = st
             return st

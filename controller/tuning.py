@@ -1,0 +1,269 @@
+"""Tuning rules of the industrial top-drive laws, from the lumped string (``docs/controllers.md``).
+
+The string of the paper is one torsional spring C between the bit inertia I1 and the table
+inertia I2 = rho*I1 (eqs. (2)-(3), (13)). In scaled units its torsional frequency with the table
+held is omega_s = sqrt(C/I1)*t* = 1 and its characteristic impedance Z = sqrt(C*I1) = 1 (torque
+per speed in units of C*t*); the rules below are written with them.
+
+* :func:`stiff_pi`: a speed PI whose loop around the table inertia alone has a bandwidth a decade
+  above omega_s and is critically damped: the table holds its speed, the string is a pendulum
+  with a fixed top (the rigs' default, and the baseline that shows stick-slip).
+* :func:`soft_torque`: SoftTorque/SoftSpeed. The integral gain cancels the table inertia at the
+  string's frequency, ``ki = rho*omega_s^2``, so that the table is a pure damper kp there; the
+  proportional gain ``kp = 2*sqrt(rho)`` is the smallest that keeps both torsional modes on the
+  circle |s| = omega_s, where they share the damping ratio 1/(2*sqrt(rho)), the largest common
+  one (:func:`soft_torque_damping` states the damping for any kp).
+* :func:`z_torque`: the stiff PI with the set point corrected by the string torque over the
+  impedance (``z_gain = 1``), high-pass (corner 0.3*omega_s) and low-pass (10*omega_s)
+  filtered.
+
+:func:`linear_closed_loop` builds the closed loop of the linearised torsional model (13), (27)
+(:func:`~drillstring.controller.averaged.linearised_ode_matrix`) with a law, in continuous time,
+so that the damping a rule states can be checked on the closed loop's eigenvalues.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from drillstring.controller.averaged import AveragedModel, linearised_ode_matrix
+from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
+from drillstring.model.params import ScaledParams
+from drillstring.validation import check_real
+
+__all__ = [
+    "OMEGA_S",
+    "Z_STRING",
+    "damping_ratios",
+    "linear_closed_loop",
+    "soft_torque",
+    "soft_torque_damping",
+    "stiff_pi",
+    "z_torque",
+]
+
+#: Torsional frequency sqrt(C/I1) of the string with the table held, scaled (t* = sqrt(I1/C)).
+OMEGA_S = 1.0
+#: Characteristic impedance sqrt(C*I1) of the lumped string, scaled (units of C*t*).
+Z_STRING = 1.0
+
+
+def _rho(params: ScaledParams) -> float:
+    if not isinstance(params, ScaledParams):
+        raise TypeError(f"params must be a ScaledParams, got {type(params).__name__}")
+    return float(params.rho)
+
+
+def stiff_pi(
+    params: ScaledParams,
+    *,
+    bandwidth: float = 10.0,
+    damping: float = 1.0,
+    R_ff: float = 0.0,
+    t_on: float = 0.0,
+) -> SpeedPI:
+    """Stiff speed PI: the table-inertia loop ``rho*s^2 + kp*s + ki`` with natural frequency
+    ``bandwidth*omega_s`` and damping ratio ``damping``.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        Gives rho = I2/I1 (16).
+    bandwidth : float
+        Speed-loop natural frequency in units of omega_s (> 0; default a decade above).
+    damping : float
+        Damping ratio of the speed loop (> 0; default critically damped).
+    R_ff, t_on : float
+        Feed-forward (31) and switch-on time of the law.
+
+    Returns
+    -------
+    SpeedPI
+        ``kp = 2*damping*bandwidth*rho``, ``ki = bandwidth^2*rho`` (scaled).
+    """
+    rho = _rho(params)
+    wc = check_real("stiff_pi bandwidth", bandwidth, lower=0.0) * OMEGA_S
+    zc = check_real("stiff_pi damping", damping, lower=0.0)
+    return SpeedPI(kp=2.0 * zc * wc * rho, ki=wc * wc * rho, R_ff=R_ff, t_on=t_on)
+
+
+def soft_torque(
+    params: ScaledParams, *, kp: float | None = None, R_ff: float = 0.0, t_on: float = 0.0
+) -> SpeedPI:
+    """SoftTorque/SoftSpeed: ``ki = rho*omega_s^2`` (the table inertia cancelled at the string's
+    frequency) and ``kp = 2*sqrt(rho)*Z`` unless given.
+
+    On the linearised torsional model (13), (27) without the bit's velocity weakening (c = 0:
+    the lumped string the rule is tuned from), the closed loop's four torsional poles then lie on
+    |s| = omega_s with the damping ratios of :func:`soft_torque_damping`.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        Gives rho.
+    kp : float, optional
+        Proportional gain (in [2*sqrt(rho), 2*rho + 1/2] the poles stay on the circle, see
+        :func:`soft_torque_damping`); default 2*sqrt(rho).
+    R_ff, t_on : float
+        Feed-forward (31) and switch-on time.
+
+    Returns
+    -------
+    SpeedPI
+    """
+    rho = _rho(params)
+    gain = 2.0 * math.sqrt(rho) * Z_STRING if kp is None else check_real("soft_torque kp", kp)
+    return SpeedPI(kp=gain, ki=rho * OMEGA_S**2, R_ff=R_ff, t_on=t_on)
+
+
+def soft_torque_damping(rho: float, kp: float) -> tuple[float, float]:
+    """Damping ratios of the two torsional modes of the string under the SoftTorque rule.
+
+    With ``ki = rho`` (omega_s = 1) and c = 0 the closed-loop characteristic polynomial of (13),
+    (27) is ``rho*s^4 + kp*s^3 + (2*rho + 1)*s^2 + kp*s + rho``: palindromic, so with
+    ``y = s + 1/s`` it is ``s^2*(rho*y^2 + kp*y + 1)``. For ``2*sqrt(rho) <= kp <= 2*rho + 1/2``
+    both roots y are real in [-2, 0), every pole has |s| = 1 and the damping ratios are
+    ``-y/2``: ``(kp -+ sqrt(kp^2 - 4*rho))/(4*rho)``, whose product is ``1/(4*rho)``; at
+    ``kp = 2*sqrt(rho)`` both are ``1/(2*sqrt(rho))``. Below that range the poles leave the
+    circle, above it one pair becomes real (overdamped).
+
+    Parameters
+    ----------
+    rho : float
+        Inertia ratio I2/I1 (16), > 0.
+    kp : float
+        Proportional gain in [2*sqrt(rho), 2*rho + 1/2].
+
+    Returns
+    -------
+    (float, float)
+        The smaller and the larger damping ratio.
+    """
+    rho = check_real("rho", rho, lower=0.0)
+    kp = check_real("kp", kp, lower=0.0)
+    disc = kp * kp - 4.0 * rho
+    if disc < -1e-12 * kp * kp:
+        raise ValueError(
+            f"kp = {kp!r} is below 2*sqrt(rho) = {2.0 * math.sqrt(rho)!r}: the poles leave the "
+            "circle |s| = omega_s and the rule states no damping"
+        )
+    if kp > 2.0 * rho + 0.5:
+        raise ValueError(
+            f"kp = {kp!r} is above 2*rho + 1/2 = {2.0 * rho + 0.5!r}: one pair of poles is real "
+            "(overdamped) and off the circle |s| = omega_s"
+        )
+    root = math.sqrt(max(disc, 0.0))
+    return ((kp - root) / (4.0 * rho), (kp + root) / (4.0 * rho))
+
+
+def z_torque(
+    params: ScaledParams,
+    *,
+    z_gain: float = 1.0,
+    omega_hp: float = 0.3,
+    omega_lp: float = 10.0,
+    bandwidth: float = 10.0,
+    R_ff: float = 0.0,
+    t_on: float = 0.0,
+) -> ZTorque:
+    """Z-Torque: the stiff speed PI of :func:`stiff_pi` with the set point lowered by
+    ``z_gain*HP(LP(torque))/Z``.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        Gives rho.
+    z_gain : float
+        Torque feedback in units of 1/Z (1: the impedance of the lumped string, matched).
+    omega_hp : float
+        High-pass corner in units of omega_s. The default 0.3 gives the fastest decay of the
+        lumped string's closed loop ((13), (27) with c = 0) at rho = 5 (``docs/controllers.md``):
+        a lower corner lets the set-point correction linger (slow recovery of the mean speed),
+        a higher one shifts the correction's phase at omega_s.
+    omega_lp : float
+        Low-pass (measurement filter) corner in units of omega_s: a decade above.
+    bandwidth : float
+        Speed-loop bandwidth of the PI (see :func:`stiff_pi`).
+    R_ff, t_on : float
+        Feed-forward (31) and switch-on time.
+
+    Returns
+    -------
+    ZTorque
+    """
+    pi = stiff_pi(params, bandwidth=bandwidth)
+    return ZTorque(
+        kp=pi.kp,
+        ki=pi.ki,
+        z_gain=check_real("z_torque z_gain", z_gain, lower=0.0, strict=False) / Z_STRING,
+        omega_hp=check_real("z_torque omega_hp", omega_hp, lower=0.0) * OMEGA_S,
+        omega_lp=check_real("z_torque omega_lp", omega_lp, lower=0.0) * OMEGA_S,
+        R_ff=R_ff,
+        t_on=t_on,
+    )
+
+
+def linear_closed_loop(model: AveragedModel, law: Law) -> NDArray[np.float64]:
+    """System matrix of the linearised torsional model (13), (27) closed by ``law``.
+
+    The plant is :func:`~drillstring.controller.averaged.linearised_ode_matrix` in the state
+    ``x = [phi, dphi, phi - theta - K0, dtheta]``, whose input enters row 4 as ``R_fb/rho``
+    (the constant R_ff = -K0 balances K0, (31)). The laws in continuous time, with the
+    measured string-torque deviation ``theta - phi - (-K0) = -x3``:
+
+    * :class:`SpeedPI`: extra state ``I' = -dtheta``, ``R_fb = -kp*dtheta + ki*I``;
+    * :class:`ZTorque`: extra states ``I' = e``, ``z' = omega_hp*(-x3 - z)``,
+      ``y' = omega_lp*(-x3 - z - y)``, ``e = -dtheta - z_gain*y``, ``R_fb = kp*e + ki*I``;
+    * :class:`SampledAffine`: ``R_fb = F x`` (the ODE form of (29), no extra state).
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model (c, tau_n0, rho).
+    law : Law
+        The law (its R_ff and t_on play no part).
+
+    Returns
+    -------
+    ndarray
+        Square matrix; x first, then the law's states.
+    """
+    A = linearised_ode_matrix(model)
+    rho = model.rho
+    if isinstance(law, SampledAffine):
+        return A + model.B @ np.asarray(law.feedback.F, dtype=float)[None, :]
+    if isinstance(law, SpeedPI):
+        M = np.zeros((5, 5))
+        M[:4, :4] = A
+        M[3, 3] += -law.kp / rho
+        M[3, 4] = law.ki / rho
+        M[4, 3] = -1.0
+        return M
+    if isinstance(law, ZTorque):
+        M = np.zeros((7, 7))
+        M[:4, :4] = A
+        I, Z, Y = 4, 5, 6  # noqa: E741
+        # e = -x4 - z_gain*y ; R_fb = kp*e + ki*I
+        e = np.zeros(7)
+        e[3] = -1.0
+        e[Y] = -law.z_gain
+        M[3] += (law.kp * e) / rho
+        M[3, I] += law.ki / rho
+        M[I] = e
+        M[Z, 2] = -law.omega_hp
+        M[Z, Z] = -law.omega_hp
+        M[Y, 2] = -law.omega_lp
+        M[Y, Z] = -law.omega_lp
+        M[Y, Y] = -law.omega_lp
+        return M
+    raise TypeError(f"no linear closed loop for a law of type {type(law).__name__}")
+
+
+def damping_ratios(M: NDArray[np.float64], tol: float = 1e-9) -> NDArray[np.float64]:
+    """Damping ratios -Re(s)/|s| of the eigenvalues of ``M`` (the origin left out), ascending."""
+    ev = np.linalg.eigvals(np.asarray(M, dtype=float))
+    ev = ev[np.abs(ev) > tol]
+    return np.sort(-ev.real / np.abs(ev))

@@ -1,0 +1,541 @@
+"""``drillstring controllers``: the industrial top-drive laws beside the paper's LMI design.
+
+Two jobs (``docs/controllers.md``), each a function the demo calls and a subcommand:
+
+* ``compare`` (:func:`write_controller_comparison`): the Fig. 6 set-up, the open loop in
+  torsional stick-slip until tau = 25, then every controller of
+  :data:`~drillstring.controller.lineup.CONTROLLERS` switched on from the same state, as a
+  digital law with zero-order hold (and the paper's law also evaluated continuously, the
+  monolithic path). One figure of the bit speeds, one table of the severity metrics
+  (``comparison.png``, ``comparison.csv``, ``comparison.json`` with the laws' parameters in
+  scaled and SI units).
+* ``map`` (:func:`write_controller_map`): a small map of the controllers sweep study over the
+  surface speed omega0 and the feed v0 (``results.csv``, the maps in ``plots/``, and
+  ``by_controller.csv``: how often each controller ends in each outcome and is the best).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import math
+import os
+import sys
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drillstring.analysis.severity import OUTCOMES, severity_metrics
+from drillstring.apps.colors import CONTROLLER_COLORS
+from drillstring.apps.sweep.metrics import controller_column
+from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
+from drillstring.apps.sweep.spec import SweepSpecError, spec_from_dict
+from drillstring.controller.averaged import averaged_model
+from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
+from drillstring.controller.lineup import CONTROLLERS, controller_lineup, lmi_gain
+from drillstring.fileio import save_figure, write_csv, write_json
+from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import EngineOptions
+from drillstring.model.experiments import FIG6, Experiment
+from drillstring.model.params import KNOWN_PARAMS, KNOWN_PHYSICAL, PhysicalParams, ScaledParams
+from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
+from drillstring.model.simulate import SimulationResult, simulate
+from drillstring.plotting import new_figure
+from drillstring.validation import check_int, check_real
+
+__all__ = [
+    "COMPARISON_COLUMNS",
+    "Comparison",
+    "ControllerMap",
+    "controllers_main",
+    "format_comparison",
+    "write_controller_comparison",
+    "write_controller_map",
+]
+
+#: Columns of ``comparison.csv``.
+COMPARISON_COLUMNS = (
+    "controller",
+    "evaluation",
+    "outcome",
+    "utr",
+    "severity",
+    "stick_fraction",
+    "stall",
+    "peak_torque",
+    "peak_torque_over_R0",
+    "peak_torque_Nm",
+    "stick_entries_after_on",
+    "status",
+    "tau_reached",
+)
+OPEN_LOOP = "open-loop"
+LMI_CONTINUOUS = "lmi-continuous"
+
+
+def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
+    return gains if isinstance(gains, GainsFile) else read_gains(gains)
+
+
+def _base(params: ScaledParams) -> str | dict[str, Any]:
+    """A sweep's base for ``params``: the name of a known set equal to it, else the set."""
+    for name, known in KNOWN_PARAMS.items():
+        if known == params:
+            return name
+    return {"kind": "scaled", **params.to_dict()}
+
+
+def _matching_rig(params: ScaledParams) -> PhysicalParams | None:
+    """A known physical rig whose scaled set is ``params`` (to 1e-9), for the SI columns."""
+    for rig in KNOWN_PHYSICAL.values():
+        s = rig.to_scaled()
+        if all(
+            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=1e-9)
+            for f in dataclasses.fields(ScaledParams)
+        ):
+            return rig
+    return None
+
+
+# --------------------------------------------------------------------------------------------
+# the Fig. 6-like comparison
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Comparison:
+    """What :func:`write_controller_comparison` measured and wrote.
+
+    ``rows`` are the rows of ``comparison.csv`` (:data:`COMPARISON_COLUMNS`), ``laws`` each
+    law's parameters (scaled and, with a rig, SI), ``files`` the written paths, ``runs`` the
+    simulation results by row name.
+    """
+
+    rows: list[dict[str, Any]]
+    laws: dict[str, dict[str, Any]]
+    files: dict[str, Path] = field(default_factory=dict)
+    runs: dict[str, SimulationResult] = field(default_factory=dict, repr=False)
+    experiment: str = FIG6.name
+    Ts: float = DEFAULT_TS
+    window: float = 20.0
+
+
+def _row(
+    name: str,
+    evaluation: str,
+    result: SimulationResult,
+    window: float,
+    t_on: float,
+    rig: PhysicalParams | None,
+) -> dict[str, Any]:
+    s = severity_metrics(result, window, t_from=t_on)
+    R0 = result.params.R0
+    entries = sum(
+        1
+        for e in result.events
+        if e.kind == "mode" and e.to_mode == "torsional_stick" and e.tau >= t_on
+    )
+    return {
+        "controller": name,
+        "evaluation": evaluation,
+        "outcome": s.outcome,
+        "utr": s.utr,
+        "severity": s.severity,
+        "stick_fraction": s.stick_fraction,
+        "stall": int(s.stall),
+        "peak_torque": s.peak_torque,
+        "peak_torque_over_R0": s.peak_torque / R0,
+        "peak_torque_Nm": rig.physical_torque(s.peak_torque) if rig is not None else math.nan,
+        "stick_entries_after_on": entries,
+        "status": result.status.code,
+        "tau_reached": s.tau_reached,
+    }
+
+
+def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
+    """The comparison table as fixed-width text (what ``drillstring controllers compare``
+    prints)."""
+    head = (
+        f"{'controller':<15} {'evaluation':<13} {'outcome':<11} {'UTR':>7} {'severity':>8} "
+        f"{'stick':>6} {'peak R/R0':>10} {'peak R [N m]':>13} {'sticks':>6}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r['controller']:<15} {r['evaluation']:<13} {r['outcome']:<11} {r['utr']:>7.3f} "
+            f"{r['severity']:>8.3f} {r['stick_fraction']:>6.3f} {r['peak_torque_over_R0']:>10.2f} "
+            f"{r['peak_torque_Nm']:>13.4g} {r['stick_entries_after_on']:>6d}"
+        )
+    return "\n".join(lines)
+
+
+def _plot(
+    path: Path,
+    runs: dict[str, SimulationResult],
+    omega0: float,
+    t_on: float,
+    window: float,
+    title: str,
+) -> Path:
+    fig = new_figure((8.0, 9.0))
+    axes = fig.subplots(len(CONTROLLERS), 1, sharex=True, sharey=True)
+    open_loop = runs[OPEN_LOOP]
+    tau_end = float(runs[CONTROLLERS[0]].tau[-1])
+    for ax, name in zip(axes, CONTROLLERS, strict=True):
+        ax.plot(open_loop.tau, omega0 + open_loop.dphi, color="0.75", lw=0.8, label="open loop")
+        r = runs[name]
+        ax.plot(r.tau, omega0 + r.dphi, color=CONTROLLER_COLORS[name], lw=1.0, label=name)
+        if name == "lmi":
+            c = runs[LMI_CONTINUOUS]
+            ax.plot(c.tau, omega0 + c.dphi, "k--", lw=0.8, label="lmi, continuous")
+        ax.axvline(t_on, color="k", ls=":", lw=1)
+        ax.axvspan(tau_end - window, tau_end, color="0.93", zorder=0)
+        ax.axhline(omega0, color="k", lw=0.5)
+        ax.set_ylabel(r"$\dot\Phi$ (bit)")
+        ax.legend(loc="upper left", fontsize=7, ncol=3)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel(r"$\tau$")
+    axes[0].set_title(title, fontsize="medium")
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def write_controller_comparison(
+    out_dir: str | os.PathLike[str],
+    gains: GainsFile | str | os.PathLike[str],
+    *,
+    experiment: Experiment = FIG6,
+    Ts: float = DEFAULT_TS,
+    window: float = 20.0,
+    rig: PhysicalParams | None = None,
+    log: Callable[[str], Any] | None = print,
+) -> Comparison:
+    """Every controller switched on from the same torsional stick-slip state (Fig. 6 set-up).
+
+    The open loop (the feed-forward R_ff alone, (31)) runs from ``experiment.dphi0`` to
+    ``experiment.t_on`` with the torsional-stick model on; then each controller of
+    :data:`~drillstring.controller.lineup.CONTROLLERS` acts as a digital law with sample period
+    ``Ts`` (:func:`~drillstring.model.sampled.simulate_sampled`), the paper's law also
+    continuously (:func:`~drillstring.model.simulate.simulate`). The severity metrics are taken
+    over the last ``window`` of the run, the peak torque from the switch-on on.
+
+    Parameters
+    ----------
+    out_dir : path
+        Where ``comparison.png``, ``comparison.csv`` and ``comparison.json`` go.
+    gains : GainsFile or path
+        The LMI design (its parameter set, A, taubar_crit, F and feed-forward are used).
+    experiment : Experiment
+        The set-up (default :data:`~drillstring.model.experiments.FIG6`).
+    Ts : float
+        Sample period of the digital laws (scaled).
+    window : float
+        Late window of the metrics (scaled time).
+    rig : PhysicalParams, optional
+        For the SI columns; default: a known rig whose scaled set is the gains' (the reference
+        rig for the reference set), else none.
+    log : callable, optional
+        Receives the printed table (None: silent).
+
+    Returns
+    -------
+    Comparison
+    """
+    g = _gains(gains)
+    Ts = check_real("Ts", Ts, lower=0.0)
+    window = check_real("window", window, lower=0.0)
+    if window > experiment.tau_end - experiment.t_on:
+        raise ValueError(
+            f"window = {window!r} reaches back before the switch-on at t_on = {experiment.t_on!r} "
+            f"(run length {experiment.tau_end!r})"
+        )
+    params = g.params
+    rig = rig if rig is not None else _matching_rig(params)
+    model = averaged_model(params, g.A, g.taubar_crit)
+    gain = lmi_gain(model, g, feedforward="file")
+    laws = controller_lineup(params, gain, t_on=experiment.t_on, latch=experiment.latch)
+    options = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)
+    start = {"initial": experiment.initial(), "options": options}
+    runs: dict[str, SimulationResult] = {
+        OPEN_LOOP: simulate(params, experiment.tau_end, control=gain.R_ff, **start)
+    }
+    for name, law in laws.items():
+        runs[name] = simulate_sampled(params, law, experiment.tau_end, Ts, **start)
+    continuous = AffineFeedback(gain.F, gain.K0, gain.R_ff, experiment.t_on, experiment.latch)
+    runs[LMI_CONTINUOUS] = simulate(params, experiment.tau_end, control=continuous, **start)
+    sampled = f"Ts = {Ts:g}"
+    evaluation = {OPEN_LOOP: "feed-forward", LMI_CONTINUOUS: "continuous"}
+    rows = [
+        _row(name, evaluation.get(name, sampled), r, window, experiment.t_on, rig)
+        for name, r in runs.items()
+    ]
+    laws_out: dict[str, dict[str, Any]] = {}
+    for name, law in laws.items():
+        scaled = dataclasses.asdict(law.feedback if name == "lmi" else law)
+        laws_out[name] = {"kind": type(law).__name__, "scaled": scaled}
+        if rig is not None:
+            laws_out[name]["si"] = law.to_si(rig)
+    out = Path(out_dir)
+    title = (
+        f"{experiment.name} set-up: controllers switched on at tau = {experiment.t_on:g}, "
+        f"sampled every {Ts:g}"
+    )
+    files = {
+        "figure": _plot(
+            out / "comparison.png", runs, params.omega0, experiment.t_on, window, title
+        ),
+        "table": write_csv(
+            out / "comparison.csv",
+            COMPARISON_COLUMNS,
+            ([r[c] for c in COMPARISON_COLUMNS] for r in rows),
+        ),
+    }
+    summary = {
+        "experiment": experiment.name,
+        "t_on": experiment.t_on,
+        "tau_end": experiment.tau_end,
+        "Ts": Ts,
+        "window": window,
+        "params": params.to_dict(),
+        "rig": None if rig is None else rig.to_dict(),
+        "rows": rows,
+        "laws": laws_out,
+    }
+    files["json"] = write_json(out / "comparison.json", _jsonable(summary))
+    if log is not None:
+        log(format_comparison(rows))
+    return Comparison(
+        rows=rows,
+        laws=laws_out,
+        files=files,
+        runs=runs,
+        experiment=experiment.name,
+        Ts=Ts,
+        window=window,
+    )
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
+    return obj
+
+
+# --------------------------------------------------------------------------------------------
+# the small map
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class ControllerMap:
+    """What :func:`write_controller_map` ran: the sweep's report and the per-controller counts
+    (``by_controller`` rows: controller, one count per outcome, failed points, times best)."""
+
+    report: SweepReport
+    by_controller: list[dict[str, Any]]
+    files: dict[str, Path] = field(default_factory=dict)
+
+
+def _count_rows(results: Path) -> list[dict[str, Any]]:
+    with open(results, newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    best = Counter(r["best"] for r in rows if not r["error"])
+    out = []
+    for c in CONTROLLERS:
+        outcomes = Counter(r[controller_column("outcome", c)] for r in rows if not r["error"])
+        entry: dict[str, Any] = {"controller": c}
+        for o in OUTCOMES:
+            entry[o] = outcomes.pop(o, 0)
+        entry["stopped"] = sum(outcomes.values())
+        entry["failed_points"] = sum(1 for r in rows if r["error"])
+        entry["best"] = best.get(c, 0)
+        out.append(entry)
+    return out
+
+
+def write_controller_map(
+    out_dir: str | os.PathLike[str],
+    gains_path: str | os.PathLike[str],
+    *,
+    n: int = 6,
+    omega0: tuple[float, float] = (2.0, 10.0),
+    v0: tuple[float, float] = (0.25, 2.0),
+    tau_end: float = 60.0,
+    window: float = 20.0,
+    Ts: float = DEFAULT_TS,
+    dphi0_rel: float = -0.5,
+    serial: bool = False,
+    workers: int | None = None,
+    client: Any = None,
+    resume: bool = False,
+    progress: bool = False,
+    log: Callable[[str], Any] | None = print,
+) -> ControllerMap:
+    """A small map of the controllers study: n x n points over omega0 x v0 around the design's
+    parameter set, the LMI gain fixed from ``gains_path`` (its K0 and R_ff taken at each point).
+
+    Parameters
+    ----------
+    out_dir : path
+        The sweep's output folder (``results.csv``, ``plots/``, ``by_controller.csv``).
+    gains_path : path
+        The gains file of the LMI design; its parameter set is the map's base.
+    n : int
+        Points per axis (>= 2).
+    omega0, v0 : (float, float)
+        Ranges of the surface speed and the feed (scaled).
+    tau_end, window, Ts, dphi0_rel : float
+        Run length, late window, sample period, initial bit speed as a fraction of omega0
+        (options of the study, :mod:`drillstring.apps.sweep.spec`).
+    serial, workers, client, resume, progress :
+        As :func:`~drillstring.apps.sweep.runner.run_sweep`.
+    log : callable, optional
+        Receives the per-controller table (None: silent).
+
+    Returns
+    -------
+    ControllerMap
+    """
+    n = check_int("n", n, lower=2)
+    g = read_gains(gains_path)
+    spec = spec_from_dict(
+        {
+            "study": "controllers",
+            "base": _base(g.params),
+            "tau_end": tau_end,
+            "sweep": [
+                {"param": "omega0", "start": omega0[0], "stop": omega0[1], "num": n},
+                {"param": "v0", "start": v0[0], "stop": v0[1], "num": n},
+            ],
+            "options": {
+                "gains": str(Path(gains_path).resolve()),
+                "feedforward": "point",
+                "window": window,
+                "Ts": Ts,
+                "dphi0_rel": dphi0_rel,
+            },
+        },
+        source="controller map",
+    )
+    report = run_sweep(
+        spec,
+        out_dir,
+        serial=serial,
+        workers=workers,
+        client=client,
+        resume=resume,
+        progress=progress,
+    )
+    table = _count_rows(report.results)
+    header = ["controller", *OUTCOMES, "stopped", "failed_points", "best"]
+    files = {
+        "by_controller": write_csv(
+            Path(out_dir) / "by_controller.csv", header, ([r[h] for h in header] for r in table)
+        )
+    }
+    if log is not None:
+        log(f"{spec.n_points} points, {report.n_failed} failed; outcomes per controller:")
+        log(" ".join(f"{h:>13}" for h in header))
+        for r in table:
+            log(" ".join(f"{r[h]!s:>13}" for h in header))
+    return ControllerMap(report=report, by_controller=table, files=files)
+
+
+# --------------------------------------------------------------------------------------------
+# command line
+# --------------------------------------------------------------------------------------------
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="drillstring controllers",
+        description="Industrial top-drive controllers (stiff PI, SoftTorque, Z-Torque) beside "
+        "the LMI design: the Fig. 6-like comparison and a small map over speed and feed.",
+    )
+    sub = ap.add_subparsers(dest="job", required=True)
+    for job, text in (
+        ("compare", "every controller switched on from Fig. 6's stick-slip state at tau = 25"),
+        ("map", "n x n map of the severity metrics over omega0 x v0 for every controller"),
+    ):
+        p = sub.add_parser(job, help=text, description=text)
+        p.add_argument(
+            "--gains",
+            type=Path,
+            default=DEFAULT_GAINS_PATH,
+            help=f"gains file of the LMI design (default: {DEFAULT_GAINS_PATH})",
+        )
+        p.add_argument("--out", type=Path, required=True, help="output folder")
+        p.add_argument("--Ts", type=float, default=DEFAULT_TS, help="sample period (scaled)")
+        p.add_argument("--window", type=float, default=20.0, help="late window of the metrics")
+    m = sub.choices["map"]
+    m.add_argument("--n", type=int, default=6, help="points per axis (default 6)")
+    m.add_argument(
+        "--omega0",
+        type=float,
+        nargs=2,
+        default=(2.0, 10.0),
+        metavar=("LO", "HI"),
+        help="range of the surface speed omega0 (scaled; default 2 10)",
+    )
+    m.add_argument(
+        "--v0",
+        type=float,
+        nargs=2,
+        default=(0.25, 2.0),
+        metavar=("LO", "HI"),
+        help="range of the feed v0 (scaled; default 0.25 2)",
+    )
+    m.add_argument("--tau-end", type=float, default=60.0, help="run length (default 60)")
+    m.add_argument(
+        "--workers", type=int, default=None, help="Dask workers (default: CPU count; 0: serial)"
+    )
+    m.add_argument("--resume", action="store_true", help="skip the points already computed")
+    m.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return ap
+
+
+def controllers_main(argv: Sequence[str] | None = None) -> int:
+    """Run ``drillstring controllers compare|map``; exit code 0 done, 2 bad input."""
+    args = _parser().parse_args(argv)
+    prog = f"drillstring controllers {args.job}"
+    try:
+        if args.job == "compare":
+            result = write_controller_comparison(
+                args.out, args.gains, Ts=args.Ts, window=args.window
+            )
+            print(f"wrote {', '.join(str(p) for p in result.files.values())}")
+            return 0
+        if args.workers is not None and args.workers < 0:
+            print(f"{prog}: --workers must be >= 0, got {args.workers}", file=sys.stderr)
+            return 2
+        result_map = write_controller_map(
+            args.out,
+            args.gains,
+            n=args.n,
+            omega0=tuple(args.omega0),
+            v0=tuple(args.v0),
+            tau_end=args.tau_end,
+            window=args.window,
+            Ts=args.Ts,
+            serial=args.workers == 0,
+            workers=args.workers or None,
+            resume=args.resume,
+            progress=not args.no_progress,
+        )
+        report = result_map.report
+        print(f"maps: {report.out_dir / 'plots'}; results: {report.results}")
+        return 0
+    except (GainsFileError, SweepSpecError, SweepError, ValueError, OSError) as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 2

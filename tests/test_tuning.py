@@ -1,0 +1,171 @@
+"""Tuning rules of the industrial laws (drillstring.controller.tuning, lineup).
+
+The SoftTorque rule states the damping of the string's torsional modes in closed form; the
+closed loop of the linearised torsional model (13), (27) is built as a matrix and its
+eigenvalues must give that damping. The matrix itself is checked against the characteristic
+polynomial derived by hand.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from drillstring.controller.averaged import averaged_model, linearised_ode_matrix
+from drillstring.controller.gains import PAPER_F, GainsFile
+from drillstring.controller.lineup import CONTROLLERS, controller_lineup, lmi_gain
+from drillstring.controller.tuning import (
+    OMEGA_S,
+    damping_ratios,
+    linear_closed_loop,
+    soft_torque,
+    soft_torque_damping,
+    stiff_pi,
+    z_torque,
+)
+from drillstring.model.control import AffineFeedback
+from drillstring.model.laws import SampledAffine, SpeedPI, ZTorque
+from drillstring.model.params import REFERENCE
+
+A_REF, TAUBAR_CRIT_REF = 0.38541455958349763, 2.3927883571184694  # the reference design
+
+
+def _model(rho: float, *, string_only: bool):
+    m = averaged_model(REFERENCE.replace(rho=rho), A_REF, TAUBAR_CRIT_REF)
+    return dataclasses.replace(m, c=0.0) if string_only else m
+
+
+def _nonzero(ev: np.ndarray) -> np.ndarray:
+    return ev[np.abs(ev) > 1e-9]
+
+
+@pytest.mark.parametrize("rho", [2.5, 5.0, 10.0])
+@pytest.mark.parametrize("kp_over_min", [1.0, 1.3, 1.6])
+def test_soft_torque_gives_the_damping_it_states(rho, kp_over_min):
+    """(13), (27) without velocity weakening (the lumped string), closed by the SoftTorque PI:
+    every torsional pole on |s| = omega_s, damping ratios as soft_torque_damping states."""
+    params = REFERENCE.replace(rho=rho)
+    kp = kp_over_min * 2.0 * math.sqrt(rho)
+    law = soft_torque(params, kp=kp)
+    ev = _nonzero(np.linalg.eigvals(linear_closed_loop(_model(rho, string_only=True), law)))
+    assert ev.size == 4
+    # a double pole (kp at its minimum) is only found to sqrt(machine epsilon)
+    tol = 1e-6 if kp_over_min == 1.0 else 1e-10
+    np.testing.assert_allclose(np.abs(ev), OMEGA_S, atol=tol)
+    zeta = np.sort(-ev.real / np.abs(ev))
+    lo, hi = soft_torque_damping(rho, kp)
+    np.testing.assert_allclose(zeta, [lo, lo, hi, hi], atol=tol)
+    assert lo * hi == pytest.approx(1.0 / (4.0 * rho), rel=1e-12)
+
+
+def test_soft_torque_default_is_the_largest_common_damping():
+    rho = REFERENCE.rho
+    law = soft_torque(REFERENCE)
+    assert (law.kp, law.ki) == (2.0 * math.sqrt(rho), rho)
+    lo, hi = soft_torque_damping(rho, law.kp)
+    assert lo == pytest.approx(1.0 / (2.0 * math.sqrt(rho)), rel=1e-7) == pytest.approx(hi)
+    # a softer P gain pulls the poles off the circle and damps both modes less
+    softer = SpeedPI(kp=0.8 * law.kp, ki=law.ki)
+    ev = _nonzero(np.linalg.eigvals(linear_closed_loop(_model(rho, string_only=True), softer)))
+    assert np.min(-ev.real / np.abs(ev)) < lo - 0.02
+    with pytest.raises(ValueError, match="below 2\\*sqrt\\(rho\\)"):
+        soft_torque_damping(rho, 0.8 * law.kp)
+    with pytest.raises(ValueError, match="above 2\\*rho \\+ 1/2"):
+        soft_torque_damping(rho, 2.0 * rho + 0.6)
+
+
+def test_soft_torque_cancels_the_table_inertia_at_the_string_frequency():
+    """The table with the PI, as an impedance torque/speed: rho*s + kp + ki/s = kp at s = i."""
+    law = soft_torque(REFERENCE)
+    s = 1j * OMEGA_S
+    assert REFERENCE.rho * s + law.kp + law.ki / s == pytest.approx(law.kp, abs=1e-15)
+
+
+def test_closed_loop_matrix_has_the_hand_derived_characteristic_polynomial():
+    """(s^2 - nu*s + 1)(rho*s^2 + kp*s + ki + 1) - 1 = 0 with nu = -c*tau_n0 (phi and theta
+    eliminated by hand), times s for the rigid-body angle."""
+    m = _model(REFERENCE.rho, string_only=False)
+    nu, rho = -m.c * m.tau_n0, m.rho
+    kp, ki = 3.0, 4.0
+    quartic = np.polymul([1.0, -nu, 1.0], [rho, kp, ki + 1.0]) - np.array([0, 0, 0, 0, 1.0])
+    expected = np.polymul(quartic / rho, [1.0, 0.0])
+    got = np.poly(linear_closed_loop(m, SpeedPI(kp=kp, ki=ki)))
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    # the paper's law: the ODE (13), (27) with R_fb = F x has the poles of A + B F
+    F = np.asarray(PAPER_F)
+    lmi = linear_closed_loop(m, SampledAffine(AffineFeedback(PAPER_F, m.K0, m.R_ff)))
+    np.testing.assert_allclose(lmi, linearised_ode_matrix(m) + m.B @ F[None, :], atol=0)
+
+
+def test_z_torque_tends_to_an_impedance_matched_top():
+    """With the table following -torque/Z exactly (infinitely stiff loop, no filters), (13), (27)
+    reduce to s^2 + (1 - nu)s + (1 - nu) = 0: |s| = sqrt(1 - nu), damping sqrt(1 - nu)/2. The
+    law's closed loop approaches that pair as the loop stiffens and the filters open up, the
+    error falling tenfold per decade of bandwidth."""
+    m = _model(REFERENCE.rho, string_only=False)
+    nu = -m.c * m.tau_n0
+    target = complex(-(1.0 - nu) / 2.0, math.sqrt((1.0 - nu) - (1.0 - nu) ** 2 / 4.0))
+    errors = []
+    for bw in (1e2, 1e3, 1e4):
+        law = z_torque(REFERENCE, bandwidth=bw, omega_hp=3.0 / bw, omega_lp=bw)
+        ev = np.linalg.eigvals(linear_closed_loop(m, law))
+        errors.append(float(np.min(np.abs(ev - target))))
+    assert errors[-1] < 2e-4
+    assert 8.0 < errors[0] / errors[1] < 12.0 and 8.0 < errors[1] / errors[2] < 12.0
+    stiff = damping_ratios(linear_closed_loop(m, stiff_pi(REFERENCE)))
+    assert min(stiff) < 0.0  # the stiff PI alone: the velocity weakening wins
+
+
+def test_z_torque_high_pass_corner_is_the_fastest_for_the_string():
+    """The default corner 0.3*omega_s minimises the spectral abscissa of the string-only closed
+    loop over a grid of corners (to the grid's 0.05), at the reference rho = 5."""
+    m = _model(REFERENCE.rho, string_only=True)
+    corners = np.arange(0.05, 1.0, 0.05)
+
+    def abscissa(w):
+        ev = _nonzero(np.linalg.eigvals(linear_closed_loop(m, z_torque(REFERENCE, omega_hp=w))))
+        return float(np.max(ev.real))
+
+    best = corners[int(np.argmin([abscissa(w) for w in corners]))]
+    assert z_torque(REFERENCE).omega_hp == 0.3
+    assert abs(best - 0.3) <= 0.05 + 1e-12
+    assert abscissa(0.3) < min(abscissa(0.1), abscissa(0.6)) - 0.1
+
+
+def test_stiff_pi_and_z_torque_gains():
+    pi = stiff_pi(REFERENCE, bandwidth=10.0, damping=1.0)
+    assert (pi.kp, pi.ki) == (2 * 10.0 * 5.0, 100.0 * 5.0)
+    zt = z_torque(REFERENCE, z_gain=0.5, omega_hp=0.2, omega_lp=8.0)
+    assert isinstance(zt, ZTorque) and (zt.kp, zt.ki) == (pi.kp, pi.ki)
+    assert (zt.z_gain, zt.omega_hp, zt.omega_lp) == (0.5, 0.2, 8.0)
+    with pytest.raises(ValueError, match="stiff_pi bandwidth must be > 0"):
+        stiff_pi(REFERENCE, bandwidth=0.0)
+
+
+def test_lineup_shares_feedforward_and_switch_on():
+    m = averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF)
+    gains = GainsFile(
+        F=PAPER_F,
+        K0=m.K0,
+        R_ff=m.R_ff,
+        alpha=1.0,
+        A=A_REF,
+        taubar_crit=TAUBAR_CRIT_REF,
+        params=REFERENCE,
+        certificate={},
+        spectral_abscissa=-1.0,
+        solver="none",
+        solver_status="none",
+    )
+    gain = lmi_gain(m, gains)
+    assert gain.F == PAPER_F and gain.R_ff == m.R_ff and gain.abscissa < 0.0
+    laws = controller_lineup(REFERENCE, gain, t_on=25.0, latch="angle")
+    assert tuple(laws) == CONTROLLERS
+    assert {law.R_ff for law in laws.values()} == {m.R_ff}
+    assert {law.t_on for law in laws.values()} == {25.0}
+    assert laws["lmi"].feedback.latch == "angle"
+    with pytest.raises(ValueError, match="feedforward must be one of"):
+        lmi_gain(m, gains, feedforward="nominal")
