@@ -9,12 +9,16 @@
    FMUs' own cost, so that ``per-step time - bare loop`` is each master's overhead.
 2. The costs inside one macro step, from the bare loop with a timer around each call (the
    timer's own cost subtracted), over the second half of a run of 2N steps: the plant's
-   ``fmi2DoStep`` against the engine's own advance over the same interval (``Engine.sample`` on
-   the grid of H from Python, the kernel filling the output grid, as the monolithic solver
-   does; the slope between N and 2N intervals, the same window), the controller's
+   ``fmi2DoStep`` against the engine's own advance over the same interval (the slope between N
+   and 2N intervals, the same window): ``Engine.advance`` to each point of the grid of H from
+   Python (the target's measure), and, for information, ``Engine.sample`` on that grid (the
+   kernel filling the output rows, as the monolithic solver does); the controller's
    ``fmi2DoStep``, and the master's overhead per step (master - bare loop).
 3. Total co-simulation time of the Fig. 5 case (tau in [0, 60], H = 1e-3) against the
-   monolithic twin of the same loop (sampled every 1e-3 and every 1e-2), interleaved rounds.
+   monolithic twin of the same loop (sampled every 1e-3 and every 1e-2), interleaved rounds; and
+   the same loop in the project's plain-C master (``tests/c_host/host.c``, a separate process:
+   the time of its macro steps as it reports them, and of its whole process), which shows what
+   the FMUs cost without a Python master.
 
 Targets: per-step master overhead no worse than libcosim's; at H = 1e-3 a plant
 ``fmi2DoStep`` <= 2x the engine's advance over the same interval; the controller's
@@ -28,7 +32,10 @@ from __future__ import annotations
 
 import argparse
 import ctypes
+import re
+import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -98,6 +105,62 @@ def libcosim_time(fmus: dict[str, Path], starts: dict[str, dict], H: float, n: i
             raise RuntimeError("libcosim: step failed")
         del ex
     return time.perf_counter() - t0
+
+
+HOST_C = Path(__file__).resolve().parents[1] / "tests" / "c_host" / "host.c"
+
+
+def compile_c_host(out_dir: Path) -> Path | None:
+    """The project's plain-C master (``tests/c_host/host.c``) compiled with ``cc -O2``, or None
+    without a C compiler."""
+    cc = shutil.which("cc")
+    if cc is None:
+        return None
+    exe = out_dir / "host"
+    subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(HOST_C), "-ldl"], check=True)
+    return exe
+
+
+def c_host_config(fmus: dict[str, Path], starts: dict[str, dict], H: float, work: Path) -> str:
+    """The C host's configuration of the closed loop (no steps line: see :func:`c_host_time`),
+    the FMUs unpacked under ``work``, ``dphi`` recorded."""
+    from fmpy import extract, read_model_description
+
+    lines = []
+    vr = {}
+    for name, path in fmus.items():
+        md = read_model_description(str(path))
+        folder = work / name
+        if not folder.exists():
+            extract(str(path), str(folder))
+        lines.append(f"fmu {name} {md.coSimulation.modelIdentifier} {md.guid} {folder}")
+        vr[name] = {v.name: v.valueReference for v in md.modelVariables}
+        for kind, ref, value in _typed(md, starts.get(name, {})):
+            word = {"Real": "real", "Integer": "integer", "Enumeration": "integer"}.get(kind)
+            lines.append(f"{word or 'boolean'} {name} {ref} {float(value)!r}")
+    for conn in CONNECTIONS:
+        src, dst = (s.strip().split(".", 1) for s in conn.split("->"))
+        lines.append(f"connect {src[0]} {vr[src[0]][src[1]]} {dst[0]} {vr[dst[0]][dst[1]]}")
+    lines += [
+        f"record plant {vr['plant']['dphi']} dphi",
+        f"step_ns {round(H * 1e9)}",
+        f"csv {work / 'host.csv'}",
+        "logging 0",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def c_host_time(exe: Path, config: str, n: int, work: Path) -> tuple[float, float]:
+    """(wall time of the C host's process, of its ``n`` macro steps as it reports them) [s]."""
+    path = work / f"host_{n}.cfg"
+    path.write_text(config + f"steps {n}\ntiming 1\n", encoding="utf-8")
+    t0 = time.perf_counter()
+    proc = subprocess.run([str(exe), str(path)], capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    found = re.search(r"host: (\d+) macro steps in (\S+) s", proc.stderr)
+    if proc.returncode != 0 or found is None or int(found.group(1)) != n:
+        raise RuntimeError(f"C host failed ({proc.returncode}): {proc.stderr[-2000:]}")
+    return wall, float(found.group(2))
 
 
 #: Calls timed one by one in the bare loop (``bare_loop``'s ``parts``).
@@ -206,29 +269,35 @@ def bare_loop_time(master, H: float, n: int) -> float:
     return bare_loop(master, H, n)[0]
 
 
-def engine_time(model, H: float, n: int) -> float:
-    """Wall time of ``Engine.sample`` over the grid ``H, 2H, ..., nH`` of the closed loop (the
-    LMI law evaluated in the kernel, the kernel filling the output rows: the monolithic
-    solver's own advance), on a fresh engine (its construction not timed)."""
-    times = H * np.arange(1, n + 1)
-    eng = Engine(model.params, options=model.options, initial=model.initial, control=model.control)
+def _engine(model) -> Engine:
+    return Engine(model.params, options=model.options, initial=model.initial, control=model.control)
+
+
+def engine_advance_time(model, H: float, n: int) -> float:
+    """Wall time of ``Engine.advance`` to ``H, 2H, ..., nH`` of the closed loop (the LMI law
+    evaluated in the kernel), one call per interval, on a fresh engine (not timed)."""
+    eng = _engine(model)
+    advance = eng.advance
     t0 = time.perf_counter()
-    _, status = eng.sample(times)
+    for k in range(1, n + 1):
+        status = advance(k * H)
     wall = time.perf_counter() - t0
     if not status.ok:
         raise RuntimeError(f"engine: {status.message}")
     return wall
 
 
-def _median_slopes(rows, n: int, repeat: int) -> dict[str, float]:
-    """Per-step slope (runs of n and 2n) of each row, medians over interleaved rounds (a load
-    spike on the shared machine hits one round, not one contestant)."""
-    slopes: dict[str, list[float]] = {name: [] for name in rows}
-    for _ in range(repeat):
-        for name, fn in rows.items():
-            t1, t2 = fn(n), fn(2 * n)
-            slopes[name].append((t2 - t1) / n)
-    return {name: statistics.median(v) for name, v in slopes.items()}
+def engine_sample_time(model, H: float, n: int) -> float:
+    """Wall time of ``Engine.sample`` over the grid ``H, 2H, ..., nH`` of the closed loop (the
+    kernel filling the output rows: the monolithic solver's own advance), on a fresh engine."""
+    times = H * np.arange(1, n + 1)
+    eng = _engine(model)
+    t0 = time.perf_counter()
+    _, status = eng.sample(times)
+    wall = time.perf_counter() - t0
+    if not status.ok:
+        raise RuntimeError(f"engine: {status.message}")
+    return wall
 
 
 def main() -> int:
@@ -262,7 +331,8 @@ def main() -> int:
         with closed_loop_master(fmus_dir, FIG5, record=()) as master:
             run_cosim(master, 10 * H, H)  # warm-up (imports, numba kernel)
             libcosim_time(fmus, starts, H, 10)
-            engine_time(model, H, 10)
+            engine_advance_time(model, H, 10)
+            engine_sample_time(model, H, 10)
             bare_loop(master, H, 20, timed_from=10)
 
             def master_time(k: int) -> float:
@@ -273,21 +343,25 @@ def main() -> int:
                 "master": master_time,
                 "libcosim": lambda k: libcosim_time(fmus, starts, H, k),
                 "bare FMI": lambda k: bare_loop_time(master, H, k),
-                "engine": lambda k: engine_time(model, H, k),
+                "engine advance": lambda k: engine_advance_time(model, H, k),
+                "engine sample": lambda k: engine_sample_time(model, H, k),
             }
-            per_step = _median_slopes(rows, n, args.repeat)
-            bare = per_step["bare FMI"]
-
-            # 2. the calls inside a macro step (second half of runs of 2N steps), interleaved
-            # with the engine's slope over the same window
+            # 2. the calls inside a macro step (second half of runs of 2N steps), in the same
+            # rounds: a load spike on the shared machine hits one round, not one contestant
             tick = _timer_cost()
+            slopes: dict[str, list[float]] = {name: [] for name in rows}
             part_runs: dict[str, list[float]] = {name: [] for name in PARTS}
             for _ in range(args.repeat):
+                for name, fn in rows.items():
+                    t1, t2 = fn(n), fn(2 * n)
+                    slopes[name].append((t2 - t1) / n)
                 _, parts = bare_loop(master, H, 2 * n, timed_from=n)
                 for name in PARTS:
                     part_runs[name].append(parts[name] / n - tick)
+            per_step = {name: statistics.median(v) for name, v in slopes.items()}
             part = {name: statistics.median(v) for name, v in part_runs.items()}
-            eng = per_step["engine"]
+            bare = per_step["bare FMI"]
+            eng, eng_grid = per_step["engine advance"], per_step["engine sample"]
 
             print(
                 f"\nper macro step, H = {H:g}, slope over {n} -> {2 * n} steps, median of "
@@ -314,11 +388,15 @@ def main() -> int:
             )
             for name in PARTS:
                 print(f"{name:>16} {part[name] * 1e6:8.2f} us")
-            print(f"{'engine advance':>16} {eng * 1e6:8.2f} us  (Engine.sample, per interval H)")
+            print(f"{'engine advance':>16} {eng * 1e6:8.2f} us  (Engine.advance per interval H)")
+            print(
+                f"{'engine sample':>16} {eng_grid * 1e6:8.2f} us  (Engine.sample, per interval H)"
+            )
             p_ratio = part["plant step"] / eng
             print(
-                f"plant fmi2DoStep / engine advance = {p_ratio:.2f} (target <= 2: "
-                f"{'meets' if p_ratio <= 2.0 else 'misses'})"
+                f"plant fmi2DoStep / Engine.advance = {p_ratio:.2f} (target <= 2: "
+                f"{'meets' if p_ratio <= 2.0 else 'misses'}); / Engine.sample = "
+                f"{part['plant step'] / eng_grid:.2f}"
             )
             c_us = part["controller step"] * 1e6
             print(
@@ -330,8 +408,17 @@ def main() -> int:
                 f"{over_m / per_step['master']:.0%} of the master's step"
             )
 
-            # 3. Fig. 5 totals, interleaved with the monolithic runs
-            walls: dict[str, list[float]] = {"cosim": [], "mono H": [], "mono 1e-2": []}
+            # 3. Fig. 5 totals, interleaved with the monolithic runs and the C host's
+            n_fig5 = round(T / H)
+            work = Path(tmp) / "c_host"
+            work.mkdir()
+            exe = compile_c_host(work)
+            config = c_host_config(fmus, starts, H, work) if exe is not None else ""
+            if exe is not None:
+                c_host_time(exe, config, 10, work)  # warm-up
+            walls: dict[str, list[float]] = {
+                key: [] for key in ("cosim", "mono H", "mono 1e-2", "C host", "C host steps")
+            }
             steps = 0
             for _ in range(args.fig5_repeat):
                 res = run_cosim(master, T, H)
@@ -344,7 +431,11 @@ def main() -> int:
                     t0 = time.perf_counter()
                     run_monolithic(model, T, dt_out=dt)
                     walls[key].append(time.perf_counter() - t0)
-        w = {key: statistics.median(v) for key, v in walls.items()}
+                if exe is not None:
+                    process, loop = c_host_time(exe, config, n_fig5, work)
+                    walls["C host"].append(process)
+                    walls["C host steps"].append(loop)
+        w = {key: statistics.median(v) for key, v in walls.items() if v}
         cos = w["cosim"]
         print(
             f"\nFig. 5, tau in [0, {T:g}], H = {H:g}, median of {args.fig5_repeat} interleaved "
@@ -360,6 +451,17 @@ def main() -> int:
             f"Fig. 5 co-simulation / monolithic at the same sampling = {r5:.2f} (target <= 1.5: "
             f"{'meets' if r5 <= 1.5 else 'misses'})"
         )
+        if "C host" in w:
+            loop = w["C host steps"]
+            rc = loop / w["mono H"]
+            print(
+                f"the same loop in the plain-C master (tests/c_host/host.c, macro steps timed by "
+                f"the host): {loop:.3f} s, {loop / n_fig5 * 1e6:.2f} us/step -> / monolithic = "
+                f"{rc:.2f} ({'meets' if rc <= 1.5 else 'misses'} 1.5); its whole process "
+                f"{w['C host']:.2f} s (Python started, packages imported, the FMUs set up)"
+            )
+        else:
+            print("no C compiler (cc): the plain-C master's row is not measured")
     return 0
 
 

@@ -293,6 +293,9 @@ class DrillStringPlant(fmu.FmuModel):
         return (0.0,) * native.N_K
 
     def fast_path(self) -> fmu.FastPath | None:
+        # a subclass is served natively only if it says so (FAST_SI): it may compute otherwise
+        if "FAST_SI" not in type(self).__dict__:
+            return None
         eng = self.engine
         if not native.AVAILABLE or eng is None or eng.failed is not None:
             return None

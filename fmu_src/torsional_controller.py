@@ -168,6 +168,9 @@ class TorsionalController(fmu.FmuModel):
     FAST_SI = 0.0
 
     def fast_path(self) -> fmu.FastPath | None:
+        # a subclass is served natively only if it says so (FAST_SI): it may compute otherwise
+        if "FAST_SI" not in type(self).__dict__:
+            return None
         if not native.AVAILABLE or self.law is None:
             return None
         if self._fast_block is None:

@@ -28,6 +28,7 @@ import math
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -151,22 +152,32 @@ def array_addresses(arrays: S.KernelState) -> np.ndarray | None:
     return np.array([a.ctypes.data for a in arrays], dtype=np.uintp)
 
 
+_CFUNCS: dict[str, Any] = {}
+
+
+def _address(name: str) -> int:
+    """The address of the compiled entry point ``name``, compiled (or loaded from numba's cache)
+    at its first use: a process that never steps an FMU compiles nothing."""
+    if not AVAILABLE:
+        raise RuntimeError("the native entry points need numba (and DRILLSTRING_JIT != 0)")
+    if name not in _CFUNCS:
+        _CFUNCS[name] = numba.cfunc(_SIG, cache=True, nogil=True)(_ENTRY_POINTS[name])
+    return int(_CFUNCS[name].address)
+
+
 def plant_functions() -> tuple[int, int]:
     """(step, outputs) addresses of the plant's native functions (outputs 0: the plant's
     outputs only change in a step)."""
-    if not AVAILABLE:
-        raise RuntimeError("the native entry points need numba (and DRILLSTRING_JIT != 0)")
-    return plant_step.address, 0
+    return _address("plant_step"), 0
 
 
 def controller_functions() -> tuple[int, int]:
     """(step, outputs) addresses of the controller's native functions."""
-    if not AVAILABLE:
-        raise RuntimeError("the native entry points need numba (and DRILLSTRING_JIT != 0)")
-    return ctrl_step.address, ctrl_outputs.address
+    return _address("ctrl_step"), _address("ctrl_outputs")
 
 
-if AVAILABLE:  # compiled at import (loaded from numba's cache after the first time)
+_ENTRY_POINTS: dict[str, Any] = {}
+if AVAILABLE:
     import numba
     from numba import carray, types
     from numba.extending import register_jitable
@@ -201,7 +212,6 @@ if AVAILABLE:  # compiled at import (loaded from numba's cache after the first t
             carray(args[10], (S.W_ROWS, S.W_COLS), dtype=_F64),
         )
 
-    @numba.cfunc(_SIG, cache=True, nogil=True)
     def plant_step(io_p, args, t, h):
         # DrillStringPlant.advance and Engine.set_input/advance, for a held input (the FMU's)
         io = carray(io_p, (PLANT_IO_SIZE,))
@@ -275,7 +285,6 @@ if AVAILABLE:  # compiled at import (loaded from numba's cache after the first t
         phi, _, theta, _ = measured(io)
         return _control.switch_on_references(int(io[CTRL_LATCH]), phi, theta, io[CTRL_K0])
 
-    @numba.cfunc(_SIG, cache=True, nogil=True)
     def ctrl_outputs(io_p, args, t, h):
         # TorsionalController.output_values
         io = carray(io_p, (CTRL_IO_SIZE,))
@@ -291,7 +300,6 @@ if AVAILABLE:  # compiled at import (loaded from numba's cache after the first t
         )  # fmt: skip
         return DONE
 
-    @numba.cfunc(_SIG, cache=True, nogil=True)
     def ctrl_step(io_p, args, t, h):
         # TorsionalController.advance
         io = carray(io_p, (CTRL_IO_SIZE,))
@@ -301,3 +309,5 @@ if AVAILABLE:  # compiled at import (loaded from numba's cache after the first t
             io[CTRL_REF + 1] = twist_ref
             io[CTRL_LATCHED] = 1.0
         return DONE
+
+    _ENTRY_POINTS.update(plant_step=plant_step, ctrl_outputs=ctrl_outputs, ctrl_step=ctrl_step)
