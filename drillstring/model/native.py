@@ -3,8 +3,8 @@
 The FMUs' front layer (``fmu_src/fmi_front/drillstring_fmi2.c``) serves ``fmi2SetReal`` of the
 inputs, ``fmi2DoStep`` and ``fmi2GetReal``/``fmi2GetInteger`` of the outputs without entering
 Python: it calls the compiled functions below (numba ``cfunc``, their ``.address``), which run the
-same compiled kernel (:func:`drillstring.model.kernel.stepper.advance`), the same coordinate change,
-the same SI conversions (:mod:`drillstring.model.units`) and the same control law
+same compiled kernel (:func:`drillstring.model.kernel.stepper.advance`; its ``write_sample`` for
+the outputs), the same SI conversions (:mod:`drillstring.model.units`) and the same control law
 (:func:`drillstring.model.control.feedback_torque`, :func:`~drillstring.model.control.
 switch_on_references`) as the Python path of the FMUs, so both give the same bits.
 
@@ -16,9 +16,11 @@ for the plant; unused by the controller). A step returns :data:`DONE` (served: t
 and messages) or :data:`RESUME` (the kernel returned ``io[IO_RESUME]``, a status the Python path
 must finish: a full history buffer, a stop of the model, a warning to log).
 
-numba caches compiled code keyed by this file alone; the cache of this module is dropped when any
-source it compiles changes (:func:`refresh_cache`). Without numba (or ``DRILLSTRING_JIT=0``)
-:data:`AVAILABLE` is False and nothing is compiled: the FMUs run their Python path only.
+The entry points are compiled at their first use (a process that never steps an FMU compiles
+nothing). numba caches compiled code keyed by this file alone; the cache of this module is
+dropped when any source it compiles changes (:func:`refresh_cache`). Without numba (or
+``DRILLSTRING_JIT=0``) :data:`AVAILABLE` is False and nothing is compiled: the FMUs run their
+Python path only.
 """
 
 from __future__ import annotations
@@ -38,7 +40,6 @@ from drillstring.model import units as _units
 from drillstring.model.kernel import jit as _jit
 from drillstring.model.kernel import state as S
 from drillstring.model.kernel import stepper as _stepper
-from drillstring.model.kernel.coordinates import to_perturbation
 
 __all__ = [
     "AVAILABLE",
@@ -73,7 +74,8 @@ PLANT_ECAP = IO_BASE + 2  # rows of the event log
 PLANT_INPUT = IO_BASE + 3  # the FMU's input (R - R0 scaled, or the table torque R in N m)
 PLANT_K = IO_BASE + 4  # SIScaling.plant_constants (12 slots)
 N_K = 12
-PLANT_OUT = PLANT_K + N_K  # the outputs, in the order of PLANT_SCALED_KEYS / PLANT_SI_KEYS
+PLANT_TAU = PLANT_K + N_K  # the engine's time (the OUT_TAU column of a kernel sample)
+PLANT_OUT = PLANT_TAU + 1  # the outputs, in the order of PLANT_SCALED_KEYS / PLANT_SI_KEYS
 #: Output slots of the scaled plant: Engine.outputs() keys, in order.
 PLANT_SCALED_KEYS = (
     "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n", "R_minus_R0",
@@ -87,6 +89,7 @@ PLANT_IO_SIZE = PLANT_OUT + max(len(PLANT_SCALED_KEYS), len(PLANT_SI_KEYS))
 _BOUNCE_SCALED = PLANT_OUT + PLANT_SCALED_KEYS.index("bit_bounce")
 _BOUNCE_SI = PLANT_OUT + PLANT_SI_KEYS.index("bit_bounce")
 _N_SI = len(_units.PLANT_SI)
+assert S.OUTPUT_COLUMNS == ("tau", *PLANT_SCALED_KEYS[: S.OUT_SIZE - 1]), "a kernel sample's layout"
 
 # --- the controller's io ------------------------------------------------------------------------
 CTRL_SI = IO_BASE  # 1: SI (errors from the set point Omega0), 0: scaled
@@ -239,38 +242,27 @@ if AVAILABLE:
         if st != S.ST_OK:
             io[IO_RESUME] = st
             return RESUME
-        tau = X[S.X_TAU]
-        Y = s.y
-        u, du, phi, dphi, theta, dtheta = to_perturbation(
-            s.params, tau, Y[S.Y_U], Y[S.Y_V], Y[S.Y_PHI], Y[S.Y_W], Y[S.Y_THETA], Y[S.Y_WT]
-        )
         bounces = float(I[S.I_NBOUNCE])
         if bounces > io[_BOUNCE_SI if si else _BOUNCE_SCALED]:
             io[IO_RESUME] = st  # a warning for the Python path to log
             return RESUME
-        o = PLANT_OUT
+        # the engine's outputs (tau, then Engine.outputs() up to the mode) as the kernel writes
+        # them for a sample; then the counters, or the SI values of the scaled ones
+        _stepper.write_sample(s, io[PLANT_TAU : PLANT_TAU + S.OUT_SIZE])
+        o = PLANT_OUT + S.OUT_SIZE - 1
         if si:
-            v = _units.si_plant_values(K, tau, u, du, phi, dphi, theta, dtheta, D[S.D_D], D[S.D_G],
-                                D[S.D_TAUN], D[S.D_TOB])  # fmt: skip
+            o = PLANT_OUT
+            v = _units.si_plant_values(K, io[PLANT_TAU], io[o], io[o + 1], io[o + 2], io[o + 3],
+                                       io[o + 4], io[o + 5], D[S.D_D], D[S.D_G], D[S.D_TAUN],
+                                       D[S.D_TOB])  # fmt: skip
             for i in range(_N_SI):
                 io[o + i] = v[i]
             o += _N_SI
-        else:
-            io[o] = u
-            io[o + 1] = du
-            io[o + 2] = phi
-            io[o + 3] = dphi
-            io[o + 4] = theta
-            io[o + 5] = dtheta
-            io[o + 6] = D[S.D_D]
-            io[o + 7] = D[S.D_G]
-            io[o + 8] = D[S.D_TAUN]
-            io[o + 9] = D[S.D_R]
-            o += 10
-        io[o] = float(I[S.I_MODE])
-        io[o + 1] = float(I[S.I_NSTICK])
-        io[o + 2] = bounces
-        io[o + 3] = float(I[S.I_NTSTICK])
+            io[o] = float(I[S.I_MODE])
+            o += 1
+        io[o] = float(I[S.I_NSTICK])
+        io[o + 1] = bounces
+        io[o + 2] = float(I[S.I_NTSTICK])
         return DONE
 
     @numba.njit(cache=True, nogil=True)
