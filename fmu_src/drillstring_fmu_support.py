@@ -43,6 +43,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
+import numpy as np
 from pythonfmu import (
     Boolean,
     DefaultExperiment,
@@ -55,6 +56,7 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
+from drillstring.model import native
 from drillstring.model.kernel import jit as _jit
 from drillstring.validation import check_int, check_real
 
@@ -76,6 +78,7 @@ _STATE_FORMAT = 2
 __all__ = [
     "CONFIG_FILE",
     "FmuModel",
+    "FastPath",
     "FmuState",
     "LOG_CATEGORIES",
     "RECORD_CATEGORY",
@@ -260,6 +263,26 @@ class FmuState:
         return self.payload
 
 
+@dataclass
+class FastPath:
+    """What the front layer needs to serve calls natively (:mod:`drillstring.model.native`):
+    the shared ``io`` block, the addresses of the native ``step`` and ``outputs`` functions
+    (0: none) and of their ``args``, and the io slots of the inputs and outputs it serves."""
+
+    io: np.ndarray
+    step: int
+    outputs: int
+    inputs: Mapping[str, int]
+    outputs_at: Mapping[str, int]
+    args: np.ndarray | None = None
+
+
+#: First entries of the descriptor a slave announces to the front layer ("DSFP", version 1).
+_FAST_MAGIC = 0x44534650
+_FAST_VERSION = 1
+_FAST_TYPES = {"Real": 0, "Integer": 1}
+
+
 def pack_state(state: FmuState) -> bytes:
     """Header length, JSON header (floats written by ``repr``: bit exact), then model bytes."""
     header = json.dumps(
@@ -361,6 +384,14 @@ class FmuModel(Fmi2Slave):
         self.dirty = True  # parameters changed since configure()
         self._by_vr: dict[int, Variable] = {}
         self._by_name: dict[str, Variable] = {}
+        self._vr_of: dict[str, int] = {}
+        #: kernel status of a step the front layer began natively and this call must finish
+        self.fast_resume: int | None = None
+        self._fast: FastPath | None = None  # the block the front layer was last given
+        self._fast_used: FastPath | None = None  # the last one it was given (for its count)
+        self._fast_depth = 0
+        self._native = native.AVAILABLE and os.environ.get("DRILLSTRING_FMU_NATIVE", "1") != "0"
+        self._python_steps = 0
         for var in self.VARIABLES:
             self._register(var)
         self._set(self.initial_values())
@@ -384,6 +415,19 @@ class FmuModel(Fmi2Slave):
         """(JSON-able fields, in-memory snapshot, function making the bytes) of the model."""
         raise NotImplementedError
 
+    def fast_path(self) -> FastPath | None:
+        """The native fast path of the model in its current state, or None (the default: every
+        call is served by Python). Called at the end of each call while stepping."""
+        return None
+
+    def fast_pull(self, io: np.ndarray) -> None:
+        """Take the model's fields from ``io`` after the front layer served calls natively
+        (the lifecycle takes the time and the inputs)."""
+
+    def fast_push(self, io: np.ndarray) -> None:
+        """Put the model's fields into ``io`` for the front layer (the inverse of
+        :meth:`fast_pull`; the lifecycle puts the time and the inputs)."""
+
     def restore(self, fields: Mapping[str, Any], snapshot: Any, payload: bytes | None) -> None:
         """Inverse of :meth:`save` (``snapshot`` None: restore from ``payload``)."""
         raise NotImplementedError  # pragma: no cover
@@ -403,6 +447,7 @@ class FmuModel(Fmi2Slave):
         pf_var = kind(var.name, **kwargs)
         self.register_variable(pf_var)
         self._by_vr[pf_var.value_reference] = var
+        self._vr_of[var.name] = pf_var.value_reference
         self._by_name[var.name] = var
 
     # ----------------------------------------------------------------- reporting
@@ -414,14 +459,27 @@ class FmuModel(Fmi2Slave):
 
     @contextlib.contextmanager
     def _call(self, what: str) -> Iterator[None]:
-        """Run one FMI call: a rejection or any exception becomes an fmi2Error log message."""
+        """Run one FMI call: a rejection or any exception becomes an fmi2Error log message.
+
+        Around it, the native fast path: first what the front layer changed natively since the
+        last call (time, inputs, the model's fields), at the end the block for the next ones.
+        """
+        self._fast_depth += 1
         try:
+            if self._fast_depth == 1:
+                self._fast_sync()
             yield
         except _Rejected as exc:
             self._error(f"{what}: {exc}")
         except Exception as exc:  # never into pythonfmu: that would be fmi2Fatal
             self._error(f"{what} failed: {type(exc).__name__}: {exc}")
         finally:
+            self._fast_depth -= 1
+            if self._fast_depth == 0:
+                try:
+                    self._fast_announce()
+                except Exception as exc:  # the call stays served; the next ones by Python
+                    self._error(f"{what}: the native fast path failed: {type(exc).__name__}: {exc}")
             if _COMPILED:
                 total = sum(s for _, s in _COMPILED)
                 names = ", ".join(sorted({n for n, _ in _COMPILED}))
@@ -431,6 +489,52 @@ class FmuModel(Fmi2Slave):
                     "processes"
                 )
                 _COMPILED.clear()
+
+    # ----------------------------------------------------------------- native fast path
+    def _fast_sync(self) -> None:
+        """The FMU's state after natively served calls (the front layer sets ``IO_STALE``)."""
+        fast = self._fast
+        if fast is None:
+            return
+        io = fast.io
+        if io[native.IO_STALE] != 0.0:
+            self.time = float(io[native.IO_TIME])
+            for name, slot in fast.inputs.items():
+                self.values[name] = float(io[slot])
+            self.fast_pull(io)
+            io[native.IO_STALE] = 0.0
+        if io[native.IO_RESUME] >= 0.0:
+            self.fast_resume = int(io[native.IO_RESUME])
+            io[native.IO_RESUME] = -1.0
+
+    def _fast_announce(self) -> None:
+        """Give the front layer the block for the next calls (a record naming a descriptor):
+        it serves nothing natively until it receives one, and drops it at each Python call."""
+        self.fast_resume = None
+        stepping = self._native and self.phase == "stepping" and not self.dirty
+        fast = self.fast_path() if stepping else None
+        self._fast = fast
+        if fast is None:
+            return
+        self._fast_used = fast
+        io = fast.io
+        io[native.IO_TIME] = self.time
+        for name, slot in fast.inputs.items():
+            io[slot] = self.values[name]
+        io[native.IO_RESUME] = -1.0
+        self.fast_push(io)
+        io[native.IO_STALE] = 0.0
+        rows = [
+            _FAST_MAGIC, _FAST_VERSION, io.ctypes.data,
+            0 if fast.args is None else fast.args.ctypes.data, fast.step, fast.outputs,
+            len(fast.inputs), len(fast.outputs_at),
+        ]  # fmt: skip
+        for name, slot in fast.inputs.items():
+            rows += [self._vr_of[name], slot]
+        for name, slot in fast.outputs_at.items():
+            rows += [self._vr_of[name], slot, _FAST_TYPES[self._by_name[name].type]]
+        self._fast_descriptor = np.array(rows, dtype=np.uint64)  # kept alive with the block
+        self.log(f"fast {self._fast_descriptor.ctypes.data}", Fmi2Status.ok, RECORD_CATEGORY)
 
     # ----------------------------------------------------------------- values
     def _set(self, updates: Mapping[str, Any]) -> None:
@@ -526,6 +630,14 @@ class FmuModel(Fmi2Slave):
     def terminate(self) -> None:
         with self._call("fmi2Terminate"):
             self.phase = "terminated"
+            used = self._fast_used
+            native_steps = 0 if used is None else int(used.io[native.IO_NSTEPS])
+            how = (
+                "the native fast path is off"
+                if not self._native
+                else f"{native_steps} served natively by the front layer"
+            )
+            self._info(f"fmi2Terminate: {native_steps + self._python_steps} step(s), {how}")
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """The step wrapper: checks, the model's ``advance``, and what the layer must know."""
@@ -541,6 +653,7 @@ class FmuModel(Fmi2Slave):
                     f"communication point t = {t!r} is not the FMU's time {self.time!r}; "
                     "nothing was computed"
                 )
+            self._python_steps += 1
             result = self.advance(t, h)
             self.time = result.reached
             if result.warning is not None:

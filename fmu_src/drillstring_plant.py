@@ -29,7 +29,9 @@ from types import MappingProxyType
 from typing import Any
 
 import drillstring_fmu_support as fmu
+import numpy as np
 
+from drillstring.model import native
 from drillstring.model.engine import (
     MODE_NAMES,
     ON_INVALID_CHOICES,
@@ -210,6 +212,11 @@ class DrillStringPlant(fmu.FmuModel):
 
     engine: Engine | None = None
     _out: Mapping[str, Any] = MappingProxyType({})
+    #: The native fast path: its io slots of the outputs (``_out``'s keys) and unit system.
+    FAST_KEYS: tuple[str, ...] = native.PLANT_SCALED_KEYS
+    FAST_SI = 0.0
+    _fast_block: fmu.FastPath | None = None
+    _fast_kernel: Any = None
 
     # ----------------------------------------------------------------- the unit system
     def engine_setup(
@@ -260,7 +267,10 @@ class DrillStringPlant(fmu.FmuModel):
         assert eng is not None
         bounces = self._out["bit_bounce"]
         eng.set_input(self.engine_input())
-        status = eng.advance(self.engine_time(t + h))
+        if self.fast_resume is None:
+            status = eng.advance(self.engine_time(t + h))
+        else:  # the front layer ran the kernel natively; what advance does after it
+            status = eng.finish_advance(self.engine_time(t + h), self.fast_resume)
         self._out = self.converted_outputs(eng)
         if not status.ok:
             stop = self.stop_message(eng, f"{status.code}: {status.message}")
@@ -276,6 +286,50 @@ class DrillStringPlant(fmu.FmuModel):
     def fmu_time(self, tau: float) -> float:
         """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
         return tau
+
+    # ----------------------------------------------------------------- native fast path
+    def fast_constants(self) -> tuple[float, ...]:
+        """The unit system's constants of the native step (``native.PLANT_K``)."""
+        return (0.0,) * native.N_K
+
+    def fast_path(self) -> fmu.FastPath | None:
+        # a subclass is served natively only if it says so (FAST_SI): it may compute otherwise
+        if "FAST_SI" not in type(self).__dict__:
+            return None
+        eng = self.engine
+        if not native.AVAILABLE or eng is None or eng.failed is not None:
+            return None
+        if eng.options.keep_events:
+            return None
+        ks = eng.kernel_arrays()
+        block = self._fast_block
+        if block is None:
+            step, outputs = native.plant_functions()
+            names = {v.name for v in self.VARIABLES if v.causality == "output"}
+            at = {k: native.PLANT_OUT + i for i, k in enumerate(self.FAST_KEYS) if k in names}
+            (name,) = (v.name for v in self.VARIABLES if v.causality == "input")
+            io = np.zeros(native.PLANT_IO_SIZE)
+            block = fmu.FastPath(io, step, outputs, {name: native.PLANT_INPUT}, at)
+            self._fast_block = block
+        if self._fast_kernel is not ks:
+            block.args = native.array_addresses(ks)
+            self._fast_kernel = ks
+        return block if block.args is not None else None
+
+    def fast_push(self, io: np.ndarray) -> None:
+        ks = self._fast_kernel
+        io[native.PLANT_SI] = self.FAST_SI
+        io[native.PLANT_HCAP] = ks.history.shape[1]
+        io[native.PLANT_ECAP] = ks.events.shape[0]
+        io[native.PLANT_K : native.PLANT_K + native.N_K] = self.fast_constants()
+        out = self._out
+        io[native.PLANT_OUT : native.PLANT_OUT + len(self.FAST_KEYS)] = [
+            out[k] for k in self.FAST_KEYS
+        ]
+
+    def fast_pull(self, io: np.ndarray) -> None:
+        values = io[native.PLANT_OUT : native.PLANT_OUT + len(self.FAST_KEYS)].tolist()
+        self._out = dict(zip(self.FAST_KEYS, values, strict=True))
 
     # ----------------------------------------------------------------- FMU state
     def save(self) -> tuple[dict[str, Any], Any, Callable[[], bytes]]:
@@ -312,3 +366,4 @@ class DrillStringPlant(fmu.FmuModel):
 
 assert {name for name, _, _ in _OUTPUTS} <= set(OUTPUT_KEYS), "outputs the engine lacks"
 assert tuple(name for name, _ in ON_INVALID) == ON_INVALID_CHOICES
+assert native.PLANT_SCALED_KEYS == OUTPUT_KEYS, "the native step's outputs are the engine's"

@@ -21,6 +21,7 @@ from typing import Any
 import drillstring_fmu_support as fmu
 from drillstring_plant import _OUTPUTS, ON_INVALID, DrillStringPlant
 
+from drillstring.model import native
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
@@ -240,6 +241,12 @@ class DrillStringPlantSI(DrillStringPlant):
     def converted_outputs(self, eng: Engine) -> Mapping[str, Any]:
         T = eng.diagnostics()["torque_on_bit"]
         return self.scaling.plant_outputs(eng.outputs(), eng.tau, torque_on_bit=T)
+
+    FAST_KEYS = native.PLANT_SI_KEYS
+    FAST_SI = 1.0
+
+    def fast_constants(self) -> tuple[float, ...]:
+        return self.scaling.plant_constants
 
     def stop_message(self, eng: Engine, message: str) -> str:
         return f"{message} (t = {self.scaling.time(eng.tau)!r} s)"

@@ -30,7 +30,9 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import drillstring_fmu_support as fmu
+import numpy as np
 
+from drillstring.model import native
 from drillstring.model.control import (
     LATCH_MODES,
     AffineFeedback,
@@ -159,6 +161,45 @@ class TorsionalController(fmu.FmuModel):
         if not self.latched and self.values["enabled"] and t >= law.t_on:
             self.refs, self.latched = self._candidate_references(), True
         return fmu.StepResult(t + h)
+
+    # ----------------------------------------------------------------- native fast path
+    _fast_block: fmu.FastPath | None = None
+    #: 1.0: the law acts on the errors from the set point Omega0 (SI), 0.0: on the inputs.
+    FAST_SI = 0.0
+
+    def fast_path(self) -> fmu.FastPath | None:
+        # a subclass is served natively only if it says so (FAST_SI): it may compute otherwise
+        if "FAST_SI" not in type(self).__dict__:
+            return None
+        if not native.AVAILABLE or self.law is None:
+            return None
+        if self._fast_block is None:
+            step, outputs = native.controller_functions()
+            inputs = [v.name for v in self.VARIABLES if v.causality == "input"]
+            at = {name: native.CTRL_IN + i for i, name in enumerate(inputs)}
+            io = np.zeros(native.CTRL_IO_SIZE)
+            self._fast_block = fmu.FastPath(io, step, outputs, at, {self.OUTPUT: native.CTRL_OUT})
+        return self._fast_block
+
+    def fast_push(self, io: np.ndarray) -> None:
+        law = self.law
+        assert law is not None
+        enabled = bool(self.values["enabled"])
+        io[native.CTRL_SI] = self.FAST_SI
+        io[native.CTRL_LATCHED] = float(self.latched)
+        io[native.CTRL_REF : native.CTRL_REF + 2] = self.refs
+        io[native.CTRL_ENABLED] = float(enabled)
+        io[native.CTRL_TON] = law.t_on
+        io[native.CTRL_TON_EFF] = law.t_on if enabled else math.inf
+        io[native.CTRL_F : native.CTRL_F + 4] = law.F
+        io[native.CTRL_K0] = law.K0
+        io[native.CTRL_RFF] = law.R_ff
+        io[native.CTRL_LATCH] = law.latch_code
+        io[native.CTRL_OMEGA0] = getattr(law, "Omega0", 0.0)
+
+    def fast_pull(self, io: np.ndarray) -> None:
+        self.latched = bool(io[native.CTRL_LATCHED] != 0.0)
+        self.refs = (float(io[native.CTRL_REF]), float(io[native.CTRL_REF + 1]))
 
     # ----------------------------------------------------------------- FMU state
     def save(self) -> tuple[dict[str, Any], Any, Callable[[], bytes]]:

@@ -120,6 +120,8 @@ class TorsionalControllerSI(TorsionalController):
         "(IEEE CCA 2011), Section V, eqs. (29)-(31), in SI units, with bumpless switch-on at t_on"
     )
 
+    FAST_SI = 1.0
+
     def initial_values(self) -> Mapping[str, Any]:
         """The gains of the build configuration (scaled) converted on the reference rig."""
         g = self.config["gains"]

@@ -84,6 +84,9 @@ def test_c_host_in_a_clean_environment_equals_fmpy(built, jacobi, host, tmp_path
     proc, rows = _run_host(host, built, tmp_path, tl.clean_env(clean_home), logging=True)
     assert proc.returncode == 0, proc.stderr
     assert "started Python" in proc.stderr
+    # both FMUs' steps served by the front layer's native fast path (compiled entry points)
+    served = f"fmi2Terminate: {N_STEPS} step(s), {N_STEPS} served natively by the front layer"
+    assert proc.stderr.count(served) == 2, proc.stderr
     assert rows is not None and rows.shape == (N_STEPS + 1, 11)
     assert rows[0, 0] == 0.0
     err = np.max(np.abs(rows[1:] - jacobi))
@@ -131,11 +134,14 @@ def test_c_host_that_preloads_libpython_itself(built, jacobi, host, tmp_path, cl
 
 
 def test_plain_python_kernel_is_bit_identical(built, jacobi, host, tmp_path, clean_home):
-    """DRILLSTRING_JIT=0 (the plain-Python kernel) in the same host: the same numbers."""
+    """DRILLSTRING_JIT=0 (the plain-Python kernel) in the same host: the same numbers, every
+    call served by Python (no compiled entry points for the front layer's fast path)."""
     env = tl.clean_env(clean_home, DRILLSTRING_JIT="0")
-    proc, rows = _run_host(host, built, tmp_path, env, n=200)
+    proc, rows = _run_host(host, built, tmp_path, env, n=200, logging=True)
     assert proc.returncode == 0, proc.stderr
     assert np.array_equal(rows[1:], jacobi[:200])
+    off = "fmi2Terminate: 200 step(s), the native fast path is off"
+    assert proc.stderr.count(off) == 2, proc.stderr
 
 
 # ------------------------------------------------------------------------------------------------

@@ -652,6 +652,23 @@ class Engine:
         n_events = int(arrays.pop("n_events")[0])
         self.set_state(EngineState(arrays=arrays, n_events=n_events))
 
+    # ----------------------------------------------------------------- native callers
+    # (an addition for the FMUs' fast path, drillstring.model.native; nothing above uses it)
+    def kernel_arrays(self) -> S.KernelState:
+        """The kernel's arrays themselves (not copies), for a native caller that runs the
+        kernel on them. Valid until the next call of a method of this engine: the history
+        buffer grows and :meth:`set_state` replaces the arrays."""
+        return self._s
+
+    def finish_advance(self, to_tau: float, st: int) -> Status:
+        """Finish an :meth:`advance` to ``to_tau`` whose kernel call (``advance`` of
+        :mod:`~drillstring.model.kernel.stepper` on :meth:`kernel_arrays`, made by a native
+        caller) returned the status ``st``: what :meth:`advance` does after each kernel call."""
+        to_tau = self._check_target(to_tau)
+        if self._service(st):
+            return self.advance(to_tau)
+        return self._status(st)
+
 
 def stick_entries(events: Iterable[Event]) -> list[Event]:
     """The entries into axial stick among ``events`` (slip or moving up -> stick)."""

@@ -305,6 +305,22 @@ _PHYSICAL_RULES: dict[str, tuple[float, bool]] = {
 }
 
 
+def weight_on_bit(
+    n: Any,
+    a: Any,
+    zeta: Any,
+    eps: Any,
+    l: Any,  # noqa: E741
+    sigma_bar: Any,
+    d: Any,
+    g: Any,  # noqa: E741
+) -> Any:
+    """Weight on bit W^c + W^f [N], eq. (4) plus eq. (7), of the rig's n, a, zeta, eps, l,
+    sigma_bar at depth of cut ``d`` [m] and contact multiplier ``g`` (plain arithmetic: floats,
+    numpy arrays, and compiled by :mod:`drillstring.model.native`)."""
+    return n * a * (zeta * eps * d + l * sigma_bar * (1.0 - g))
+
+
 @dataclass(frozen=True)
 class PhysicalParams:
     """Dimensional parameters of eqs. (1)-(8) (SI units), mapped to the scaled set by (15)-(16)."""
@@ -360,7 +376,7 @@ class PhysicalParams:
         float or ndarray
             W^c + W^f [N], broadcast over ``d`` and ``g`` (no input check: plain arithmetic).
         """
-        return self.n * self.a * (self.zeta * self.eps * d + self.l * self.sigma_bar * (1.0 - g))
+        return weight_on_bit(self.n, self.a, self.zeta, self.eps, self.l, self.sigma_bar, d, g)
 
     def torque_on_bit(self, d: Any, g: Any = 0.0) -> Any:
         """Torque on bit T^c + T^f [N m] at depth of cut ``d`` [m]: eq. (4) plus eq. (7).

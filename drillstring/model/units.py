@@ -59,7 +59,7 @@ from typing import Any
 
 from drillstring.model.control import LATCH_MODES, AffineFeedback
 from drillstring.model.engine import InitialState
-from drillstring.model.params import PhysicalParams, ScaledParams
+from drillstring.model.params import PhysicalParams, ScaledParams, weight_on_bit
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
@@ -70,6 +70,10 @@ __all__ = [
     "SIScaling",
     "UNITS",
     "UnitDef",
+    "setpoint_errors",
+    "si_plant_values",
+    "si_to_tau",
+    "si_torque_deviation",
 ]
 
 #: The SI base units of FMI 2.0 and SSP 1.0, in the order of their ``BaseUnit`` attributes.
@@ -168,6 +172,58 @@ PLANT_SI: tuple[Quantity, ...] = (
 )
 
 
+# The conversions of the module docstring as plain arithmetic on floats (or numpy arrays), written
+# once: SIScaling and PhysicalFeedback call them, and drillstring.model.native compiles the same
+# functions into the FMUs' native step, so that both give the same bits.
+
+
+def si_to_tau(t_star: Any, t: Any) -> Any:
+    """tau = t / t*."""
+    return t / t_star
+
+
+def si_torque_deviation(C: Any, twist0: Any, R: Any) -> Any:
+    """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m]."""
+    return R / C - twist0
+
+
+def si_plant_values(
+    k: tuple[float, ...], tau: Any, u: Any, du: Any, phi: Any, dphi: Any, theta: Any,
+    dtheta: Any, d: Any, g: Any, tau_n: Any, T: Any,
+) -> tuple[Any, ...]:  # fmt: skip
+    """The SI plant outputs (:data:`PLANT_SI` order) of the scaled ones at time ``tau``.
+
+    ``k`` is :attr:`SIScaling.plant_constants`; ``T`` the scaled torque on bit.
+    """
+    omega0, v0, ts, Ls, twist0, C, n, a, zeta, eps, l, sigma_bar = k  # noqa: E741
+    d_si = Ls * d
+    delay = ts * tau_n
+    return (
+        omega0 * tau + phi,
+        (omega0 + dphi) / ts,
+        twist0 + omega0 * tau + theta,
+        (omega0 + dtheta) / ts,
+        Ls * (v0 * tau + u),
+        Ls * (v0 + du) / ts,
+        weight_on_bit(n, a, zeta, eps, l, sigma_bar, d_si, g),
+        C * T,
+        d_si,
+        delay,
+        d_si / delay,
+        g,
+    )
+
+
+def setpoint_errors(
+    Omega0: float, t: float, bit_angle: float, bit_speed: float, table_angle: float,
+    table_speed: float,
+) -> tuple[float, float, float, float]:  # fmt: skip
+    """(e_phi, de_phi, e_theta, de_theta): the measured angles and speeds minus the set point's
+    Omega0 t and Omega0 (:meth:`PhysicalFeedback.errors`)."""
+    w = Omega0
+    return bit_angle - w * t, bit_speed - w, table_angle - w * t, table_speed - w
+
+
 @dataclass(frozen=True)
 class SIScaling:
     """The scales t*, L*, C of a physical rig and the conversions of the module docstring.
@@ -194,6 +250,14 @@ class SIScaling:
         object.__setattr__(self, "L_star", self.rig.L_star)
         object.__setattr__(self, "twist0", scaled.R0)
 
+    @property
+    def plant_constants(self) -> tuple[float, ...]:
+        """The constants of :func:`si_plant_values`: omega0, v0, t*, L*, R0/C of the scaled
+        set, and C, n, a, zeta, eps, l, sigma_bar of the rig."""
+        p, r = self.scaled, self.rig
+        return (p.omega0, p.v0, self.t_star, self.L_star, self.twist0, r.C, float(r.n), r.a,
+                r.zeta, r.eps, r.l, r.sigma_bar)  # fmt: skip
+
     # ------------------------------------------------------------------ time and torque
     def time(self, tau: Any) -> Any:
         """t = t* tau [s]."""
@@ -201,7 +265,7 @@ class SIScaling:
 
     def tau(self, t: Any) -> Any:
         """tau = t / t*."""
-        return t / self.t_star
+        return si_to_tau(self.t_star, t)
 
     def table_torque(self, r: Any) -> Any:
         """Absolute table torque R = C (R0/C + r) [N m] of the scaled deviation r = (R - R0)/C."""
@@ -209,7 +273,7 @@ class SIScaling:
 
     def torque_deviation(self, R: Any) -> Any:
         """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m]."""
-        return R / self.rig.C - self.twist0
+        return si_torque_deviation(self.rig.C, self.twist0, R)
 
     # ------------------------------------------------------------------ the plant
     def plant_outputs(
@@ -235,28 +299,15 @@ class SIScaling:
         dict
             Name -> SI value (see the module docstring).
         """
-        p, ts, Ls = self.scaled, self.t_star, self.L_star
-        d = Ls * values["d"]
-        delay = ts * values["tau_n"]
-        g = values["g"]
-        out = {
-            "bit_angle": p.omega0 * tau + values["phi"],
-            "bit_speed": (p.omega0 + values["dphi"]) / ts,
-            "table_angle": self.twist0 + p.omega0 * tau + values["theta"],
-            "table_speed": (p.omega0 + values["dtheta"]) / ts,
-            "bit_position": Ls * (p.v0 * tau + values["u"]),
-            "bit_velocity": Ls * (p.v0 + values["du"]) / ts,
-            "weight_on_bit": self.rig.weight_on_bit(d, g),
-            "torque_on_bit": (
-                self.rig.torque_on_bit(d, g)
-                if torque_on_bit is None
-                else self.rig.C * torque_on_bit
-            ),
-            "depth_of_cut": d,
-            "delay": delay,
-            "rate_of_penetration": d / delay,
-            "contact": g,
-        }
+        v = values
+        T = 0.0 if torque_on_bit is None else torque_on_bit
+        si = si_plant_values(
+            self.plant_constants, tau, v["u"], v["du"], v["phi"], v["dphi"], v["theta"],
+            v["dtheta"], v["d"], v["g"], v["tau_n"], T,
+        )  # fmt: skip
+        out = dict(zip((q.name for q in PLANT_SI), si, strict=True))
+        if torque_on_bit is None:
+            out["torque_on_bit"] = self.rig.torque_on_bit(out["depth_of_cut"], v["g"])
         for key in ("mode", "stick_events", "bit_bounce", "torsional_stick"):
             if key in values:
                 out[key] = values[key]
@@ -356,8 +407,7 @@ class PhysicalFeedback:
         """(e_phi, de_phi, e_theta, de_theta): the measured angles and speeds minus the set
         point's Omega0 t and Omega0, the arguments phi, dphi, theta, dtheta of
         :func:`~drillstring.model.control.feedback_torque` in SI."""
-        w = self.Omega0
-        return bit_angle - w * t, bit_speed - w, table_angle - w * t, table_speed - w
+        return setpoint_errors(self.Omega0, t, bit_angle, bit_speed, table_angle, table_speed)
 
     @classmethod
     def from_scaled(cls, law: AffineFeedback, scaling: SIScaling) -> PhysicalFeedback:

@@ -216,6 +216,32 @@ typedef struct {
 #undef DECLARE
 } PythonApi;
 
+/* ---- the native fast path --------------------------------------------------------------------- */
+/* The Python slave announces, at the end of each of its calls while stepping, a descriptor (a
+   record "fast <address>"): a float64 block `io` it shares with this layer, compiled functions
+   (numba cfuncs of drillstring.model.native) that step the model and compute its outputs on that
+   block and the kernel's arrays, and the io slots of the inputs and outputs. The layer then serves
+   fmi2SetReal of the inputs, fmi2DoStep and fmi2GetReal/fmi2GetInteger of the outputs in C, and
+   sets io[FAST_STALE] so that Python takes the new state at its next call. Whatever it cannot
+   serve goes to Python as before; it drops the descriptor before every call into Python (the
+   arrays may be replaced there) and uses only the one announced at the end of that call. */
+#define FAST_MAGIC 0x44534650ULL /* "DSFP" */
+#define FAST_VERSION 1ULL
+#define FAST_MAX 32
+enum { FAST_STALE = 0, FAST_RESUME = 1, FAST_TIME = 2, FAST_NSTEPS = 3 }; /* every FMU's io */
+enum { FAST_DONE = 0, FAST_NOT_STARTED = 1, FAST_RESUMED = 2 };    /* results of a native step */
+typedef int32_t (*ds_native_fn)(double *io, void **args, double t, double h);
+typedef struct {
+    int on;
+    double *io;
+    void **args;
+    ds_native_fn step, outputs;
+    int outputs_stale;      /* an input changed since the outputs were computed */
+    int in_slot[DS_N_VR];   /* io slot of a Real input, -1: not served natively */
+    int out_slot[DS_N_VR];  /* io slot of an output */
+    char out_type[DS_N_VR]; /* its type, 'R' or 'I' */
+} Fast;
+
 /* ---- one instance ---------------------------------------------------------------------------- */
 typedef struct Component {
     uint64_t magic;
@@ -230,6 +256,7 @@ typedef struct Component {
     int has_record;
     double record_time;
     double last_time; /* fmi2LastSuccessfulTime */
+    Fast fast;
 } Component;
 
 /* An FMU state: pythonfmu's state plus what the layer owns. */
@@ -325,6 +352,37 @@ __attribute__((format(printf, 3, 4))) static void logf_(Component *c, fmi2Status
     emit(c, status, NULL, buf);
 }
 
+/* The descriptor a slave announced: magic, version, io, args, step, outputs, n_in, n_out, then
+   n_in (value reference, slot) and n_out (value reference, slot, type 0 Real / 1 Integer). */
+static void fast_load(Component *c, const uint64_t *d)
+{
+    Fast *f = &c->fast;
+    f->on = 0;
+    if (!d || d[0] != FAST_MAGIC || d[1] != FAST_VERSION || !d[2] || !d[4]) return;
+    const uint64_t n_in = d[6], n_out = d[7];
+    if (n_in > FAST_MAX || n_out > FAST_MAX) return;
+    for (int i = 0; i < DS_N_VR; ++i) f->in_slot[i] = f->out_slot[i] = -1;
+    const uint64_t *p = d + 8;
+    for (uint64_t i = 0; i < n_in; ++i, p += 2) {
+        if (p[0] >= DS_N_VR || DS_VARIABLES[p[0]].type != 'R') return;
+        f->in_slot[p[0]] = (int)p[1];
+    }
+    for (uint64_t i = 0; i < n_out; ++i, p += 3) {
+        if (p[0] >= DS_N_VR || p[2] > 1) return;
+        f->out_slot[p[0]] = (int)p[1];
+        f->out_type[p[0]] = p[2] == 0 ? 'R' : 'I';
+    }
+    f->io = (double *)(uintptr_t)d[2];
+    f->args = (void **)(uintptr_t)d[3];
+    f->step = (ds_native_fn)(uintptr_t)d[4];
+    f->outputs = (ds_native_fn)(uintptr_t)d[5];
+    f->outputs_stale = 1;
+    f->on = 1;
+}
+
+/* Before any call into Python: the arrays may be replaced there; the slave announces anew. */
+static void to_python(Component *c) { c->fast.on = 0; }
+
 /* The logger pythonfmu calls (messages of the Python slave, passed without format arguments). */
 static void slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                          fmi2String category, fmi2String message, ...)
@@ -340,6 +398,10 @@ static void slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2
                 c->record_time = t;
                 c->has_record = 1;
             }
+        } else if (strncmp(message, "fast ", 5) == 0) {
+            errno = 0;
+            const unsigned long long addr = strtoull(message + 5, &end, 10);
+            if (end && *end == '\0' && errno == 0) fast_load(c, (const uint64_t *)(uintptr_t)addr);
         }
         return;
     }
@@ -1036,6 +1098,7 @@ EXPORT void fmi2FreeInstance(fmi2Component comp)
     Component *c = component(comp);
     if (!c) return;
     pthread_mutex_lock(&g_lock);
+    to_python(c);
     if (c->inner) pf.FreeInstance(c->inner);
     pthread_mutex_unlock(&g_lock);
     destroy(c);
@@ -1079,6 +1142,7 @@ EXPORT fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceD
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2SetupExperiment", MASK_SetupExperiment)) return fmi2Error;
+    to_python(c);
     const fmi2Status s = finish(c, pf.SetupExperiment(c->inner, toleranceDefined, tolerance,
                                                       startTime, stopTimeDefined, stopTime));
     if (s <= fmi2Warning) c->last_time = startTime;
@@ -1089,6 +1153,7 @@ EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component comp)
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2EnterInitializationMode", MASK_EnterInitializationMode)) return fmi2Error;
+    to_python(c);
     const fmi2Status s = finish(c, pf.EnterInitializationMode(c->inner));
     if (s <= fmi2Warning) c->state = ST_INITIALIZATION;
     return s;
@@ -1098,6 +1163,7 @@ EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2ExitInitializationMode", MASK_ExitInitializationMode)) return fmi2Error;
+    to_python(c);
     const fmi2Status s = finish(c, pf.ExitInitializationMode(c->inner));
     if (s <= fmi2Warning) c->state = ST_STEP_COMPLETE;
     return s;
@@ -1107,6 +1173,7 @@ EXPORT fmi2Status fmi2Terminate(fmi2Component comp)
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2Terminate", MASK_Terminate)) return fmi2Error;
+    to_python(c);
     const fmi2Status s = finish(c, pf.Terminate(c->inner));
     if (s <= fmi2Warning) c->state = ST_TERMINATED;
     return s;
@@ -1117,6 +1184,7 @@ EXPORT fmi2Status fmi2Reset(fmi2Component comp)
     Component *c = component(comp);
     if (!begin(c, "fmi2Reset", MASK_Reset)) return fmi2Error;
     pthread_mutex_lock(&g_lock);
+    to_python(c);
     const fmi2Status s = finish(c, pf.Reset(c->inner));
     pthread_mutex_unlock(&g_lock);
     if (s <= fmi2Warning) {
@@ -1129,6 +1197,44 @@ EXPORT fmi2Status fmi2Reset(fmi2Component comp)
 }
 
 /* ---- FMI functions: values ------------------------------------------------------------------- */
+/* Outputs (and inputs, for fmi2GetReal) from the native block, if every value reference is one it
+   serves; 0: Python serves the call. */
+static int fast_get(Component *c, const fmi2ValueReference vr[], size_t nvr, void *value, char type)
+{
+    Fast *f = &c->fast;
+    if (!f->on || c->state != ST_STEP_COMPLETE || (type != 'R' && type != 'I')) return 0;
+    for (size_t i = 0; i < nvr; ++i) {
+        const unsigned r = vr[i];
+        if (f->out_slot[r] >= 0 ? f->out_type[r] != type : !(type == 'R' && f->in_slot[r] >= 0))
+            return 0;
+    }
+    if (f->outputs && f->outputs_stale) {
+        f->outputs(f->io, f->args, 0.0, 0.0);
+        f->outputs_stale = 0;
+    }
+    for (size_t i = 0; i < nvr; ++i) {
+        const unsigned r = vr[i];
+        const double x = f->io[f->out_slot[r] >= 0 ? f->out_slot[r] : f->in_slot[r]];
+        if (type == 'R') ((fmi2Real *)value)[i] = x;
+        else ((fmi2Integer *)value)[i] = (fmi2Integer)x;
+    }
+    return 1;
+}
+
+/* Finite values of inputs into the native block (Python checks and names anything else). */
+static int fast_set_real(Component *c, const fmi2ValueReference vr[], size_t nvr,
+                         const fmi2Real value[])
+{
+    Fast *f = &c->fast;
+    if (!f->on || c->state != ST_STEP_COMPLETE) return 0;
+    for (size_t i = 0; i < nvr; ++i)
+        if (f->in_slot[vr[i]] < 0 || !isfinite(value[i])) return 0;
+    for (size_t i = 0; i < nvr; ++i) f->io[f->in_slot[vr[i]]] = value[i];
+    f->io[FAST_STALE] = 1.0;
+    f->outputs_stale = 1;
+    return 1;
+}
+
 #define GETTER(Name, CType, T)                                                                     \
     EXPORT fmi2Status fmi2Get##Name(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, \
                                     CType value[])                                                 \
@@ -1136,7 +1242,8 @@ EXPORT fmi2Status fmi2Reset(fmi2Component comp)
         Component *c = component(comp);                                                            \
         if (!begin(c, "fmi2Get" #Name, MASK_Get)) return fmi2Error;                                \
         if (!check_vrs(c, "fmi2Get" #Name, vr, nvr, value, T, 0)) return fmi2Error;                \
-        if (nvr == 0) return fmi2OK;                                                               \
+        if (nvr == 0 || fast_get(c, vr, nvr, (void *)value, T)) return fmi2OK;                     \
+        to_python(c);                                                                              \
         return finish(c, pf.Get##Name(c->inner, vr, nvr, value));                                  \
     }
 #define SETTER(Name, CType, T)                                                                     \
@@ -1147,6 +1254,9 @@ EXPORT fmi2Status fmi2Reset(fmi2Component comp)
         if (!begin(c, "fmi2Set" #Name, MASK_Set)) return fmi2Error;                                \
         if (!check_vrs(c, "fmi2Set" #Name, vr, nvr, value, T, 1)) return fmi2Error;                \
         if (nvr == 0) return fmi2OK;                                                               \
+        if (T == 'R' && fast_set_real(c, vr, nvr, (const fmi2Real *)(const void *)value))          \
+            return fmi2OK;                                                                         \
+        to_python(c);                                                                              \
         return finish(c, pf.Set##Name(c->inner, vr, nvr, value));                                  \
     }
 GETTER(Real, fmi2Real, 'R')
@@ -1166,6 +1276,25 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPo
     Component *c = component(comp);
     if (!begin(c, "fmi2DoStep", MASK_DoStep)) return fmi2Error;
     c->has_record = 0;
+    Fast *f = &c->fast;
+    if (f->on && f->step) {
+        /* the checks of the Python step wrapper that reject a call; Python names the error */
+        const double t = currentCommunicationPoint, h = communicationStepSize, now = f->io[FAST_TIME];
+        const double scale = fabs(now) > 1.0 ? fabs(now) : 1.0;
+        if (isfinite(t) && isfinite(h) && h > 0.0 && !(fabs(t - now) > 1e-9 * scale)) {
+            const int32_t r = f->step(f->io, f->args, t, h);
+            if (r == FAST_DONE) {
+                f->io[FAST_TIME] = t + h;
+                f->io[FAST_STALE] = 1.0;
+                f->io[FAST_NSTEPS] += 1.0;
+                f->outputs_stale = 1;
+                c->last_time = t + h;
+                return fmi2OK;
+            }
+            if (r == FAST_RESUMED) f->io[FAST_STALE] = 1.0; /* Python finishes the step */
+        }
+    }
+    to_python(c);
     const fmi2Status s = finish(c, pf.DoStep(c->inner, currentCommunicationPoint,
                                              communicationStepSize,
                                              noSetFMUStatePriorToCurrentPoint));
@@ -1346,6 +1475,7 @@ EXPORT fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *FMUstate)
     State *s = *FMUstate;
     if (s && !check_state(c, "fmi2GetFMUstate (to overwrite)", s)) return fmi2Error;
     fmi2FMUstate inner = NULL;
+    to_python(c);
     const fmi2Status st = finish(c, pf.GetFMUstate(c->inner, &inner));
     if (st > fmi2Warning) {
         if (inner) pf.FreeFMUstate(c->inner, &inner);
@@ -1376,6 +1506,7 @@ EXPORT fmi2Status fmi2SetFMUstate(fmi2Component comp, fmi2FMUstate FMUstate)
     if (!begin(c, "fmi2SetFMUstate", MASK_FMUstate)) return fmi2Error;
     if (!check_state(c, "fmi2SetFMUstate", FMUstate)) return fmi2Error;
     State *s = FMUstate;
+    to_python(c);
     const fmi2Status st = finish(c, pf.SetFMUstate(c->inner, s->inner));
     if (st <= fmi2Warning) {
         c->state = s->phase;
@@ -1422,6 +1553,7 @@ EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component comp, fmi2FMUstate FM
         return fmi2Error;
     }
     size_t n = 0;
+    to_python(c);
     const fmi2Status st = finish(c, pf.SerializedFMUstateSize(c->inner,
                                                               ((State *)FMUstate)->inner, &n));
     if (st <= fmi2Warning) *size = sizeof(StateHeader) + n;
@@ -1436,6 +1568,7 @@ EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate FMUstat
     if (!check_state(c, "fmi2SerializeFMUstate", FMUstate)) return fmi2Error;
     State *s = FMUstate;
     size_t n = 0;
+    to_python(c);
     fmi2Status st = finish(c, pf.SerializedFMUstateSize(c->inner, s->inner, &n));
     if (st > fmi2Warning) return st;
     if (!serializedState || size != sizeof(StateHeader) + n) {
@@ -1444,6 +1577,7 @@ EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate FMUstat
               sizeof(StateHeader) + n);
         return fmi2Error;
     }
+    to_python(c);
     st = finish(c, pf.SerializeFMUstate(c->inner, s->inner, serializedState + sizeof(StateHeader),
                                         n));
     if (st > fmi2Warning) return st;
@@ -1502,6 +1636,7 @@ EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte ser
         return fmi2Error;
     }
     fmi2FMUstate inner = NULL;
+    to_python(c);
     const fmi2Status st = finish(c, pf.DeSerializeFMUstate(c->inner, serializedState + sizeof h,
                                                            h.payload_size, &inner));
     if (st > fmi2Warning) {

@@ -30,6 +30,8 @@
  *   csv PATH                            output file
  *   logging 0|1                         loggingOn of fmi2Instantiate (default 1)
  *   unload 0|1                          dlclose() the FMU binaries before exit (default 1)
+ *   timing 0|1                          print the wall time of the macro steps to stderr
+ *                                       ("host: N macro steps in S s"; default 0)
  *   libpython PATH                      optional: dlopen() PATH with RTLD_GLOBAL before the FMUs
  *                                       (the drillstring FMUs do not need it: they load libpython
  *                                       themselves and then use the one found here)
@@ -40,6 +42,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 /* ---- FMI 2.0 types (fmi2TypesPlatform.h, fmi2FunctionTypes.h of the standard) ---------------- */
 typedef void *fmi2Component;
@@ -113,7 +116,7 @@ static Link links[MAX_ITEMS];
 static Record records[MAX_ITEMS];
 static int n_fmus, n_starts, n_links, n_records;
 static long long step_ns = 0, n_steps = 0;
-static int unload = 1, logging = 1;
+static int unload = 1, logging = 1, timing = 0;
 static char libpython[MAX_TOKEN], csv_path[MAX_TOKEN];
 
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
@@ -219,6 +222,8 @@ static void read_config(const char *path)
             copy_rest(csv_path, sizeof csv_path, line, 1);
         } else if (strcmp(a, "unload") == 0 && n == 2) {
             unload = atoi(b);
+        } else if (strcmp(a, "timing") == 0 && n == 2) {
+            timing = atoi(b);
         } else if (strcmp(a, "logging") == 0 && n == 2) {
             logging = atoi(b);
         } else {
@@ -388,6 +393,8 @@ int main(int argc, char **argv)
     fputc('\n', out);
     write_row(out, 0.0);
 
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
     for (long long k = 0; k < n_steps; ++k) {
         const double t = (double)(k * step_ns) / 1e9;
         const double h = (double)((k + 1) * step_ns) / 1e9 - t;
@@ -407,6 +414,11 @@ int main(int argc, char **argv)
         }
         transfer();
         write_row(out, t + h);
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    if (timing) {
+        fprintf(stderr, "host: %lld macro steps in %.9f s\n", n_steps,
+                (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec));
     }
     if (fclose(out) != 0) {
         fprintf(stderr, "host: error writing %s\n", csv_path);
