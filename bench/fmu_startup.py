@@ -139,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=7, help="interleaved rounds (default 7)")
     ap.add_argument("--n1", type=int, default=100, help="short run, steps (default 100)")
-    ap.add_argument("--n2", type=int, default=1100, help="long run, steps (default 1100)")
+    ap.add_argument("--n2", type=int, default=20100, help="long run, steps (default 20100)")
     args = ap.parse_args(argv)
 
     with tempfile.TemporaryDirectory(prefix="fmu_startup_") as tmp:
