@@ -12,9 +12,9 @@ Communication points (:func:`run_fixed`):
 
 A last step shorter than ``H`` ends on the stop time in all grids.
 
-A Jacobi run with zero-order hold runs its loop in C (:mod:`.native_loop`) on the points of
-:func:`grid_points`, which are those of the loop below, bit for bit (tested); other runs, or
-without the C loop, run the Python loop below.
+A Jacobi run (zero-order hold or linear extrapolation) runs its loop in C (:mod:`.native_loop`)
+on the points of :func:`grid_points`, which are those of the loop below, bit for bit (tested);
+other runs, or without the C loop, run the Python loop below.
 """
 
 from __future__ import annotations

@@ -1,21 +1,24 @@
-"""The fixed-step Jacobi loop with zero-order hold in C: the master's hot path without Python.
+"""The fixed-step Jacobi loop in C: the master's hot path without Python.
 
 :func:`run_native` hands ``native_loop.c`` (one function, ``ds_master_loop``) what the Python
 loop of :func:`~drillstring.orchestration.fixed.run_fixed` uses: the units' ``fmi2DoStep`` and
 components, the exchange's batches after a step (:attr:`.Exchange.step_xops`: the schedule's
 order for ``exchange="propagate"``, gets then sets for ``"simple"``), the recorded variables'
-batches, the value vector ``y``, the recorder's preallocated rows and the communication grid
+batches, each unit's input batch (linear extrapolation), the value vector ``y``, the
+recorder's preallocated rows and the communication grid
 (:func:`~drillstring.orchestration.fixed.grid_points`, so every ``grid`` option gives the Python
 loop's points). The C loop makes the same FMI calls in the same order with the same arguments and
-buffers, and only copies values, so the rows are the Python loop's bits. It runs in chunks of
+buffers, and only copies values (linear extrapolation: numpy's operations of
+:meth:`.JacobiStep._held` on the same doubles, compiled with ``-ffp-contract=off``), so the rows
+are the Python loop's bits. It runs in chunks of
 :data:`CHUNK` steps; the progress bar advances between them. The first call that fails stops it;
 the failure is then reported through :meth:`.Instances.fail` with the function, status, time and
 step the Python loop would name, after the same rows and step count.
 
-The Python loop runs instead (:func:`supported` is False) for Gauss-Seidel, linear
-extrapolation, step-size control (:mod:`.adaptive` never calls this module), without a C
-compiler, when the compilation fails, or with ``DRILLSTRING_MASTER_NATIVE=0``. (Connections are
-Real -> Real by construction: :func:`~.connections.build_system` refuses others.)
+The Python loop runs instead (:func:`supported` is False) for Gauss-Seidel, step-size control
+(:mod:`.adaptive` never calls this module), without a C compiler, when the compilation fails, or
+with ``DRILLSTRING_MASTER_NATIVE=0``. (Connections are Real -> Real by construction:
+:func:`~.connections.build_system` refuses others.)
 
 When it is compiled: at its first use, into a per-user cache (``$XDG_CACHE_HOME/drillstring`` or
 ``~/.cache/drillstring``), under a name keyed by the hash of the C source, the compiler command
@@ -55,10 +58,10 @@ SOURCE = Path(__file__).with_name("native_loop.c")
 ENV = "DRILLSTRING_MASTER_NATIVE"
 #: Steps per call of the C loop (the progress bar advances between calls).
 CHUNK = 1000
-_CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+_CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-fPIC", "-shared")
 _OP_WORDS = 7  # words of a batch, as native_loop.c reads them
 _GET_REAL, _SET_REAL, _GET_INT = 0, 1, 2
-_DO_STEP, _EXCHANGE, _RECORD = 1, 2, 3  # phases of a failure
+_DO_STEP, _EXCHANGE, _RECORD, _INPUTS = 1, 2, 3, 4  # phases of a failure
 
 _loaded: dict[str, ctypes._CFuncPtr | None] = {}
 
@@ -86,7 +89,9 @@ def _compile() -> ctypes._CFuncPtr:
         atomic_write(path, lambda fh: fh.write(data))
     fn = ctypes.CDLL(str(path)).ds_master_loop
     p, i64 = ctypes.c_void_p, ctypes.c_int64
-    fn.argtypes = [p, i64, p, i64, p, i64, p, i64, p, p, i64, i64, p, i64, i64, ctypes.c_int, p]
+    c_int = ctypes.c_int
+    fn.argtypes = [p, i64, p, i64, p, i64, p, i64, c_int, p, p, p, i64, p, p, i64, i64, p, i64, i64]
+    fn.argtypes += [c_int, p]
     fn.restype = i64
     return fn
 
@@ -114,11 +119,11 @@ def supported(step: JacobiStep) -> bool:
     Returns
     -------
     bool
-        True for a Jacobi step with zero-order hold, the switch not off and the C loop loaded.
+        True for a Jacobi step, the switch not off and the C loop loaded.
     """
     if os.environ.get(ENV, "1").strip() == "0":
         return False
-    return type(step) is JacobiStep and not step.linear and library() is not None
+    return type(step) is JacobiStep and library() is not None
 
 
 def _address(fn: ctypes._CFuncPtr) -> int:
@@ -194,8 +199,22 @@ def run_native(
                 kind,
             )
         )
-    xarr, rarr = _batches(x), _batches(r)
+    iops = step._input_ops
+    i = [
+        (
+            _address(op.fn),
+            op.inst.comp.value or 0,
+            ctypes.addressof(op.vr),
+            op.n,
+            ctypes.addressof(op.buf),
+            op.idx.ctypes.data,
+            _SET_REAL,
+        )
+        for op in iops
+    ]
+    xarr, rarr, iarr = _batches(x), _batches(r), _batches(i)
     y, rows = step.y, recorder.rows
+    y_prev, held = np.empty_like(y), np.empty_like(y)
     times = np.ascontiguousarray(times, dtype=np.float64)
     steps = np.ascontiguousarray(steps, dtype=np.float64)
     fail = np.zeros(3, dtype=np.int64)
@@ -205,6 +224,7 @@ def run_native(
         k1 = min(k + CHUNK, n_total)
         done = loop(
             units.ctypes.data, len(items), xarr.ctypes.data, len(x), rarr.ctypes.data, len(r),
+            iarr.ctypes.data, len(i), int(step.linear), y_prev.ctypes.data, held.ctypes.data,
             y.ctypes.data, len(y), times.ctypes.data, steps.ctypes.data, k, k1,
             rows.ctypes.data, recorder.n, rows.shape[1], 1, fail.ctypes.data,
         )  # fmt: skip
@@ -212,13 +232,15 @@ def run_native(
         k += done
         stats["accepted"] = k
         if fail[0]:
-            _report(step, recorder, stats, xops, int(fail[0]), int(fail[1]), int(fail[2]),
+            _report(step, recorder, stats, xops, iops, int(fail[0]), int(fail[1]), int(fail[2]),
                     float(times[k]), float(steps[k]), float(times[k + 1]))  # fmt: skip
         progress(float(times[k]))
 
 
-def _report(step, recorder, stats, xops, phase, i, status, t, h, t_next) -> None:
+def _report(step, recorder, stats, xops, iops, phase, i, status, t, h, t_next) -> None:
     """Raise the failure of step ``t -> t + h`` as the Python loop does."""
+    if phase == _INPUTS:
+        step._fail(iops[i].inst, iops[i].fname, status, t, None)
     if phase == _DO_STEP:
         step._fail(step._items[i], "fmi2DoStep", status, t, h)
     if phase == _EXCHANGE:

@@ -4,14 +4,15 @@ The reference is the Python loop of ``run_fixed`` (``DRILLSTRING_MASTER_NATIVE=0
 master: every recorded row, the step statistics, the failure report and the units' log must be
 the same, bit for bit, on
 
-* the closed loops of Figs. 5 and 6 (scaled and SI) and the top-drive controller's package;
+* the closed loops of Figs. 5 and 6 (scaled and SI; zero-order hold and linear extrapolation)
+  and the top-drive controller's package;
 * every grid option, with both exchanges, a stop time on and off the grid;
 * stops mid-run: a validity stop of the plant (fmi2Discard), a unit's fmi2Discard and fmi2Fatal
   in fmi2DoStep after several chunks, an fmi2Error of fmi2GetReal in the exchange and in the
   recorded variables;
 
 and each run is checked to have gone through the loop it claims (a spy on ``run_native``). The
-fallbacks (Gauss-Seidel, linear extrapolation, step-size control, the switch off, no compiler, a
+fallbacks (Gauss-Seidel, step-size control, the switch off, no compiler, a
 failing compilation) run the Python loop.
 """
 
@@ -108,12 +109,14 @@ def test_native_loop_is_compiled_and_used():
 # -- the closed loops ----------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("extrapolation", ["zoh", "linear"])
 @pytest.mark.parametrize("experiment", [FIG5, FIG6], ids=["fig5", "fig6"])
 @pytest.mark.parametrize("variant", [SCALED, SI], ids=["scaled", "si"])
-def test_closed_loops_bit_identical(built, experiment, variant, monkeypatch, spy):
+def test_closed_loops_bit_identical(built, experiment, variant, extrapolation, monkeypatch, spy):
     scale = TS if variant is SI else 1.0
+    H = 1e-2 * scale
     with closed_loop_master(built.out, experiment, variant=variant) as m:
-        a, b = both(m, monkeypatch, spy, experiment.tau_end * scale, 1e-2 * scale)
+        a, b = both(m, monkeypatch, spy, experiment.tau_end * scale, H, extrapolation=extrapolation)
     assert a.completed and len(a.time) == 6001
     assert_same(a, b)
     torque = a[f"controller.{variant.torque}"]
@@ -159,11 +162,14 @@ def test_validity_stop_of_the_plant(built, variant, overrides, cause, monkeypatc
 
 @pytest.mark.parametrize("grid", ["float", "ns", "sum"])
 @pytest.mark.parametrize("exchange", ["propagate", "simple"])
+@pytest.mark.parametrize("extrapolation", ["zoh", "linear"])
 @pytest.mark.parametrize("stop", [2.5, 2.5004], ids=["on-grid", "off-grid"])
-def test_every_grid_option(small, grid, exchange, stop, monkeypatch, spy):
-    # 2500 steps from 0.1: the sum grid drifts from k*h, several chunks, a short last step
+def test_every_grid_option(small, grid, exchange, extrapolation, stop, monkeypatch, spy):
+    # 2500 steps from 0.1: the sum grid drifts from k*h, several chunks, a short last step (and
+    # linear extrapolation over steps of different sizes)
+    kw = dict(start_time=0.1, grid=grid, exchange=exchange, extrapolation=extrapolation)
     with integrators(small, record=["A.k"]) as m:
-        a, b = both(m, monkeypatch, spy, stop, 1e-3, start_time=0.1, grid=grid, exchange=exchange)
+        a, b = both(m, monkeypatch, spy, stop, 1e-3, **kw)
     assert a.completed and a.time[-1] == pytest.approx(stop, abs=1e-9)
     assert_same(a, b)
 
@@ -210,9 +216,10 @@ def test_unit_failure_after_several_chunks(small, fault, status, monkeypatch, sp
     assert_same(a, b)
 
 
-def _failing_get_real(monkeypatch, unit: str, vr: int, after: int) -> None:
-    """Units named ``unit`` get an fmi2GetReal that returns fmi2Error from its ``after``-th call
-    that reads value reference ``vr`` (the same callable on both loops)."""
+def _failing(monkeypatch, unit: str, function: str, vr: int, after: int) -> None:
+    """Units named ``unit`` get an fmi2GetReal or fmi2SetReal (``function``) that returns
+    fmi2Error from its ``after``-th call on value reference ``vr`` (the same callable on both
+    loops, counting from the start of the run)."""
     proto = ctypes.CFUNCTYPE(
         ctypes.c_int,
         ctypes.c_void_p,
@@ -225,11 +232,11 @@ def _failing_get_real(monkeypatch, unit: str, vr: int, after: int) -> None:
 
     def typed(fmu, name, required=True):
         f = real_typed(fmu, name, required)
-        if name != "fmi2GetReal" or fmu.instanceName != unit:
+        if name != function or fmu.instanceName != unit:
             return f
         count = [0]
 
-        def get_real(comp, vrs, n, values):
+        def failing(comp, vrs, n, values):
             st = f(comp, vrs, n, values)
             if vrs[0] == vr:
                 count[0] += 1
@@ -237,23 +244,40 @@ def _failing_get_real(monkeypatch, unit: str, vr: int, after: int) -> None:
                     return 3
             return st
 
-        wrapped = proto(get_real)
+        wrapped = proto(failing)
         keep.append(wrapped)
         return wrapped
 
     monkeypatch.setattr(instances, "_typed", typed)
 
 
-@pytest.mark.parametrize("phase", ["exchange", "record"])
-def test_get_real_error_in_the_exchange_and_the_recorder(small, phase, monkeypatch, spy):
+@pytest.mark.parametrize(
+    "function, var, after, extrapolation, reported, step, time",
+    [
+        # A.x read: twice at t0, then once per step (in the exchange)
+        ("fmi2GetReal", "A.x", 1502, "zoh", "fmi2GetReal", 1500, 0.15),
+        # A.k recorded: once at t0, then once per step (the row)
+        ("fmi2GetReal", "A.k", 1502, "zoh", "fmi2Get (recorded variables)", 1501, 0.1501),
+        # B.u set: twice at t0, in step 1 in the exchange, then extrapolated and in the exchange
+        ("fmi2SetReal", "B.u", 3000, "linear", "fmi2SetReal", 1500, 0.1499),
+        ("fmi2SetReal", "B.u", 3001, "linear", "fmi2SetReal", 1500, 0.15),
+    ],
+    ids=["exchange-get", "recorder", "extrapolated-set", "exchange-set"],
+)
+def test_error_outside_do_step_after_several_chunks(
+    small, function, var, after, extrapolation, reported, step, time, monkeypatch, spy
+):
+    unit, name = var.split(".")
     with integrators(small, record=["A.k"]) as m:
-        name = "x" if phase == "exchange" else "k"
-        vr = m.system.variables[0][name].vr
-        _failing_get_real(monkeypatch, "A", vr, after=1502)
-        a, b = both(m, monkeypatch, spy, 0.3, 1e-4)
-    expect = "fmi2GetReal" if phase == "exchange" else "fmi2Get (recorded variables)"
-    assert (a.failure.unit, a.failure.function, a.failure.status) == ("A", expect, "error")
-    assert a.failure.step_size is None
+        vr = m.system.variables["AB".index(unit)][name].vr
+        _failing(monkeypatch, unit, function, vr, after)
+        a, b = both(m, monkeypatch, spy, 0.3, 1e-4, extrapolation=extrapolation)
+    f = a.failure
+    assert (f.unit, f.function, f.status, f.step_size) == (unit, reported, "error", None)
+    assert f.time == pytest.approx(time, abs=1e-12)
+    # the step that failed counts when only its row is missing (the Python loop's count)
+    assert a.stats.accepted == (step if reported.startswith("fmi2Get (") else step - 1)
+    assert len(a.time) == step
     assert_same(a, b)
 
 
@@ -286,10 +310,10 @@ def test_progress_bar_advances_between_chunks(small, monkeypatch, spy):
     "kw",
     [
         {"scheme": "gauss-seidel"},
-        {"extrapolation": "linear"},
+        {"scheme": "gauss-seidel", "extrapolation": "linear"},
         {"step_control": StepControl(rtol=0, atol=10.0, h_min=0.01, h_max=0.01)},
     ],
-    ids=["gauss-seidel", "linear", "step-control"],
+    ids=["gauss-seidel", "gauss-seidel-linear", "step-control"],
 )
 def test_unsupported_runs_take_the_python_loop(small, kw, monkeypatch, spy):
     monkeypatch.setenv(native_loop.ENV, "1")
