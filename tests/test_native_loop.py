@@ -123,6 +123,15 @@ def test_closed_loops_bit_identical(built, experiment, variant, extrapolation, m
     assert np.ptp(torque) > 0.0  # a real run: the controller acts
 
 
+def test_fmus_on_their_python_path(built, monkeypatch, spy):
+    # the front layer hands every call to the FMUs' Python (it takes the GIL the C loop released)
+    monkeypatch.setenv("DRILLSTRING_FMU_NATIVE", "0")
+    with closed_loop_master(built.out, FIG6) as m:
+        a, b = both(m, monkeypatch, spy, 30.0, 1e-2)
+    assert a.completed and any("the native fast path is off" in e[3] for e in a.log)
+    assert_same(a, b)
+
+
 @pytest.mark.parametrize("system", ["scaled", "si"])
 def test_topdrive_package_bit_identical(built, system, monkeypatch, spy):
     b = built if system == "scaled" else built.si
