@@ -88,10 +88,13 @@ def _compile() -> ctypes._CFuncPtr:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, lambda fh: fh.write(data))
     fn = ctypes.CDLL(str(path)).ds_master_loop
-    p, i64 = ctypes.c_void_p, ctypes.c_int64
-    c_int = ctypes.c_int
-    fn.argtypes = [p, i64, p, i64, p, i64, p, i64, c_int, p, p, p, i64, p, p, i64, i64, p, i64, i64]
-    fn.argtypes += [c_int, p]
+    p, i64, i32 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
+    fn.argtypes = [
+        *(p, i64) * 4,  # units, xops, rops, iops and their counts
+        i32, p, p, p, i64,  # linear, y_prev, held, y, ny
+        p, p, i64, i64,  # t, h, k0, k1
+        p, i64, i64, i32, p,  # rows, row0, n_cols, nsp, fail
+    ]  # fmt: skip
     fn.restype = i64
     return fn
 
