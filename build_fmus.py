@@ -194,21 +194,20 @@ def load_gains(path: Path) -> dict[str, Any]:
 
 
 def find_compiler() -> list[str]:
-    """The C compiler: ``$CC``, else ``cc``, ``gcc`` or ``clang`` on PATH."""
-    if os.environ.get("CC"):
-        cmd = shlex.split(os.environ["CC"])
-        if shutil.which(cmd[0]) is None:
-            raise BuildError(f"CC={os.environ['CC']!r}: {cmd[0]} not found")
-        return cmd
-    for name in ("cc", "gcc", "clang"):
-        path = shutil.which(name)
-        if path is not None:
-            return [path]
-    raise BuildError(
-        "no C compiler found (looked for $CC, cc, gcc, clang): build_fmus.py compiles the FMUs' "
-        "front layer (fmu_src/fmi_front/drillstring_fmi2.c) with the system's C compiler; install "
-        "one (Debian: apt-get install gcc) or set CC"
-    )
+    """The C compiler (:func:`drillstring.ccompiler.find_c_compiler`: ``$CC``, else ``cc``,
+    ``gcc`` or ``clang`` on PATH)."""
+    from drillstring.ccompiler import CompilerNotFound, find_c_compiler
+
+    try:
+        return find_c_compiler()
+    except CompilerNotFound as exc:
+        if os.environ.get("CC"):
+            raise BuildError(str(exc)) from None
+        raise BuildError(
+            f"{exc}: build_fmus.py compiles the FMUs' front layer "
+            "(fmu_src/fmi_front/drillstring_fmi2.c) with the system's C compiler; install one "
+            "(Debian: apt-get install gcc) or set CC"
+        ) from None
 
 
 def python_record() -> dict[str, Any]:

@@ -10,7 +10,11 @@ Communication points (:func:`run_fixed`):
   Ecos and of fmpy's SSP simulator (it drifts from ``k*H`` by rounding, about 4e-11 after 55 000
   steps of 1 ms).
 
-A last step shorter than ``H`` ends on the stop time in both grids.
+A last step shorter than ``H`` ends on the stop time in all grids.
+
+A Jacobi run (zero-order hold or linear extrapolation) runs its loop in C (:mod:`.native_loop`)
+on the points of :func:`grid_points`, which are those of the loop below, bit for bit (tested);
+other runs, or without the C loop, run the Python loop below.
 """
 
 from __future__ import annotations
@@ -20,10 +24,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from drillstring.orchestration import native_loop
 from drillstring.orchestration.recorder import Recorder
 from drillstring.orchestration.step import JacobiStep
 
-__all__ = ["n_steps", "run_fixed"]
+__all__ = ["grid_points", "n_steps", "run_fixed"]
 
 
 def n_steps(span: float, h: float) -> tuple[int, bool]:
@@ -47,6 +52,50 @@ def n_steps(span: float, h: float) -> tuple[int, bool]:
     if n >= 1 and abs(n * h - span) <= 1e-9 * h:
         return n, True
     return max(1, math.ceil(span / h)), False
+
+
+def grid_points(
+    t0: float, t_end: float, h: float, ns_grid: bool, sum_grid: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """The communication points of a fixed-step run and the steps passed to the units.
+
+    The points of the loop of :func:`run_fixed` (module docstring), computed with numpy: the
+    same operations on the same doubles (integer nanoseconds in int64, the sum grid accumulated
+    in order by ``np.add.accumulate``).
+
+    Parameters
+    ----------
+    t0, t_end, h : float
+        Start, stop time and macro step.
+    ns_grid, sum_grid : bool
+        As for :func:`run_fixed`.
+
+    Returns
+    -------
+    times : numpy.ndarray
+        ``t_0 = t0, ..., t_N``.
+    steps : numpy.ndarray
+        ``h_0, ..., h_{N-1}``: the step from ``t_k`` passed to ``fmi2DoStep``.
+    """
+    n_total, exact = n_steps(t_end - t0, h)
+    full = n_total if exact else n_total - 1  # steps on the grid (the last may end on t_end)
+    k = np.arange(1, full + 1)
+    times = np.empty(n_total + 1)
+    times[0] = t0
+    steps = np.full(n_total, h)
+    if ns_grid:
+        h_ns, t0_ns = round(h * 1e9), round(t0 * 1e9)
+        times[1 : full + 1] = (t0_ns + k.astype(np.int64) * h_ns) / 1e9
+        steps[:full] = np.diff(times[: full + 1])
+    elif sum_grid:
+        times[: full + 1] = np.add.accumulate(np.concatenate(([t0], steps[:full])))
+    else:
+        times[1 : full + 1] = t0 + k * h
+        times[n_total] = t_end
+    if not exact:
+        times[n_total] = t_end
+        steps[n_total - 1] = t_end - times[n_total - 1]
+    return times, steps
 
 
 def run_fixed(
@@ -79,6 +128,11 @@ def run_fixed(
     sum_grid : bool
         Accumulate the time, ``t + H`` (Ecos's grid; module docstring).
     """
+    if native_loop.supported(step):
+        recorder.reserve(n_steps(t_end - t0, h)[0] + 1)
+        times, steps = grid_points(t0, t_end, h, ns_grid, sum_grid)
+        native_loop.run_native(step, recorder, stats, times, steps, progress)
+        return
     y = step.y
     need_prev = step.linear
     y_prev = np.empty_like(y) if need_prev else None

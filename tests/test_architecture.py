@@ -1,10 +1,10 @@
 """The package's layers point one way, and the user API is importable from the package root.
 
 Layers, each importing only itself and those before it: the foundation modules (fileio,
-validation, plotting), model, analysis, controller, orchestration, apps. The check reads every
-module's import statements (an independent look at the source, not at what happens to be
-imported at run time) and also rejects imports of project modules inside functions, which would
-hide a cycle.
+validation, plotting, ccompiler), model, analysis, controller, orchestration, apps. The check
+reads every module's import statements (an independent look at the source, not at what happens
+to be imported at run time) and also rejects imports of project modules inside functions, which
+would hide a cycle.
 """
 
 from __future__ import annotations
@@ -24,7 +24,12 @@ PACKAGES = {
     ROOT / "orchestration": "drillstring.orchestration",
 }
 LAYERS = ("foundation", "model", "analysis", "controller", "orchestration", "apps")
-FOUNDATION = ("drillstring.fileio", "drillstring.validation", "drillstring.plotting")
+FOUNDATION = (
+    "drillstring.fileio",
+    "drillstring.validation",
+    "drillstring.plotting",
+    "drillstring.ccompiler",
+)
 
 
 def _layer(module: str) -> int:
