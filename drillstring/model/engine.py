@@ -104,6 +104,19 @@ def load_stepper(pure: bool) -> ModuleType:
 
     The plain copy is the same source file loaded under another module name, so that a Python
     callable can serve as control law inside the integration loop; the model is written once.
+
+    Parameters
+    ----------
+    pure : bool
+        True for the plain-Python copy (what a Python callable control law needs), False for
+        the compiled module.
+
+    Returns
+    -------
+    ModuleType
+        :mod:`drillstring.model.kernel.stepper` itself when ``pure`` is False or numba is not
+        available (the module then runs as plain Python anyway); otherwise the plain-Python
+        copy, loaded at the first such call and reused.
     """
     global _PURE_STEPPER
     if not pure or not _jit.numba_available():
@@ -177,7 +190,24 @@ class InitialState:
 
     @classmethod
     def coerce(cls, value: InitialState | Mapping[str, float] | None) -> InitialState:
-        """An InitialState from None (all 0), an InitialState or a mapping of its fields."""
+        """An InitialState from None (all 0), an InitialState or a mapping of its fields.
+
+        Parameters
+        ----------
+        value : InitialState, mapping or None
+            An InitialState (returned as it is), a mapping of some of the fields ``u, du, phi,
+            dphi, theta, dtheta`` (the others 0), or None for the nominal motion (all 0).
+
+        Returns
+        -------
+        InitialState
+            The validated initial perturbation.
+
+        Raises
+        ------
+        ValueError
+            A key of the mapping is not a field, or a value is not a finite real number.
+        """
         if value is None:
             return cls()
         if isinstance(value, InitialState):
@@ -373,7 +403,21 @@ class Engine:
         return check_real("torque R - R0", value)
 
     def set_input(self, r: float) -> None:
-        """Hold the rotary-table torque deviation R - R0 = r over the following advances."""
+        """Hold the rotary-table torque deviation R - R0 = r over the following advances.
+
+        R - R0 is the input of (13). A law set by :meth:`set_control` (an :class:`AffineFeedback`
+        or a callable) is replaced by the held value.
+
+        Parameters
+        ----------
+        r : float
+            Scaled torque deviation R - R0 (torques in units of C, eq. (16)).
+
+        Raises
+        ------
+        ValueError
+            ``r`` cannot be converted to a finite float.
+        """
         value = self._check_torque(r)
         C = self._s.control
         if int(C[S.C_KIND]) != S.CTRL_HELD:
@@ -563,21 +607,53 @@ class Engine:
         }
 
     def history(self) -> HistoryView:
-        """A copy of the live history nodes."""
+        """A copy of the live history nodes.
+
+        Returns
+        -------
+        HistoryView
+            The live window of the history buffer of the delay (14): the nodes the delayed instant
+            may still reach, up to the current time, in total coordinates (``docs/model.md``,
+            "Coordinates"); a copy, later steps do not change it.
+        """
         s = self._s
         return HistoryView(s.history, int(s.ints[S.I_HSTART]), int(s.ints[S.I_HEND]))
 
     def perturbation(self) -> np.ndarray:
-        """[u, du, phi, dphi, theta, dtheta] at the current time."""
+        """[u, du, phi, dphi, theta, dtheta] at the current time.
+
+        Returns
+        -------
+        ndarray
+            Shape (6,): the scaled perturbations u, phi, theta of (9)-(10) from the nominal motion
+            and their tau-derivatives (``docs/model.md``, "Coordinates").
+        """
         s = self._s
         return np.array(to_perturbation(s.params, self.tau, *s.y))
 
     def total_state(self) -> np.ndarray:
-        """[U, V, Phi, W, Theta, Wt] (total scaled coordinates) at the current time."""
+        """[U, V, Phi, W, Theta, Wt] (total scaled coordinates) at the current time.
+
+        Returns
+        -------
+        ndarray
+            Shape (6,), a copy of the kernel's state (``docs/model.md``, "Coordinates").
+        """
         return self._s.y.copy()
 
     def diagnostics(self) -> dict[str, float]:
-        """d, tau_n, g, g*, twist torque S, torque on bit T, applied R - R0 at the current time."""
+        """d, tau_n, g, g*, twist torque S, torque on bit T, applied R - R0 at the current time.
+
+        Returns
+        -------
+        dict of str to float
+            Scaled values: ``d`` depth of cut (5), ``tau_n`` delay (14), ``g`` contact multiplier
+            (17), ``gstar`` its balancing value g*
+            (``docs/model.md``, "Wearflat contact as a Filippov system"), ``twist_torque`` S and
+            ``torque_on_bit`` T (``docs/model.md``, "Coordinates"; in torsional stick T is the
+            torque that holds the bit, ``docs/model.md``, "Torsional stick"), ``R_minus_R0`` the
+            torque deviation applied in (13).
+        """
         D = self._s.diag
         return {
             "d": float(D[S.D_D]),
@@ -591,7 +667,16 @@ class Engine:
 
     def outputs(self) -> dict[str, float]:
         """The outputs at the current time (:data:`OUTPUT_COLUMNS` without ``tau``) and the
-        validity counters ``stick_events``, ``bit_bounce``, ``torsional_stick``."""
+        validity counters ``stick_events``, ``bit_bounce``, ``torsional_stick``.
+
+        Returns
+        -------
+        dict of str to float
+            Keys :data:`OUTPUT_KEYS` in order: the scaled perturbations u, du, phi, dphi, theta,
+            dtheta, the depth of cut d, the contact multiplier g (17), the delay tau_n (14), the
+            applied R - R0, the mode code (a key of :data:`MODE_NAMES`), and the numbers of entries
+            into axial stick, of bit-bounce episodes and of torsional sticks; all as floats.
+        """
         s = self._s
         D, I = s.diag.tolist(), s.ints.tolist()  # noqa: E741
         y = _to_perturbation(self._params_tuple, self.tau, *s.y.tolist())
@@ -603,14 +688,36 @@ class Engine:
 
     # ----------------------------------------------------------------- state
     def get_state(self) -> EngineState:
-        """Capture everything (history, mode, counters, control, latch) for a bit-exact restore."""
+        """Capture everything (history, mode, counters, control, latch) for a bit-exact restore.
+
+        Returns
+        -------
+        EngineState
+            Copies of the kernel's persistent arrays, the status that stopped the run (if any) and
+            the number of kept events; restore it with :meth:`set_state`.
+        """
         arrays = {name: getattr(self._s, name).copy() for name in S.PERSISTENT}
         failed = self._failed
         arrays["failed"] = np.array([-1.0 if failed is None else _STATUS_LIST.index(failed.code)])
         return EngineState(arrays=arrays, n_events=len(self._events))
 
     def set_state(self, state: EngineState) -> None:
-        """Restore a state from :meth:`get_state` of an engine with the same parameters."""
+        """Restore a state from :meth:`get_state` of an engine with the same parameters.
+
+        Events kept after the capture are dropped. A state with a callable control law runs with
+        this engine's callable (the state holds no Python objects).
+
+        Parameters
+        ----------
+        state : EngineState
+            As returned by :meth:`get_state`.
+
+        Raises
+        ------
+        ValueError
+            The state was captured with other parameters, one of its arrays (the history excepted)
+            has another shape, or it uses a callable control law and this engine has none.
+        """
         a = state.arrays
         if not np.array_equal(a["params"], self._s.params):
             raise ValueError("set_state: the state was captured with different parameters")
@@ -633,14 +740,33 @@ class Engine:
             self._failed = Status(c, f"{c} (restored) at tau = {self.tau:.12g}", self.tau)
 
     def serialize_state(self) -> bytes:
-        """The state as bytes (numpy .npz, no pickle)."""
+        """The state as bytes (numpy .npz, no pickle).
+
+        Returns
+        -------
+        bytes
+            The arrays of :meth:`get_state` and the event count as an ``.npz`` archive, for
+            :meth:`deserialize_state` (the FMU's serialized state).
+        """
         s = self.get_state()
         buf = io.BytesIO()
         np.savez(buf, n_events=np.array([s.n_events]), **s.arrays)
         return buf.getvalue()
 
     def deserialize_state(self, data: bytes) -> None:
-        """Restore from :meth:`serialize_state` bytes."""
+        """Restore from :meth:`serialize_state` bytes.
+
+        Parameters
+        ----------
+        data : bytes
+            An archive written by :meth:`serialize_state`.
+
+        Raises
+        ------
+        ValueError
+            ``data`` is not an ``.npz`` archive without pickled objects, lacks one of the arrays,
+            or is refused by :meth:`set_state`.
+        """
         try:
             with np.load(io.BytesIO(data), allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
@@ -657,13 +783,39 @@ class Engine:
     def kernel_arrays(self) -> S.KernelState:
         """The kernel's arrays themselves (not copies), for a native caller that runs the
         kernel on them. Valid until the next call of a method of this engine: the history
-        buffer grows and :meth:`set_state` replaces the arrays."""
+        buffer grows and :meth:`set_state` replaces the arrays.
+
+        Returns
+        -------
+        KernelState
+            The live arrays, in :class:`~drillstring.model.kernel.state.KernelState` order.
+        """
         return self._s
 
     def finish_advance(self, to_tau: float, st: int) -> Status:
         """Finish an :meth:`advance` to ``to_tau`` whose kernel call (``advance`` of
         :mod:`~drillstring.model.kernel.stepper` on :meth:`kernel_arrays`, made by a native
-        caller) returned the status ``st``: what :meth:`advance` does after each kernel call."""
+        caller) returned the status ``st``: what :meth:`advance` does after each kernel call.
+
+        Parameters
+        ----------
+        to_tau : float
+            The target time of the native call.
+        st : int
+            The kernel status it returned (an ``ST_*`` code of
+            :mod:`~drillstring.model.kernel.state`).
+
+        Returns
+        -------
+        Status
+            As :meth:`advance`; after a full event log or history buffer the advance is resumed
+            here, in Python.
+
+        Raises
+        ------
+        ValueError
+            ``to_tau`` is not a finite number or is before the current time.
+        """
         to_tau = self._check_target(to_tau)
         if self._service(st):
             return self.advance(to_tau)
@@ -671,7 +823,18 @@ class Engine:
 
 
 def stick_entries(events: Iterable[Event]) -> list[Event]:
-    """The entries into axial stick among ``events`` (slip or moving up -> stick)."""
+    """The entries into axial stick among ``events`` (slip or moving up -> stick).
+
+    Parameters
+    ----------
+    events : iterable of Event
+        Located events, e.g. :attr:`Engine.events`.
+
+    Returns
+    -------
+    list of Event
+        The "mode" events whose new mode is "stick", in the order given.
+    """
     return [e for e in events if e.kind == "mode" and e.to_mode == "stick"]
 
 

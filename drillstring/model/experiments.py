@@ -66,7 +66,14 @@ class Experiment:
         check_choice(f"Experiment.latch of {self.name!r}", self.latch, LATCH_MODES)
 
     def initial(self) -> Mapping[str, float]:
-        """The initial perturbation as the engine's ``initial`` mapping."""
+        """The initial perturbation as the engine's ``initial`` mapping.
+
+        Returns
+        -------
+        mapping of str to float
+            ``{"dphi": dphi0}``: the other perturbations u, du, phi, theta, dtheta are 0 at tau = 0
+            (``docs/model.md``, "Experiments of Figs. 5 and 6").
+        """
         return {"dphi": float(self.dphi0)}
 
 

@@ -115,7 +115,23 @@ _STAMP = "drillstring-native-sources.sha256"
 
 def refresh_cache() -> bool:
     """Drop numba's cache of this module when any source in :data:`SOURCES` changed since it was
-    compiled (numba keys it by this file only). True when stale entries were removed."""
+    compiled (numba keys it by this file only). True when stale entries were removed.
+
+    The SHA-256 of the sources is kept in a stamp file in ``__pycache__``, written atomically;
+    when it cannot be written (a read-only installation) that is ignored.
+
+    Returns
+    -------
+    bool
+        True when cache entries of this module were removed; False when the stamp matched or
+        there was nothing to remove.
+
+    Raises
+    ------
+    OSError
+        A file of :data:`SOURCES` cannot be read, or a stale cache entry cannot be deleted (one
+        that is already gone is skipped).
+    """
     cache = _HERE.parent / "__pycache__"
     h = hashlib.sha256()
     for path in SOURCES:
@@ -147,7 +163,21 @@ def refresh_cache() -> bool:
 
 def array_addresses(arrays: S.KernelState) -> np.ndarray | None:
     """The addresses of the kernel's arrays (``args`` of the plant's step), or None when one of
-    them is not what the compiled step reads (C-contiguous, aligned, writable, its dtype)."""
+    them is not what the compiled step reads (C-contiguous, aligned, writable, its dtype).
+
+    Parameters
+    ----------
+    arrays : KernelState
+        The kernel's arrays, e.g. :meth:`drillstring.model.engine.Engine.kernel_arrays`.
+
+    Returns
+    -------
+    ndarray or None
+        The data addresses (dtype ``uintp``), one per array in
+        :class:`~drillstring.model.kernel.state.KernelState` order; None when an array is not
+        C-contiguous, aligned and writable, or its dtype is not int64 (``ints``) or float64
+        (the others).
+    """
     for name, a in zip(S.KernelState._fields, arrays, strict=True):
         dtype = np.int64 if name == "ints" else np.float64
         if a.dtype != dtype or not (a.flags.c_contiguous and a.flags.aligned and a.flags.writeable):
@@ -170,12 +200,43 @@ def _address(name: str) -> int:
 
 def plant_functions() -> tuple[int, int]:
     """(step, outputs) addresses of the plant's native functions (outputs 0: the plant's
-    outputs only change in a step)."""
+    outputs only change in a step).
+
+    The step is compiled (or loaded from numba's cache) at the first call.
+
+    Returns
+    -------
+    tuple of int
+        The address of the plant's step, a C function ``int32 (double *io, void **args, double
+        t, double h)`` (module docstring), and 0.
+
+    Raises
+    ------
+    RuntimeError
+        :data:`AVAILABLE` is False (no numba, or ``DRILLSTRING_JIT=0``).
+    """
     return _address("plant_step"), 0
 
 
 def controller_functions() -> tuple[int, int]:
-    """(step, outputs) addresses of the controller's native functions."""
+    """(step, outputs) addresses of the controller's native functions.
+
+    The outputs function evaluates the law (29)-(31)
+    (:func:`~drillstring.model.control.feedback_torque`); the step latches the switch-on
+    references (``docs/model.md``, "Bumpless switch-on"). Both are compiled (or loaded from
+    numba's cache) at the first call.
+
+    Returns
+    -------
+    tuple of int
+        The addresses of the controller's step and of its outputs function, C functions
+        ``int32 (double *io, void **args, double t, double h)`` (module docstring).
+
+    Raises
+    ------
+    RuntimeError
+        :data:`AVAILABLE` is False (no numba, or ``DRILLSTRING_JIT=0``).
+    """
     return _address("ctrl_step"), _address("ctrl_outputs")
 
 

@@ -256,7 +256,14 @@ class ScaledParams:
         return dataclasses.replace(self, **mapped)
 
     def to_dict(self) -> dict[str, Any]:
-        """Fields as a dict in declaration order, with the file key ``"lambda"`` for ``lam``."""
+        """Fields as a dict in declaration order, with the file key ``"lambda"`` for ``lam``.
+
+        Returns
+        -------
+        dict of str to object
+            ``n`` (int), then ``psi, gamma, eta, lambda, beta, rho, v0, omega0`` (float): a
+            parameter file's table without its ``kind`` key (:meth:`from_dict` reads it back).
+        """
         return {_SCALED_OUT_KEYS.get(k, k): v for k, v in dataclasses.asdict(self).items()}
 
     @classmethod
@@ -317,7 +324,33 @@ def weight_on_bit(
 ) -> Any:
     """Weight on bit W^c + W^f [N], eq. (4) plus eq. (7), of the rig's n, a, zeta, eps, l,
     sigma_bar at depth of cut ``d`` [m] and contact multiplier ``g`` (plain arithmetic: floats,
-    numpy arrays, and compiled by :mod:`drillstring.model.native`)."""
+    numpy arrays, and compiled by :mod:`drillstring.model.native`).
+
+    Parameters
+    ----------
+    n : int or float
+        Number of blades.
+    a : float
+        Bit radius [m].
+    zeta : float
+        Cutting-face orientation [-].
+    eps : float
+        Intrinsic specific energy [Pa].
+    l : float
+        Wearflat length [m].
+    sigma_bar : float
+        Contact stress [Pa].
+    d : float or ndarray
+        Depth of cut [m], eq. (5).
+    g : float or ndarray
+        Contact multiplier of (17): 0 full wearflat contact, 1 none, in between in axial stick.
+
+    Returns
+    -------
+    float or ndarray
+        n*a*(zeta*eps*d + l*sigma_bar*(1 - g)) [N], broadcast over the arguments (no input
+        check).
+    """
     return n * a * (zeta * eps * d + l * sigma_bar * (1.0 - g))
 
 
@@ -463,7 +496,19 @@ class PhysicalParams:
         return r * self.C
 
     def to_scaled(self) -> ScaledParams:
-        """Scaled parameters by eqs. (15)-(16), v0 = V0*t*/L*, omega0 = Omega0*t* (Section II)."""
+        """Scaled parameters by eqs. (15)-(16), v0 = V0*t*/L*, omega0 = Omega0*t* (Section II).
+
+        Returns
+        -------
+        ScaledParams
+            psi, gamma, eta of (15); lambda, beta, rho of (16); v0 and omega0 as above; the same n.
+
+        Raises
+        ------
+        ParameterError
+            The computed values are not a valid scaled set (e.g. beta = zeta*mu*xi > 1); the
+            message says they were computed by (15)-(16).
+        """
         t_star, L_star = self.t_star, self.L_star
         values = {
             "n": self.n,
@@ -605,7 +650,15 @@ class PhysicalParams:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Fields as a dict in declaration order."""
+        """Fields as a dict in declaration order.
+
+        Returns
+        -------
+        dict of str to object
+            The sixteen fields ``M, I1, I2, C, K, D, n, a, eps, zeta, sigma_bar, l, mu, xi, V0,
+            Omega0`` (SI units; ``n`` an int, the others float): a parameter file's table without
+            its ``kind`` key (:meth:`from_dict` reads it back).
+        """
         return dataclasses.asdict(self)
 
     @classmethod

@@ -26,7 +26,18 @@ MAX_PREHISTORY_NODES = 1_000_000
 
 
 def nominal_history(tau: float) -> tuple[float, float, float, float]:
-    """The nominal motion u = phi = 0 (``docs/model.md``, "Coordinates"): the default."""
+    """The nominal motion u = phi = 0 (``docs/model.md``, "Coordinates"): the default.
+
+    Parameters
+    ----------
+    tau : float
+        A past time, tau <= 0 (unused: the perturbations are 0 at every time).
+
+    Returns
+    -------
+    tuple of 4 float
+        (u, du/dtau, phi, dphi/dtau) = (0, 0, 0, 0).
+    """
     return 0.0, 0.0, 0.0, 0.0
 
 
@@ -172,7 +183,16 @@ class HistoryView:
         return self._H.shape[1]
 
     def nodes(self) -> dict[str, np.ndarray]:
-        """Node arrays tau, U, V, Phi, W (total coordinates) and the discontinuity flags."""
+        """Node arrays tau, U, V, Phi, W (total coordinates) and the discontinuity flags.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``tau``, ``U``, ``V``, ``Phi``, ``W`` (float, the total scaled coordinates of
+            ``docs/model.md``, "Coordinates") in increasing time, and ``discontinuity`` (bool: the
+            node is a kink, such as a mode event or the joint of the initial state at tau = 0);
+            views of this view's copy, not of the engine's buffer.
+        """
         return {
             "tau": self._H[H_TAU],
             "U": self._H[H_U],
@@ -183,7 +203,25 @@ class HistoryView:
         }
 
     def evaluate(self, tau: float) -> tuple[float, float, float, float]:
-        """(U, V, Phi, W) at a past time by the kernel's Hermite interpolation."""
+        """(U, V, Phi, W) at a past time by the kernel's Hermite interpolation.
+
+        Parameters
+        ----------
+        tau : float
+            A time within the stored nodes, ``self.tau[0] <= tau <= self.tau[-1]``.
+
+        Returns
+        -------
+        tuple of 4 float
+            U and Phi by cubic Hermite interpolation of the neighbouring nodes' values and slopes
+            V and W; V and W as the interpolant's derivatives (total scaled coordinates,
+            ``docs/model.md``, "Coordinates").
+
+        Raises
+        ------
+        ValueError
+            ``tau`` is outside the stored history.
+        """
         out = np.zeros(4)
         if not interpolate(self._H, 0, self._H.shape[1], float(tau), out):
             raise ValueError(

@@ -80,11 +80,27 @@ class SimulationResult:
         }
 
     def stick_events(self) -> list[Event]:
-        """Entries into axial stick (slip or up -> stick)."""
+        """Entries into axial stick (slip or up -> stick).
+
+        Returns
+        -------
+        list of Event
+            The "mode" events of :attr:`events` whose new mode is "stick", in time order (none when
+            ``EngineOptions.keep_events`` was off).
+        """
         return stick_entries(self.events)
 
     def axial_stick_fraction(self) -> float:
-        """Fraction of the simulated time spent in axial stick, exact from the mode events."""
+        """Fraction of the simulated time spent in axial stick, exact from the mode events.
+
+        Returns
+        -------
+        float
+            The time in mode "stick" over [0, tau_end] divided by tau_end, tau_end being the last
+            sample (the stop time of a run that stopped early); NaN when tau_end is not > 0. The
+            mode at tau = 0 is the first sample's; the events must have been kept
+            (``EngineOptions.keep_events``).
+        """
         t_end = float(self.tau[-1])
         if not t_end > 0.0:
             return math.nan
@@ -92,7 +108,19 @@ class SimulationResult:
         return time_in_mode(self.events, "stick", 0.0, t_end, first) / t_end
 
     def to_csv(self, path: str | os.PathLike[str]) -> Path:
-        """Write the sampled columns to CSV atomically (temp file + rename)."""
+        """Write the sampled columns to CSV atomically (temp file + rename).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write.
+
+        Returns
+        -------
+        Path
+            ``path``; the file has the header row :data:`COLUMNS` and one row per sample, floats
+            written with ``repr`` (round-trip exact).
+        """
         cols = [self.data[c] for c in COLUMNS]
         return write_csv(path, COLUMNS, zip(*(c.tolist() for c in cols), strict=True))
 

@@ -103,7 +103,23 @@ class UnitDef:
             raise ValueError(f"unit {self.name!r}: unknown base units {sorted(unknown)}")
 
     def display_unit(self, name: str) -> DisplayUnit:
-        """The display unit called ``name``."""
+        """The display unit called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            A display unit's name, e.g. ``"rpm"``.
+
+        Returns
+        -------
+        DisplayUnit
+            The first of :attr:`display` with that name.
+
+        Raises
+        ------
+        ValueError
+            This unit has no display unit ``name``.
+        """
         for d in self.display:
             if d.name == name:
                 return d
@@ -178,12 +194,46 @@ PLANT_SI: tuple[Quantity, ...] = (
 
 
 def si_to_tau(t_star: Any, t: Any) -> Any:
-    """tau = t / t*."""
+    """tau = t / t*.
+
+    The scaled time of Section II (with (9)-(10)); plain arithmetic on floats or arrays, also
+    compiled by :mod:`drillstring.model.native`.
+
+    Parameters
+    ----------
+    t_star : float
+        Characteristic time t* = sqrt(I1/C) [s].
+    t : float or ndarray
+        Time [s].
+
+    Returns
+    -------
+    float or ndarray
+        The scaled time tau.
+    """
     return t / t_star
 
 
 def si_torque_deviation(C: Any, twist0: Any, R: Any) -> Any:
-    """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m]."""
+    """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m].
+
+    Eq. (16): the input R - R0 of (13) in units of C. Plain arithmetic on floats or arrays,
+    also compiled by :mod:`drillstring.model.native`.
+
+    Parameters
+    ----------
+    C : float
+        Torsional stiffness [N m/rad].
+    twist0 : float
+        Nominal scaled torque R0/C (the nominal twist in rad, :attr:`SIScaling.twist0`).
+    R : float or ndarray
+        Absolute rotary-table torque [N m].
+
+    Returns
+    -------
+    float or ndarray
+        r = R/C - R0/C.
+    """
     return R / C - twist0
 
 
@@ -193,7 +243,35 @@ def si_plant_values(
 ) -> tuple[Any, ...]:  # fmt: skip
     """The SI plant outputs (:data:`PLANT_SI` order) of the scaled ones at time ``tau``.
 
-    ``k`` is :attr:`SIScaling.plant_constants`; ``T`` the scaled torque on bit.
+    ``k`` is :attr:`SIScaling.plant_constants`; ``T`` the scaled torque on bit. The
+    conversions of the module docstring, as plain arithmetic on floats or arrays (no input
+    check), also compiled by :mod:`drillstring.model.native`.
+
+    Parameters
+    ----------
+    k : tuple of 12 float
+        omega0, v0, t* [s], L* [m] and R0/C of the scaled set, then C [N m/rad], n, a [m],
+        zeta, eps [Pa], l [m], sigma_bar [Pa] of the rig.
+    tau : float or ndarray
+        Scaled time.
+    u, du, phi, dphi, theta, dtheta : float or ndarray
+        Scaled perturbations from the nominal motion, (9)-(10), and their tau-derivatives.
+    d : float or ndarray
+        Scaled depth of cut (5).
+    g : float or ndarray
+        Contact multiplier of (17).
+    tau_n : float or ndarray
+        Scaled delay of (14), > 0.
+    T : float or ndarray
+        Scaled torque on bit (T/C).
+
+    Returns
+    -------
+    tuple of 12 float or ndarray
+        Bit angle [rad], bit speed [rad/s], table angle [rad], table speed [rad/s], bit
+        position [m], bit velocity [m/s], weight on bit [N] (eqs. (4) and (7),
+        :func:`~drillstring.model.params.weight_on_bit`), torque on bit C*T [N m], depth of cut
+        [m], delay [s], rate of penetration [m/s] and the contact multiplier g.
     """
     omega0, v0, ts, Ls, twist0, C, n, a, zeta, eps, l, sigma_bar = k  # noqa: E741
     d_si = Ls * d
@@ -219,7 +297,29 @@ def setpoint_errors(
     table_speed: float,
 ) -> tuple[float, float, float, float]:  # fmt: skip
     """(e_phi, de_phi, e_theta, de_theta): the measured angles and speeds minus the set point's
-    Omega0 t and Omega0 (:meth:`PhysicalFeedback.errors`)."""
+    Omega0 t and Omega0 (:meth:`PhysicalFeedback.errors`).
+
+    Parameters
+    ----------
+    Omega0 : float
+        Speed set point [rad/s].
+    t : float
+        Time [s].
+    bit_angle : float
+        Measured bit angle Phi [rad].
+    bit_speed : float
+        Measured bit speed dPhi/dt [rad/s].
+    table_angle : float
+        Measured rotary-table angle Theta [rad].
+    table_speed : float
+        Measured rotary-table speed dTheta/dt [rad/s].
+
+    Returns
+    -------
+    tuple of 4 float
+        bit_angle - Omega0 t, bit_speed - Omega0, table_angle - Omega0 t, table_speed - Omega0:
+        the arguments phi, dphi, theta, dtheta of the law (29)-(31) in SI (module docstring).
+    """
     w = Omega0
     return bit_angle - w * t, bit_speed - w, table_angle - w * t, table_speed - w
 
@@ -260,19 +360,67 @@ class SIScaling:
 
     # ------------------------------------------------------------------ time and torque
     def time(self, tau: Any) -> Any:
-        """t = t* tau [s]."""
+        """t = t* tau [s].
+
+        Parameters
+        ----------
+        tau : float or ndarray
+            Scaled time.
+
+        Returns
+        -------
+        float or ndarray
+            The time in seconds.
+        """
         return self.t_star * tau
 
     def tau(self, t: Any) -> Any:
-        """tau = t / t*."""
+        """tau = t / t*.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            Time [s].
+
+        Returns
+        -------
+        float or ndarray
+            The scaled time.
+        """
         return si_to_tau(self.t_star, t)
 
     def table_torque(self, r: Any) -> Any:
-        """Absolute table torque R = C (R0/C + r) [N m] of the scaled deviation r = (R - R0)/C."""
+        """Absolute table torque R = C (R0/C + r) [N m] of the scaled deviation r = (R - R0)/C.
+
+        Eq. (16) solved for R; the inverse of :meth:`torque_deviation`.
+
+        Parameters
+        ----------
+        r : float or ndarray
+            Scaled torque deviation R - R0 (units of C), the input of (13).
+
+        Returns
+        -------
+        float or ndarray
+            R [N m].
+        """
         return self.rig.C * (self.twist0 + r)
 
     def torque_deviation(self, R: Any) -> Any:
-        """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m]."""
+        """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m].
+
+        Eq. (16), as :func:`si_torque_deviation` with the rig's C and R0/C.
+
+        Parameters
+        ----------
+        R : float or ndarray
+            Absolute rotary-table torque [N m].
+
+        Returns
+        -------
+        float or ndarray
+            r, the input R - R0 of (13).
+        """
         return si_torque_deviation(self.rig.C, self.twist0, R)
 
     # ------------------------------------------------------------------ the plant
@@ -341,7 +489,25 @@ class SIScaling:
         )
 
     def initial_to_si(self, initial: InitialState | Mapping[str, float]) -> dict[str, float]:
-        """Inverse of :meth:`initial_to_scaled`."""
+        """Inverse of :meth:`initial_to_scaled`.
+
+        Parameters
+        ----------
+        initial : InitialState or mapping
+            Scaled initial perturbation (a mapping of some of its fields, the others 0).
+
+        Returns
+        -------
+        dict of str to float
+            Deviations from the nominal motion at t = 0: ``u`` = L* u [m], ``du`` = L* du/t* [m/s],
+            ``phi`` [rad], ``dphi`` = dphi/t* [rad/s], ``theta`` [rad], ``dtheta`` = dtheta/t*
+            [rad/s].
+
+        Raises
+        ------
+        ValueError
+            A key of the mapping is not a field, or a value is not a finite real number.
+        """
         x = InitialState.coerce(initial)
         ts, Ls = self.t_star, self.L_star
         return {
@@ -406,12 +572,46 @@ class PhysicalFeedback:
     ) -> tuple[float, float, float, float]:
         """(e_phi, de_phi, e_theta, de_theta): the measured angles and speeds minus the set
         point's Omega0 t and Omega0, the arguments phi, dphi, theta, dtheta of
-        :func:`~drillstring.model.control.feedback_torque` in SI."""
+        :func:`~drillstring.model.control.feedback_torque` in SI.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        bit_angle : float
+            Measured bit angle Phi [rad].
+        bit_speed : float
+            Measured bit speed dPhi/dt [rad/s].
+        table_angle : float
+            Measured rotary-table angle Theta [rad].
+        table_speed : float
+            Measured rotary-table speed dTheta/dt [rad/s].
+
+        Returns
+        -------
+        tuple of 4 float
+            As :func:`setpoint_errors` with this law's :attr:`Omega0`.
+        """
         return setpoint_errors(self.Omega0, t, bit_angle, bit_speed, table_angle, table_speed)
 
     @classmethod
     def from_scaled(cls, law: AffineFeedback, scaling: SIScaling) -> PhysicalFeedback:
-        """The SI law of a scaled law (29)-(31) on the rig of ``scaling``."""
+        """The SI law of a scaled law (29)-(31) on the rig of ``scaling``.
+
+        Parameters
+        ----------
+        law : AffineFeedback
+            The scaled law.
+        scaling : SIScaling
+            The rig's scales.
+
+        Returns
+        -------
+        PhysicalFeedback
+            Gains (C F1, C t* F2, C F3, C t* F4), K0 - R0/C, the absolute feed-forward torque
+            C (R0/C + R_ff), the rig's Omega0 as set point, t* t_on and the same latch (module
+            docstring).
+        """
         C, ts = scaling.rig.C, scaling.t_star
         F1, F2, F3, F4 = law.F
         return cls(
@@ -424,7 +624,23 @@ class PhysicalFeedback:
         )
 
     def to_scaled(self, scaling: SIScaling) -> AffineFeedback:
-        """Inverse of :meth:`from_scaled` (the set point must be the rig's Omega0)."""
+        """Inverse of :meth:`from_scaled` (the set point must be the rig's Omega0).
+
+        Parameters
+        ----------
+        scaling : SIScaling
+            The rig's scales.
+
+        Returns
+        -------
+        AffineFeedback
+            The scaled law (29)-(31).
+
+        Raises
+        ------
+        ValueError
+            :attr:`Omega0` differs from the rig's Omega0 by more than 1e-12 relative.
+        """
         if self.Omega0 != scaling.rig.Omega0 and not math.isclose(
             self.Omega0, scaling.rig.Omega0, rel_tol=1e-12
         ):
