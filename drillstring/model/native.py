@@ -25,10 +25,7 @@ Python path only.
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -115,10 +112,8 @@ _STAMP = "drillstring-native-sources.sha256"
 
 def refresh_cache() -> bool:
     """Drop numba's cache of this module when any source in :data:`SOURCES` changed since it was
-    compiled (numba keys it by this file only). True when stale entries were removed.
-
-    The SHA-256 of the sources is kept in a stamp file in ``__pycache__``, written atomically;
-    when it cannot be written (a read-only installation) that is ignored.
+    compiled (numba keys it by this file only): :func:`~drillstring.model.kernel.jit.
+    drop_stale_cache` with the stamp in ``__pycache__``.
 
     Returns
     -------
@@ -129,36 +124,9 @@ def refresh_cache() -> bool:
     Raises
     ------
     OSError
-        A file of :data:`SOURCES` cannot be read, or a stale cache entry cannot be deleted (one
-        that is already gone is skipped).
+        A file of :data:`SOURCES` cannot be read.
     """
-    cache = _HERE.parent / "__pycache__"
-    h = hashlib.sha256()
-    for path in SOURCES:
-        h.update(path.name.encode() + b"\0" + path.read_bytes())
-    digest = h.hexdigest()
-    stamp = cache / _STAMP
-    try:
-        if stamp.read_text().strip() == digest:
-            return False
-    except OSError:
-        pass
-    removed = False
-    for entry in cache.glob(f"{_HERE.stem}.*.nb[ic]"):
-        try:
-            entry.unlink()
-            removed = True
-        except FileNotFoundError:
-            pass
-    try:
-        cache.mkdir(exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=cache, prefix=".stamp.")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(digest + "\n")
-        os.replace(tmp, stamp)
-    except OSError:
-        pass  # read-only installation
-    return removed
+    return _jit.drop_stale_cache(SOURCES, (_HERE,), _HERE.parent / "__pycache__" / _STAMP)
 
 
 def array_addresses(arrays: S.KernelState) -> np.ndarray | None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -44,47 +44,99 @@ def numba_available() -> bool:
     return True
 
 
-def _sources_digest() -> str:
+def sources_digest(sources: Iterable[Path]) -> str:
+    """SHA-256 of the names and contents of ``sources``, in their order.
+
+    Parameters
+    ----------
+    sources : iterable of Path
+        The Python files a numba-compiled module depends on.
+
+    Returns
+    -------
+    str
+        The hex digest.
+
+    Raises
+    ------
+    OSError
+        A source cannot be read.
+    """
     h = hashlib.sha256()
-    for path in COMPILED_SOURCES:
+    for path in sources:
         h.update(path.name.encode() + b"\0" + path.read_bytes())
     return h.hexdigest()
 
 
-def refresh_cache() -> bool:
-    """Drop numba's cached kernel when any kernel source changed since it was compiled.
+def drop_stale_cache(sources: Sequence[Path], compiled: Sequence[Path], stamp: Path) -> bool:
+    """Drop numba's cache of the ``compiled`` modules when any of ``sources`` changed.
 
-    Works on numba's default cache location (``__pycache__`` next to the sources; with
-    ``NUMBA_CACHE_DIR`` set, numba keys the cache by the same source paths, so a changed source
-    there is the caller's business). Returns True when stale entries were removed. Safe with
-    concurrent processes (missing files are ignored, the stamp is replaced atomically).
+    numba keys a module's cache by that module's own file, not by the functions it inlines from
+    other modules; the digest of all ``sources`` (:func:`sources_digest`) kept in ``stamp``
+    tells when the cache is stale. Works on numba's default cache location (``__pycache__``
+    next to each compiled module); safe with concurrent processes (entries already gone are
+    skipped, the stamp is replaced atomically); on a read-only installation entries that
+    cannot be deleted and a stamp that cannot be written are left as they are (its sources
+    cannot change either).
+
+    Parameters
+    ----------
+    sources : sequence of Path
+        Every source the compiled code depends on.
+    compiled : sequence of Path
+        The modules whose ``__pycache__/<stem>.*.nbi``/``.nbc`` entries are dropped.
+    stamp : Path
+        The file holding the digest of the sources the cache was compiled from.
+
+    Returns
+    -------
+    bool
+        True when stale entries were removed.
+
+    Raises
+    ------
+    OSError
+        A source cannot be read.
     """
-    cache = _KERNEL / "__pycache__"
-    stamp = cache / _STAMP
-    digest = _sources_digest()
+    digest = sources_digest(sources)
     try:
         if stamp.read_text().strip() == digest:
             return False
     except OSError:
         pass
     removed = False
-    for path in COMPILED_SOURCES:
-        folder = path.parent / "__pycache__"
-        for entry in folder.glob(f"{path.stem}.*.nb[ic]"):
+    for path in compiled:
+        for entry in (path.parent / "__pycache__").glob(f"{path.stem}.*.nb[ic]"):
             try:
                 entry.unlink()
                 removed = True
             except FileNotFoundError:
                 pass
+            except OSError:
+                return removed  # read-only: leave the cache and the stamp alone
     try:
-        cache.mkdir(exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=cache, prefix=".stamp.")
+        stamp.parent.mkdir(exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=stamp.parent, prefix=".stamp.")
         with os.fdopen(fd, "w") as fh:
             fh.write(digest + "\n")
         os.replace(tmp, stamp)
     except OSError:
         pass  # a read-only installation: numba caches elsewhere or not at all
     return removed
+
+
+def refresh_cache() -> bool:
+    """Drop numba's cached kernel when any kernel source changed since it was compiled.
+
+    With ``NUMBA_CACHE_DIR`` set, numba keys the cache by the same source paths, so a changed
+    source there is the caller's business (:func:`drop_stale_cache`).
+
+    Returns
+    -------
+    bool
+        True when stale entries were removed.
+    """
+    return drop_stale_cache(COMPILED_SOURCES, COMPILED_SOURCES, _KERNEL / "__pycache__" / _STAMP)
 
 
 def jit_for(module_name: str, *, inline: bool = False) -> Callable[[F], F]:
