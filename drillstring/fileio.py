@@ -6,6 +6,7 @@ import csv
 import io
 import json
 import os
+import shutil
 import tempfile
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
@@ -171,3 +172,44 @@ def save_figure(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
         ``path``.
     """
     return atomic_write(path, lambda fh: fig.savefig(fh, format="png", **kwargs))
+
+
+def replace_dir(staging: str | os.PathLike[str], target: str | os.PathLike[str]) -> Path:
+    """Put the finished folder ``staging`` in the place of ``target``.
+
+    The previous ``target`` (if any) is renamed aside first and deleted only once ``staging``
+    is in place, so a failure leaves either the old or the new folder, never a mixture.
+
+    Parameters
+    ----------
+    staging : path
+        A complete folder, on the same file system as ``target``.
+    target : path
+        Where it goes.
+
+    Returns
+    -------
+    Path
+        ``target``.
+
+    Raises
+    ------
+    OSError
+        A rename failed (the old ``target`` is then back in place).
+    """
+    staging, target = Path(staging), Path(target)
+    aside = target.with_name(f".{target.name}.old")
+    if aside.exists():
+        shutil.rmtree(aside)
+    had_old = target.exists()
+    if had_old:
+        os.replace(target, aside)
+    try:
+        os.replace(staging, target)
+    except OSError:
+        if had_old:
+            os.replace(aside, target)
+        raise
+    if had_old:
+        shutil.rmtree(aside, ignore_errors=True)
+    return target

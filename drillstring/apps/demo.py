@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import time
 from collections.abc import Mapping, Sequence
@@ -41,7 +42,7 @@ from drillstring.apps.controllers import (
 from drillstring.apps.cosim import run_si_demo, si_demo_lines
 from drillstring.controller.design import FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
-from drillstring.fileio import write_json
+from drillstring.fileio import replace_dir, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.orchestration.closed_loop import read_loop_model
 from drillstring.orchestration.figures import write_fig5, write_fig6
@@ -151,11 +152,18 @@ def run_demo(
     comparison = write_controller_comparison(out / "controllers", gains, log=None)
     summary.controllers = list(comparison.rows)
     summary.figures["controllers"] = {k: str(v) for k, v in comparison.files.items()}
-    cmap = write_controller_map(
-        out / "controllers" / "map", design_dir / GAINS_FILE, n=6, workers=workers, log=None
-    )
+    # The map is the demo's own artifact: computed afresh into a staging folder that replaces the
+    # previous map when complete (the sweep itself refuses to overwrite results without --resume).
+    map_dir = out / "controllers" / "map"
+    staging = map_dir.with_name(f".{map_dir.name}.new")
+    if staging.exists():
+        shutil.rmtree(staging)
+    cmap = write_controller_map(staging, design_dir / GAINS_FILE, n=6, workers=workers, log=None)
+    replace_dir(staging, map_dir)
     summary.controller_map = list(cmap.by_controller)
-    summary.figures["controller_map"] = {k: str(v) for k, v in cmap.files.items()}
+    summary.figures["controller_map"] = {
+        k: str(map_dir / Path(v).relative_to(staging)) for k, v in cmap.files.items()
+    }
     summary.seconds["controllers"] = time.perf_counter() - t0
 
     write_json(out / "summary.json", summary.to_json())

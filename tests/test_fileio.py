@@ -1,0 +1,39 @@
+"""Folders of results are replaced whole: the old one or the new one, never a mixture."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from drillstring.fileio import replace_dir
+
+
+def _folder(path: Path, **files: str) -> Path:
+    path.mkdir()
+    for name, text in files.items():
+        (path / name).write_text(text)
+    return path
+
+
+def test_new_folder_takes_the_place_of_the_old_one(tmp_path: Path) -> None:
+    old = _folder(tmp_path / "map", results="old", stale="only in the old run")
+    new = _folder(tmp_path / ".map.new", results="new")
+    assert replace_dir(new, old) == old
+    assert sorted(p.name for p in old.iterdir()) == ["results"]
+    assert (old / "results").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map"]
+
+
+def test_first_run_has_no_old_folder(tmp_path: Path) -> None:
+    new = _folder(tmp_path / ".map.new", results="new")
+    replace_dir(new, tmp_path / "map")
+    assert (tmp_path / "map" / "results").read_text() == "new"
+
+
+def test_failed_replacement_keeps_the_old_folder(tmp_path: Path) -> None:
+    old = _folder(tmp_path / "map", results="old")
+    with pytest.raises(FileNotFoundError):
+        replace_dir(tmp_path / "missing", old)
+    assert (old / "results").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map"]
