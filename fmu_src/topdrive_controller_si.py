@@ -30,7 +30,7 @@ from topdrive_controller import GAINS, TopDriveController
 
 from drillstring.model.laws import Measurement, ZTorque
 from drillstring.model.params import REFERENCE_RIG
-from drillstring.model.units import SIScaling
+from drillstring.model.units import SIScaling, setpoint_errors
 
 _RIG = SIScaling(REFERENCE_RIG)
 INPUTS = (
@@ -138,11 +138,11 @@ class TopDriveControllerSI(TopDriveController):
 
     def measured(self) -> Measurement:
         """Errors from the set point (Omega0 t, Omega0) and the string torque, in SI."""
-        x, w, t = self.values, self.values["Omega0"], self.time
+        x = self.values
+        e_phi, de_phi, e_theta, de_theta = setpoint_errors(
+            x["Omega0"], self.time, x["bit_angle"], x["bit_speed"], x["table_angle"],
+            x["table_speed"],
+        )  # fmt: skip
         return Measurement(
-            x["table_angle"] - w * t,
-            x["table_speed"] - w,
-            x["C"] * (x["table_angle"] - x["bit_angle"]),
-            x["bit_angle"] - w * t,
-            x["bit_speed"] - w,
+            e_theta, de_theta, x["C"] * (x["table_angle"] - x["bit_angle"]), e_phi, de_phi
         )

@@ -70,7 +70,8 @@ def test_capabilities_default_experiment_and_module_names(built):
             f"binaries/linux64/{unit.model}_pythonfmu.so",
         ]
         assert not [f for f in files if "__pycache__" in f or f.endswith((".pyc", ".nbi"))]
-    # both FMUs run in one interpreter: their Python modules need distinct names (pythonfmu #228)
+    # both FMUs run in one interpreter: their Python modules need distinct names (pythonfmu imports
+    # each FMU's script by its module name into the one shared interpreter)
     assert names == {"drillstring_plant", "torsional_controller", "topdrive_controller"}
 
 

@@ -340,7 +340,7 @@ int main(int argc, char **argv)
 
     void *py = NULL;
     if (libpython[0]) {
-        /* pythonfmu issue #202: the FMU binary is not linked to libpython, and the Python extension
+        /* pythonfmu's export library is not linked to libpython, and the Python extension
            modules it imports (numpy) expect the Python C API in the global namespace. */
         py = dlopen(libpython, RTLD_NOW | RTLD_GLOBAL);
         if (!py) {
