@@ -47,6 +47,7 @@ from fmpy.fmi2 import (
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
+from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 
 ROOT = Path(__file__).resolve().parents[1]
 C_HOST = ROOT / "tests" / "c_host" / "host.c"
@@ -657,36 +658,6 @@ def run_c_host(
 # ------------------------------------------------------------------------------------------------
 # Ecos (the ecospy wheel; its binaries need libtbb.so.12 of the tbb wheel)
 # ------------------------------------------------------------------------------------------------
-
-
-def tbb_library_dir() -> Path:
-    """The folder of ``libtbb.so.12``, installed by the ``tbb`` wheel into ``<prefix>/lib``."""
-    for folder in (Path(sys.prefix) / "lib", Path(sys.base_prefix) / "lib"):
-        if (folder / "libtbb.so.12").exists():
-            return folder
-    raise AssertionError("libtbb.so.12 not found: install the test extra (the tbb wheel)")
-
-
-def ecos_command(*args: str) -> list[str]:
-    """``ecos ARGS`` of the ecospy wheel, started through the dynamic loader with the tbb
-    wheel's library folder: the environment stays clean (no ``LD_LIBRARY_PATH``), and the
-    wheel's binary need not be executable (pip installs it without the x bit)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("ecospy")  # not imported: its library needs libtbb first
-    if spec is None or spec.origin is None:
-        raise AssertionError("ecospy is not installed: install the test extra")
-    exe = Path(spec.origin).parent / "binaries" / "ecos"
-    loader = "/lib64/ld-linux-x86-64.so.2"
-    return [loader, "--library-path", str(tbb_library_dir()), str(exe), *args]
-
-
-def load_ecospy() -> Any:
-    """``ecospy`` in this process (its library needs libtbb.so.12 loaded first)."""
-    ctypes.CDLL(str(tbb_library_dir() / "libtbb.so.12"), mode=ctypes.RTLD_GLOBAL)
-    import ecospy
-
-    return ecospy
 
 
 def read_ecos_csv(path: Path) -> tuple[list[str], np.ndarray]:
