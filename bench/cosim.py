@@ -328,9 +328,10 @@ def main() -> int:
             gains_path = args.gains
             if gains_path is None:
                 print("designing gains ...", flush=True)
-                gains_path = Path(tmp) / "gains.json"
-                if design_main(["--out", str(gains_path)]) != 0:
+                design_dir = Path(tmp) / "design"
+                if design_main(["--out", str(design_dir)]) != 0:
                     return 1
+                gains_path = design_dir / "gains.json"
             print("building the FMUs ...", flush=True)
             fmus_dir = build_fmus_into(Path(tmp) / "fmus", gains_path)
         H, n = args.H, args.steps
