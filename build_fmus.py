@@ -83,6 +83,7 @@ FMU_SRC = ROOT / "fmu_src"
 PACKAGE = ROOT / "drillstring"
 SUPPORT = FMU_SRC / "drillstring_fmu_support.py"
 BOOT = FMU_SRC / "drillstring_fmu_boot.py"
+UNITS_MODULE = FMU_SRC / "drillstring_fmu_units.py"
 FRONT_LAYER = FMU_SRC / "fmi_front" / "drillstring_fmi2.c"
 CONFIG_NAME = "drillstring_fmu.json"
 RUNTIME_NAME = "drillstring_fmu_python.cfg"
@@ -116,30 +117,49 @@ class BuildError(RuntimeError):
 
 @dataclass(frozen=True)
 class FmuSpec:
-    """One FMU: its pythonfmu script, the name of its class (= model identifier) and the
-    scripts it derives from (bundled beside it: an SI variant is a thin subclass)."""
+    """One FMU: its model identifier, the script it comes from and how.
 
-    script: Path
+    ``base`` None: the script's class of the model identifier's name is the FMU (``bases``: the
+    scripts it derives from, bundled beside it). Otherwise the FMU's class is generated: a
+    module ``<model>.py`` that derives a class named ``model`` from the script's class ``base``
+    with the class ``attributes`` (the unit system, the controller family), so one script gives
+    every variant (:func:`class_module`).
+    """
+
     model: str
+    script: Path
+    base: str | None = None
+    attributes: tuple[tuple[str, str], ...] = ()
     bases: tuple[Path, ...] = ()
 
 
-PLANT = FmuSpec(FMU_SRC / "drillstring_plant.py", "DrillStringPlant")
-CONTROLLER = FmuSpec(FMU_SRC / "torsional_controller.py", "TorsionalController")
-#: The same FMUs in SI units (time in seconds, torque in N m): the unit system is the class.
-PLANT_SI = FmuSpec(FMU_SRC / "drillstring_plant_si.py", "DrillStringPlantSI", (PLANT.script,))
-CONTROLLER_SI = FmuSpec(
-    FMU_SRC / "torsional_controller_si.py", "TorsionalControllerSI", (CONTROLLER.script,)
-)
-#: The industrial top-drive controllers (stiff PI, SoftTorque, Z-Torque), in both unit systems.
-TOPDRIVE = FmuSpec(FMU_SRC / "topdrive_controller.py", "TopDriveController")
-TOPDRIVE_SI = FmuSpec(
-    FMU_SRC / "topdrive_controller_si.py", "TopDriveControllerSI", (TOPDRIVE.script,)
-)
+PLANT = FmuSpec("DrillStringPlant", FMU_SRC / "drillstring_plant.py")
+#: The plant in SI units (time in seconds, torque in N m): the unit system is the class.
+PLANT_SI = FmuSpec("DrillStringPlantSI", FMU_SRC / "drillstring_plant_si.py", bases=(PLANT.script,))
+CONTROLLER_SCRIPT = FMU_SRC / "drillstring_controller.py"
+
+
+def _controller(model: str, family: str, system: str) -> FmuSpec:
+    return FmuSpec(
+        model, CONTROLLER_SCRIPT, "ControllerFmu", (("FAMILY", family), ("UNIT_SYSTEM", system))
+    )
+
+
+#: The torsional controller (29)-(31) and the industrial top-drive controllers (stiff PI,
+#: SoftSpeed, Z-Torque), each in both unit systems, from one script.
+CONTROLLER = _controller("TorsionalController", "lmi", "scaled")
+CONTROLLER_SI = _controller("TorsionalControllerSI", "lmi", "si")
+TOPDRIVE = _controller("TopDriveController", "topdrive", "scaled")
+TOPDRIVE_SI = _controller("TopDriveControllerSI", "topdrive", "si")
+SPECS = (PLANT, CONTROLLER, PLANT_SI, CONTROLLER_SI, TOPDRIVE, TOPDRIVE_SI)
 #: The Python modules of the FMUs, dropped from ``sys.modules`` around each build so that every
 #: build imports its own staged copies.
-_FMU_MODULES = ("drillstring_fmu_support", "drillstring_fmu_boot") + tuple(
-    spec.script.stem for spec in (PLANT, CONTROLLER, PLANT_SI, CONTROLLER_SI, TOPDRIVE, TOPDRIVE_SI)
+_FMU_MODULES = (
+    "drillstring_fmu_support",
+    "drillstring_fmu_boot",
+    "drillstring_fmu_units",
+    *{spec.script.stem for spec in SPECS},
+    *(spec.model for spec in SPECS if spec.base is not None),
 )
 
 
@@ -268,33 +288,59 @@ def entry_module(spec: FmuSpec) -> tuple[str, str]:
     freed: ~64 KB per instance). This module only imports the class, so each instantiation
     defines nothing new; the script itself is imported once per process.
     """
-    name = f"{spec.script.stem}_entry"
+    name = f"{spec.model}_entry"
+    module = spec.model if spec.base is not None else spec.script.stem
     text = (
         f'"""Entry module of {spec.model}.fmu for pythonfmu\'s library, written by\n'
         "build_fmus.py: executed at every fmi2Instantiate, so it only imports the class (see\n"
         'build_fmus.py, `entry_module`)."""\n\n'
-        f"from {spec.script.stem} import {spec.model}  # noqa: F401\n"
+        f"from {module} import {spec.model}  # noqa: F401\n"
     )
     return name, text
 
 
+def class_module(spec: FmuSpec) -> str:
+    """The text of the generated module ``<model>.py`` of a spec with a ``base`` class."""
+    assert spec.base is not None
+    lines = [
+        f'"""{spec.model}: the class {spec.base} of {spec.script.name} with',
+        ", ".join(f"{k} = {v!r}" for k, v in spec.attributes) + " (written by build_fmus.py).",
+        '"""',
+        "",
+        f"from {spec.script.stem} import {spec.base}",
+        "",
+        "",
+        f"class {spec.model}({spec.base}):",
+        f'    """{spec.model}.fmu: see {spec.script.name}."""',
+        "",
+        f"    MODEL = {spec.model!r}",
+        *(f"    {k} = {v!r}" for k, v in spec.attributes),
+    ]
+    return "\n".join(lines) + "\n"
+
+
 def _stage(spec: FmuSpec, staging: Path, config: dict[str, Any], record: dict[str, Any]) -> Path:
-    """Write the files bundled into ``resources/``; returns the staged script."""
+    """Write the files bundled into ``resources/``; returns the staged script pythonfmu builds
+    (the generated class module of a spec with a base class)."""
     shutil.copytree(PACKAGE, staging / "drillstring", ignore=_IGNORE)
-    for path in (SUPPORT, BOOT, *spec.bases, spec.script):
+    for path in (SUPPORT, BOOT, UNITS_MODULE, *spec.bases, spec.script):
         shutil.copyfile(path, staging / path.name)
     name, text = entry_module(spec)
     (staging / f"{name}.py").write_text(text, encoding="utf-8")
+    script = staging / spec.script.name
+    if spec.base is not None:
+        script = staging / f"{spec.model}.py"
+        script.write_text(class_module(spec), encoding="utf-8")
     cfg = json.dumps(config, indent=2, sort_keys=True) + "\n"
     (staging / CONFIG_NAME).write_text(cfg, encoding="utf-8")
     (staging / RUNTIME_NAME).write_text(runtime_file(record), encoding="utf-8")
     (staging / "requirements.txt").write_text(REQUIREMENTS, encoding="utf-8")
-    return staging / spec.script.name
+    return script
 
 
 def _load_script(spec: FmuSpec, script: Path) -> tuple[Any, Any]:
     """The staged script's module and an instance of its class (resources = the staging folder)."""
-    name = f"_build_fmus_{spec.script.stem}"
+    name = f"_build_fmus_{script.stem}"
     module_spec = importlib.util.spec_from_file_location(name, script)
     assert module_spec is not None and module_spec.loader is not None
     module = importlib.util.module_from_spec(module_spec)

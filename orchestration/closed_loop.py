@@ -41,9 +41,10 @@ import numpy as np
 from drillstring.model.control import LATCH_MODES, AffineFeedback
 from drillstring.model.engine import ON_INVALID_CHOICES, EngineOptions, InitialState
 from drillstring.model.experiments import Experiment
+from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
 from drillstring.model.simulate import SimulationResult
-from drillstring.model.units import PLANT_SI, PhysicalFeedback, SIScaling
+from drillstring.model.units import PLANT_SI, SIScaling
 from drillstring.orchestration.connections import StartValue, Unit, effective_start_values
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.results import CosimResult
@@ -96,7 +97,7 @@ RECORD: tuple[str, ...] = (
 )
 _ROOT = Path(__file__).resolve().parents[1]
 
-# The FMUs' variable names (fmu_src/drillstring_plant.py, fmu_src/torsional_controller.py).
+# The FMUs' variable names (fmu_src/drillstring_plant.py, fmu_src/drillstring_controller.py).
 #: ScaledParams field -> plant parameter
 _PARAMS = {f: f for f in ("n", "psi", "gamma", "eta", "beta", "rho", "v0", "omega0")} | {
     "lam": "lambda"
@@ -437,14 +438,17 @@ def _si_loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> L
         on_invalid=_item(ON_INVALID_CHOICES, plant["on_invalid"]),
         event_tol=scaling.tau(plant["event_tol"]),
     )
-    law = PhysicalFeedback(
-        F=tuple(controller[name] for name in _GAINS),
-        K0=controller["K0"],
-        R_ff=controller["R_ff"],
-        Omega0=controller["Omega0"],
-        t_on=controller["t_on"],
-        latch=_item(LATCH_MODES, controller["latch"]),
-    ).to_scaled(scaling)
+    rig = scaling.rig
+    for name, plant_value in (("Omega0", rig.Omega0), ("R0", rig.R0), ("C", rig.C),
+                              ("I1", rig.I1)):  # fmt: skip
+        if not math.isclose(controller[name], plant_value, rel_tol=1e-12):
+            raise ValueError(
+                f"the controller's {name} = {controller[name]!r} is not the plant's "
+                f"{plant_value!r}: (29)-(31) is a law about the plant's nominal motion"
+            )
+    values = {name: controller[name] for name in (*_GAINS, "K0", "R_ff", "t_on")}
+    values["latch"] = _item(LATCH_MODES, controller["latch"])
+    law = SampledAffine.from_si(rig, values).feedback
     control: AffineFeedback | float = law if controller["enabled"] else law.R_ff
     return LoopModel(scaling.scaled, initial, options, control, scaling)
 

@@ -1,5 +1,5 @@
-"""The digital control laws (drillstring.model.laws) and the sampled closed loop
-(drillstring.model.sampled).
+"""The digital control laws (drillstring.model.laws), run by the digital controller
+(drillstring.model.digital), and the sampled closed loop (drillstring.model.sampled).
 
 Each law is checked against values computed by hand from its equations, the filters against the
 continuous first-order responses they discretise, the SI forms against the laws written directly
@@ -16,23 +16,27 @@ import pytest
 
 from drillstring.controller.gains import PAPER_F
 from drillstring.model.control import AffineFeedback
+from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
 from drillstring.model.laws import (
+    FeedForward,
     Measurement,
     SampledAffine,
     SpeedPI,
     ZTorque,
     law_from_si,
     measure,
-    measurement_from_si,
-    sample_output,
-    sample_update,
 )
 from drillstring.model.params import REFERENCE, get_physical
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.simulate import simulate
 
 K0_REF = 0.18383708216912742  # K0 of (27) at the reference set with A = 0.38541, see gains.json
+
+
+def _start(law):
+    """The law in operation at the reference set, exact measurements, no top drive."""
+    return DigitalController(law).start(REFERENCE)
 
 
 # --------------------------------------------------------------------------------------------
@@ -46,72 +50,84 @@ def test_measure_takes_the_string_torque_as_theta_minus_phi():
 
 
 def test_speed_pi_by_hand():
-    law = SpeedPI(kp=2.0, ki=3.0, R_ff=0.5, t_on=1.0)
-    m = Measurement(theta=0.0, dtheta=0.2, torque=0.0)
-    # before t_on: the feed-forward alone, no state
-    assert sample_output(law, 0.999, None, m) == 0.5
-    assert sample_update(law, 0.999, None, m, 0.1) is None
+    run = _start(SpeedPI(kp=2.0, ki=3.0, R_ff=0.5, t_on=1.0))
+    m = {"phi": 0.0, "dphi": 0.0, "theta": 0.0, "dtheta": 0.2}
+    # before t_on: the feed-forward alone, the law not started
+    assert run.output(0.999, **m) == 0.5
+    assert run.step(0.999, **m, Ts=0.1) == 0.5 and not run.active
     # switch-on: integral preset to -kp*e/ki = 2*0.2/3, torque continuous
-    s0 = law.initial_state(m)
-    assert s0[0] == pytest.approx(0.4 / 3.0, rel=1e-15)
-    assert sample_output(law, 1.0, None, m) == pytest.approx(0.5, abs=1e-15)
+    assert run.output(1.0, **m) == pytest.approx(0.5, abs=1e-15)
+    run.step(1.0, **m, Ts=0.1)
+    assert run.active
     # one period: I = 0.4/3 - 0.1*0.2; then with dtheta = 0.1: 0.5 - 0.2 + 3*I = 0.64
-    s1 = sample_update(law, 1.0, None, m, 0.1)
-    assert s1[0] == pytest.approx(0.4 / 3.0 - 0.02, rel=1e-15)
-    m2 = Measurement(theta=0.0, dtheta=0.1, torque=0.0)
-    assert sample_output(law, 1.1, s1, m2) == pytest.approx(0.64, rel=1e-14)
+    assert run.law_state[0] == pytest.approx(0.4 / 3.0 - 0.02, rel=1e-15)
+    assert run.output(1.1, **{**m, "dtheta": 0.1}) == pytest.approx(0.64, rel=1e-14)
     # without an integrator the torque steps by kp*e at switch-on
-    assert SpeedPI(kp=2.0, ki=0.0, R_ff=0.5).output((0.0,), m) == pytest.approx(0.1)
+    assert _start(SpeedPI(kp=2.0, ki=0.0, R_ff=0.5)).output(0.0, **m) == pytest.approx(0.1)
 
 
 def test_z_torque_by_hand():
-    law = ZTorque(kp=2.0, ki=3.0, z_gain=0.5, omega_hp=1.0, omega_lp=10.0)
-    m1 = Measurement(theta=0.0, dtheta=0.2, torque=1.0)
-    s = law.initial_state(m1)
-    assert s == pytest.approx((0.4 / 3.0, 1.0, 0.0), rel=1e-15)
-    assert law.output(s, m1) == pytest.approx(0.0, abs=1e-15)  # bumpless
-    s = law.update(s, m1, 0.1)  # the high-pass sits on its input: nothing moves but I
-    assert s == pytest.approx((0.4 / 3.0 - 0.02, 1.0, 0.0), rel=1e-15)
-    m2 = Measurement(theta=0.0, dtheta=0.0, torque=2.0)
-    assert law.output(s, m2) == pytest.approx(3.0 * (0.4 / 3.0 - 0.02), rel=1e-14)
-    s = law.update(s, m2, 0.1)
+    run = _start(ZTorque(kp=2.0, ki=3.0, z_gain=0.5, omega_hp=1.0, omega_lp=10.0))
+    m1 = {"phi": -1.0, "dphi": 0.0, "theta": 0.0, "dtheta": 0.2}  # torque theta - phi = 1
+    assert run.output(0.0, **m1) == pytest.approx(0.0, abs=1e-15)  # bumpless
+    run.step(0.0, **m1, Ts=0.1)  # the high-pass sits on its input: nothing moves but I
+    assert run.law_state[:3] == pytest.approx((0.4 / 3.0 - 0.02, 1.0, 0.0), rel=1e-15)
+    m2 = {"phi": -2.0, "dphi": 0.0, "theta": 0.0, "dtheta": 0.0}  # torque 2
+    assert run.output(0.1, **m2) == pytest.approx(3.0 * (0.4 / 3.0 - 0.02), rel=1e-14)
+    run.step(0.1, **m2, Ts=0.1)
     # high-pass input 1 held over Ts: z += (1 - e^-0.1)*1, y += (1 - e^-1)*(1 - 0)
-    assert s[1] == pytest.approx(1.0 + (1.0 - math.exp(-0.1)), rel=1e-15)
-    assert s[2] == pytest.approx(1.0 - math.exp(-1.0), rel=1e-15)
+    assert run.law_state[1] == pytest.approx(1.0 + (1.0 - math.exp(-0.1)), rel=1e-15)
+    assert run.law_state[2] == pytest.approx(1.0 - math.exp(-1.0), rel=1e-15)
     e = -0.5 * (1.0 - math.exp(-1.0))
-    assert law.output(s, m2) == pytest.approx(2.0 * e + 3.0 * (0.4 / 3.0 - 0.02), rel=1e-14)
+    assert run.output(0.2, **m2) == pytest.approx(2.0 * e + 3.0 * (0.4 / 3.0 - 0.02), rel=1e-14)
 
 
 def test_z_torque_filters_are_the_exact_first_order_responses():
     """A torque step of 1 held: high-pass output exp(-w_hp t), low-pass of it the convolution
     w_lp/(w_lp - w_hp)*(exp(-w_hp t) - exp(-w_lp t)) at every sample instant."""
     w_hp, w_lp, Ts = 0.7, 3.0, 0.05
-    law = ZTorque(kp=0.0, ki=0.0, z_gain=1.0, omega_hp=w_hp, omega_lp=w_lp)
-    s = law.initial_state(Measurement(0.0, 0.0, 0.0))
-    m = Measurement(0.0, 0.0, 1.0)
+    run = _start(ZTorque(kp=0.0, ki=0.0, z_gain=1.0, omega_hp=w_hp, omega_lp=w_lp))
+    run.step(0.0, 0.0, 0.0, 0.0, 0.0, Ts)  # switched on at rest on the torque 0
     for k in range(1, 41):
-        s = law.update(s, m, Ts)
+        run.step(k * Ts, -1.0, 0.0, 0.0, 0.0, Ts)  # torque 1 from tau = Ts on
         t = k * Ts
-        assert 1.0 - s[1] == pytest.approx(math.exp(-w_hp * t), rel=1e-13)
+        assert 1.0 - run.law_state[1] == pytest.approx(math.exp(-w_hp * t), rel=1e-13)
     # the low-pass of a piecewise-constant (sampled) input: exact for the held samples; the
     # continuous convolution is approached to O(Ts)
     lp = w_lp / (w_lp - w_hp) * (math.exp(-w_hp * t) - math.exp(-w_lp * t))
-    assert s[2] == pytest.approx(lp, abs=2.0 * Ts)
+    assert run.law_state[2] == pytest.approx(lp, abs=2.0 * Ts)
+
+
+def test_z_torque_without_feedback_is_the_speed_pi_bit_for_bit():
+    """One compiled law: z_gain = 0 leaves the filters out of the torque exactly."""
+    a = _start(SpeedPI(kp=4.47, ki=5.0, R_ff=-0.2))
+    b = _start(ZTorque(kp=4.47, ki=5.0, z_gain=0.0, omega_hp=0.3, omega_lp=10.0, R_ff=-0.2))
+    rng = np.random.default_rng(3)
+    for k in range(200):
+        phi, dphi, theta, dtheta = rng.normal(size=4)
+        assert a.step(k * 1e-3, phi, dphi, theta, dtheta, 1e-3) == b.step(
+            k * 1e-3, phi, dphi, theta, dtheta, 1e-3
+        )
 
 
 def test_sampled_affine_is_feedback_torque_with_latched_references():
     f = AffineFeedback(F=(1.0, 2.0, 3.0, 4.0), K0=0.5, R_ff=-0.5, t_on=2.0, latch="angle")
-    law = SampledAffine(f)
-    m = Measurement(theta=1.5, dtheta=0.2, torque=-0.5, phi=2.0, dphi=0.1)
-    assert sample_output(law, 1.0, None, m) == -0.5
-    state = sample_update(law, 2.0, None, m, 0.01)
-    assert state == (2.0, 0.0)  # phi_ref = phi at switch-on
+    run = _start(SampledAffine(f))
+    m = {"phi": 2.0, "dphi": 0.1, "theta": 1.5, "dtheta": 0.2}
+    assert run.output(1.0, **m) == -0.5
+    run.step(2.0, **m, Ts=0.01)
+    assert run.law_state[:2] == (2.0, 0.0)  # phi_ref = phi at switch-on
     # R_ff + F1*(phi - phi_ref) + F2*dphi + F3*(phi - theta - K0) + F4*dtheta
-    assert sample_output(law, 2.0, state, m) == pytest.approx(-0.5 + 0.2 + 0.0 + 0.8, rel=1e-15)
-    m2 = Measurement(theta=1.0, dtheta=0.0, torque=-2.0, phi=3.0, dphi=0.0)
-    assert law.output(state, m2) == pytest.approx(-0.5 + 1.0 + 3.0 * 1.5, rel=1e-15)
-    with pytest.raises(ValueError, match="bit angle and speed"):
-        law.initial_state(Measurement(theta=0.0, dtheta=0.0, torque=0.0))
+    assert run.output(2.0, **m) == pytest.approx(-0.5 + 0.2 + 0.0 + 0.8, rel=1e-15)
+    m2 = {"phi": 3.0, "dphi": 0.0, "theta": 1.0, "dtheta": 0.0}
+    assert run.output(2.01, **m2) == pytest.approx(-0.5 + 1.0 + 3.0 * 1.5, rel=1e-15)
+
+
+def test_feed_forward_and_a_disabled_controller_put_out_r_ff():
+    run = _start(FeedForward(R_ff=-0.3))
+    assert run.step(0.0, 1.0, 2.0, 3.0, 4.0, 0.1) == -0.3
+    off = DigitalController(SpeedPI(kp=9.0, ki=9.0, R_ff=0.25), enabled=False).start(REFERENCE)
+    assert off.step(5.0, 1.0, 2.0, 3.0, 4.0, 0.1) == 0.25 and not off.active
 
 
 @pytest.mark.parametrize(
@@ -122,7 +138,14 @@ def test_sampled_affine_is_feedback_torque_with_latched_references():
         (lambda: SpeedPI(kp=1.0, ki=1.0, t_on=math.inf), "SpeedPI.t_on must be finite"),
         (lambda: ZTorque(kp=1.0, ki=1.0, omega_hp=0.0), "ZTorque.omega_hp must be > 0, got 0.0"),
         (lambda: ZTorque(kp=1.0, ki=1.0, z_gain="1"), "ZTorque.z_gain must be a real number"),
+        (lambda: SpeedPI(kp=1.0, ki=1.0, anti_windup="clamp"), "SpeedPI.anti_windup must be one"),
         (lambda: SampledAffine((1.0, 2.0)), "must be an AffineFeedback"),
+        (
+            lambda: SampledAffine(AffineFeedback((1.0,) * 4, 0.0, 0.0), on_saturation="stop"),
+            "SampledAffine.on_saturation must be one of",
+        ),
+        (lambda: SpeedPI.from_values({"kp": 1.0, "ki": 1.0, "kd": 2.0}), r"unknown .*\['kd'\]"),
+        (lambda: DigitalController(SpeedPI(1.0, 1.0)).start("reference"), "OperatingPoint"),
     ],
 )
 def test_bad_parameters_are_named(make, message):
@@ -138,34 +161,41 @@ def test_bad_parameters_are_named(make, message):
 def test_si_parameters_by_hand_on_the_reference_rig():
     rig = get_physical("reference-rig")
     t, C = math.sqrt(rig.I1 / rig.C), rig.C
-    si = SpeedPI(kp=2.0, ki=3.0, R_ff=0.5, t_on=10.0).to_si(rig)
-    assert si == pytest.approx({"kp": 2 * C * t, "ki": 3 * C, "R_ff": 0.5 * C, "t_on": 10 * t})
+    si = SpeedPI(kp=2.0, ki=3.0, R_ff=0.5, t_on=10.0, tracking_time=2.0).to_si(rig)
+    numbers = {k: v for k, v in si.items() if k != "anti_windup"}
+    assert numbers == pytest.approx(
+        {"kp": 2 * C * t, "ki": 3 * C, "R_ff": 0.5 * C, "t_on": 10 * t, "tracking_time": 2 * t},
+        rel=1e-14,
+    )
+    assert si["anti_windup"] == "back-calculation"
     assert si["kp"] == pytest.approx(433.59, rel=1e-4)  # 2 * 235 N m/rad * 0.92253 s
     z = ZTorque(kp=2.0, ki=3.0, z_gain=0.5, omega_hp=0.1, omega_lp=10.0).to_si(rig)
     Z = math.sqrt(rig.C * rig.I1)  # the lumped string's impedance [N m s/rad]
     assert z["z_gain"] == pytest.approx(0.5 / Z, rel=1e-14)
     assert z["omega_hp"] == pytest.approx(0.1 / t, rel=1e-14)
-    F = SampledAffine(AffineFeedback(PAPER_F, K0_REF, -K0_REF)).to_si(rig)["F"]
+    si = SampledAffine(AffineFeedback(PAPER_F, K0_REF, -K0_REF)).to_si(rig)
+    F = tuple(si[f"F[{i}]"] for i in range(1, 5))
     assert F == pytest.approx((PAPER_F[0] * C, PAPER_F[1] * C * t, PAPER_F[2] * C, -89 * C * t))
+    # one R_ff convention: a deviation from R0 in both unit systems; K0 an angle
+    assert si["R_ff"] == pytest.approx(-K0_REF * C, rel=1e-15) and si["K0"] == K0_REF
 
 
 @pytest.mark.parametrize(
     "law",
     [
-        SpeedPI(kp=4.47, ki=5.0, R_ff=-0.18, t_on=25.0),
+        SpeedPI(kp=4.47, ki=5.0, R_ff=-0.18, t_on=25.0, anti_windup="conditional"),
         ZTorque(kp=100.0, ki=500.0, z_gain=1.0, omega_hp=0.1, omega_lp=10.0, R_ff=-0.2, t_on=3.0),
-        SampledAffine(AffineFeedback(PAPER_F, K0_REF, -K0_REF, 25.0, "angle")),
+        SampledAffine(AffineFeedback(PAPER_F, K0_REF, -K0_REF, 25.0, "angle"), "freeze-angle"),
+        FeedForward(R_ff=-0.1, t_on=2.0),
     ],
-    ids=["SpeedPI", "ZTorque", "SampledAffine"],
+    ids=["SpeedPI", "ZTorque", "SampledAffine", "FeedForward"],
 )
 def test_si_round_trip(law):
     rig = get_physical("reference-rig")
     back = law_from_si(type(law).__name__, rig, law.to_si(rig))
     assert type(back) is type(law)
-    a = law.feedback if isinstance(law, SampledAffine) else law
-    b = back.feedback if isinstance(back, SampledAffine) else back
-    for name in a.__dataclass_fields__:
-        x, y = getattr(a, name), getattr(b, name)
+    for name, x in law.values().items():
+        y = back.values()[name]
         if isinstance(x, str):
             assert x == y, name
         else:
@@ -178,17 +208,17 @@ def test_speed_pi_in_si_units_is_the_scaled_law_times_c():
     rig = get_physical("reference-rig")
     law = SpeedPI(kp=4.47, ki=5.0, R_ff=0.0)
     si = law.to_si(rig)
+    run = _start(law)
     Ts_si = 0.01  # s
     speeds = [0.3, -0.1, 0.25, 0.0, -0.4]  # table speed deviations [rad/s]
     integral_si = si["kp"] * speeds[0] / si["ki"]  # the same bumpless preset, in SI
-    state = None
     for k, w in enumerate(speeds):
-        m = measurement_from_si(rig, theta=0.0, dtheta=w, torque=0.0)
-        torque = sample_output(law, k * Ts_si / rig.t_star, state, m) * rig.C
+        tau = k * Ts_si / rig.t_star
+        torque = run.output(tau, 0.0, 0.0, 0.0, w * rig.t_star) * rig.C
         if k > 0:
             integral_si -= Ts_si * speeds[k - 1]
         assert torque == pytest.approx(-si["kp"] * w + si["ki"] * integral_si, rel=1e-12)
-        state = sample_update(law, k * Ts_si / rig.t_star, state, m, Ts_si / rig.t_star)
+        run.step(tau, 0.0, 0.0, 0.0, w * rig.t_star, Ts_si / rig.t_star)
 
 
 # --------------------------------------------------------------------------------------------

@@ -30,16 +30,9 @@ from drillstring.apps.cosim import cosim_main
 from drillstring.controller.lineup import INDUSTRIAL, industrial_lineup
 from drillstring.controller.tuning import soft_torque
 from drillstring.model.control import AffineFeedback
+from drillstring.model.digital.controller import DigitalController
 from drillstring.model.experiments import FIG6
-from drillstring.model.laws import (
-    Measurement,
-    SampledAffine,
-    SpeedPI,
-    ZTorque,
-    law_from_si,
-    sample_output,
-    sample_update,
-)
+from drillstring.model.laws import SampledAffine, SpeedPI, ZTorque, law_from_si
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.units import SIScaling
@@ -143,7 +136,7 @@ def test_si_fmu_in_the_master_equals_its_law_converted_back(built, name):
         REFERENCE_RIG,
         {
             **{k: values[k] for k in keys},
-            "R_ff": values["R_ff"] - REFERENCE_RIG.C * SC.twist0,  # the deviation from R0
+            "R_ff": values["R_ff"],  # a deviation from R0 in SI too
             "t_on": values["t_on"],
         },
     )
@@ -212,8 +205,9 @@ def test_start_values_are_the_soft_torque_rule_and_the_gains_file(built):
     assert si["kp"] == pytest.approx(C * ts * rule.kp, rel=1e-15)
     assert si["ki"] == pytest.approx(C * rule.ki, rel=1e-15)
     assert si["omega_hp"] == pytest.approx(0.3 / ts, rel=1e-15)
-    assert si["R_ff"] == pytest.approx(C * (SC.twist0 + built.gains_values["R_ff"]), rel=1e-14)
-    assert (si["C"], si["Omega0"]) == (C, REFERENCE_RIG.Omega0)
+    assert si["R_ff"] == pytest.approx(C * built.gains_values["R_ff"], rel=1e-14)
+    assert (si["C"], si["I1"], si["Omega0"]) == (C, REFERENCE_RIG.I1, REFERENCE_RIG.Omega0)
+    assert (si["R0"], si["I2"]) == (REFERENCE_RIG.R0, REFERENCE_RIG.I2)
     z = topdrive_tunings(TOPDRIVE_SI)["z-torque"]
     assert z["z_gain"] == pytest.approx(1.0 / (C * ts), rel=1e-15)  # 1/Z: impedance matching
 
@@ -238,14 +232,23 @@ def test_model_structure_ranges_and_units(built):
         for bad in ({"kp": -math.ulp(0.0)}, {"omega_hp": 0.0}):
             with pytest.raises(ValueError):
                 ZTorque(**{"kp": 1.0, "ki": 1.0, **bad})
-        assert not any(v.type == "Enumeration" for v in md.modelVariables)
+        # the law is chosen by Reals alone (hosts that set no Enumeration run the law they are
+        # given); the Enumerations are options whose start values are inactive by default
+        enums = {v.name: v.start for v in md.modelVariables if v.type == "Enumeration"}
+        assert enums == {"anti_windup": "2", "braking": "1", "downhole": "1", "torque": "1"}
+        assert variables["top_drive"].start == "false"
     md = read_model_description(str(built.si.topdrive.fmu))
     units = {v.name: v.unit for v in md.modelVariables if v.type == "Real"}
-    assert units == {
+    assert {k: units[k] for k in (
+        "bit_angle", "bit_speed", "table_angle", "table_speed", "table_torque", "kp", "ki",
+        "z_gain", "omega_hp", "omega_lp", "R_ff", "Omega0", "C", "I1", "I2", "R0", "t_on",
+        "R_max", "P_max", "lag", "period", "noise_dphi",
+    )} == {
         "bit_angle": "rad", "bit_speed": "rad/s", "table_angle": "rad", "table_speed": "rad/s",
         "table_torque": "N.m", "kp": "N.m.s/rad", "ki": "N.m/rad", "z_gain": "rad/(N.m.s)",
         "omega_hp": "rad/s", "omega_lp": "rad/s", "R_ff": "N.m", "Omega0": "rad/s",
-        "C": "N.m/rad", "t_on": "s",
+        "C": "N.m/rad", "I1": "kg.m2", "I2": "kg.m2", "R0": "N.m", "t_on": "s", "R_max": "N.m",
+        "P_max": "W", "lag": "s", "period": "s", "noise_dphi": "rad/s",
     }  # fmt: skip
 
 
@@ -297,17 +300,15 @@ def test_disabled_or_z_gain_zero(built):
     """enabled = false: R_ff throughout; z_gain = 0 is the plain speed PI (SpeedPI)."""
     off = tl.Slave(built.topdrive, "off").init(enabled=False, R_ff=-0.2)
     pi = tl.Slave(built.topdrive, "pi").init(kp=3.0, ki=2.0, z_gain=0.0, R_ff=-0.2, t_on=0.0)
-    law = SpeedPI(kp=3.0, ki=2.0, R_ff=-0.2)
+    law = DigitalController(SpeedPI(kp=3.0, ki=2.0, R_ff=-0.2)).start(REFERENCE)
     try:
-        state = None
         for k in range(5):
             x = (0.1 * k, 0.3, -0.2 * k, 0.1 - 0.07 * k)
             for s in (off, pi):
                 s.set(**dict(zip(tl.FEEDBACK, x, strict=True)))
-            m = Measurement(x[2], x[3], x[2] - x[0], x[0], x[1])
             assert off.get("R_minus_R0") == [-0.2]
-            assert pi.get("R_minus_R0")[0] == sample_output(law, k * 0.01, state, m)
-            state = sample_update(law, k * 0.01, state, m, 0.01)
+            assert pi.get("R_minus_R0")[0] == law.output(k * 0.01, *x)
+            law.step(k * 0.01, *x, 0.01)
             assert off.step(k * 0.01, 0.01) == pi.step(k * 0.01, 0.01) == tl.OK
     finally:
         off.free()

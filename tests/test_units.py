@@ -2,11 +2,12 @@
 
 * the plant's SI outputs in the nominal motion against the rig's own eq. (8) quantities and
   eqs. (4), (7) (``PhysicalParams``: d0, W0, T0, V0, Omega0) and the nominal twist R0/C;
-* the SI controller law against the scaled law (29)-(31) at random states: the gains conversion
-  written in the module docstring (F1 C, F2 C t*, F3 C, F4 C t*, K0 - R0/C, C (R0/C + R_ff),
-  t* t_on) must give R = C (R0/C + r) for every state and time;
-* round trips of the initial state and of the law;
-* the units' base-unit exponents by dimensional analysis (N = kg m s^-2, ...).
+* the SI controller (the digital controller's block with SI connectors, its parameters converted
+  by their dimensions) against the scaled one at random states and times: the plant's SI outputs
+  of the same state (converted by ``SIScaling``, another code) must give R = C (R0/C + r);
+* round trips of the initial state and the gains conversion by hand (F1 C, F2 C t*, ...);
+* the units' base-unit exponents by dimensional analysis (N = kg m s^-2, ...), and every
+  dimension's SI unit against the units of C, t* and L* raised to its exponents.
 """
 
 from __future__ import annotations
@@ -16,9 +17,13 @@ import math
 import numpy as np
 import pytest
 
-from drillstring.model.control import AffineFeedback, feedback_torque, switch_on_references
+from drillstring.model.control import AffineFeedback
+from drillstring.model.digital import layout as L
+from drillstring.model.digital.block import fmu_output, fmu_step
+from drillstring.model.digital.controller import DigitalController, OperatingPoint
+from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG
-from drillstring.model.units import UNITS, PhysicalFeedback, SIScaling
+from drillstring.model.units import DIMENSIONS, UNITS, SIScaling, si_scale
 
 SC = SIScaling(REFERENCE_RIG)
 LAW = AffineFeedback(F=(-3448.5, -1574.7, 481.8, -89.0), K0=0.14, R_ff=-0.14, t_on=0.3)
@@ -61,52 +66,76 @@ def test_torque_on_bit_in_torsional_stick_is_the_given_scaled_torque():
     )
 
 
+def _blocks(law):
+    """The scaled controller's block and the SI one (parameters through SI and back)."""
+    rig, p = REFERENCE_RIG, SC.scaled
+    scaled = DigitalController(law).block(p)
+    back = SampledAffine.from_si(rig, law.to_si(rig))
+    si = DigitalController(back).block(OperatingPoint(rig.Omega0 * rig.t_star, rig.R0 / rig.C,
+                                                      rig.I2 / rig.I1))  # fmt: skip
+    si[L.B_SI] = 1.0
+    si[L.B_TSTAR], si[L.B_C] = rig.t_star, rig.C
+    si[L.B_OMEGA0_SI], si[L.B_R0_SI] = rig.Omega0, rig.R0
+    return scaled, si
+
+
 @pytest.mark.parametrize("latch", ["none", "angle", "angle+twist"])
-def test_si_law_equals_the_scaled_law_converted(latch):
+def test_si_controller_equals_the_scaled_one_on_the_plants_si_outputs(latch):
     rng = np.random.default_rng(5)
-    law = AffineFeedback(LAW.F, LAW.K0, LAW.R_ff, t_on=LAW.t_on, latch=latch)
-    si = PhysicalFeedback.from_scaled(law, SC)
+    law = SampledAffine(AffineFeedback(LAW.F, LAW.K0, LAW.R_ff, t_on=LAW.t_on, latch=latch))
+    checked = 0
+    for _ in range(100):
+        scaled, si = _blocks(law)
+        # both latch their references at the same switch-on state, then one step of 1e-3
+        tau_l = rng.uniform(LAW.t_on, 30.0)
+        x_l = rng.normal(size=4)
+        _set(scaled, tau_l, x_l, si=False)
+        _set(si, tau_l, x_l, si=True)
+        fmu_step(scaled, scaled[L.B_TIME], 1e-3)
+        fmu_step(si, si[L.B_TIME], 1e-3 * SC.t_star)
+        # then any later state
+        tau = rng.uniform(tau_l, 60.0)
+        x = rng.normal(size=4)
+        _set(scaled, tau, x, si=False)
+        _set(si, tau, x, si=True)
+        fmu_output(scaled)
+        fmu_output(si)
+        assert si[L.B_OUT] == pytest.approx(SC.table_torque(scaled[L.B_OUT]), rel=1e-11,
+                                            abs=1e-9 * abs(LAW.F[0] * REFERENCE_RIG.C))  # fmt: skip
+        checked += 1
+    assert checked == 100
+
+
+def _set(block, tau, x, si):
+    """Inputs and time of a block: scaled perturbations, or their SI plant outputs at tau."""
+    phi, dphi, theta, dtheta = x
+    if not si:
+        block[L.B_IN : L.B_IN + 4] = x
+        block[L.B_TIME] = tau
+        return
     p = SC.scaled
-    for _ in range(200):
-        tau = rng.uniform(0.0, 60.0)
-        phi, dphi, theta, dtheta = rng.normal(size=4)
-        # the references latched at some earlier state
-        phi_l, theta_l = rng.normal(size=2)
-        refs = switch_on_references(law.latch_code, phi_l, theta_l, law.K0)
-        r = feedback_torque(tau, phi, dphi, theta, dtheta, law.F, law.K0, law.R_ff, law.t_on, *refs)
-        # the same state and latch instant in SI
-        values = {"u": 0.0, "du": 0.0, "d": p.d0, "g": 0.0, "tau_n": p.tau_n0}
-        now = SC.plant_outputs(
-            {**values, "phi": phi, "dphi": dphi, "theta": theta, "dtheta": dtheta}, tau
-        )
-        t = SC.time(tau)
-        e = si.errors(t, now["bit_angle"], now["bit_speed"], now["table_angle"], now["table_speed"])
-        tau_l = rng.uniform(0.0, tau)
-        then = SC.plant_outputs(
-            {**values, "phi": phi_l, "dphi": 0.0, "theta": theta_l, "dtheta": 0.0}, tau_l
-        )
-        el = si.errors(SC.time(tau_l), then["bit_angle"], 0.0, then["table_angle"], 0.0)
-        refs_si = switch_on_references(si.latch_code, el[0], el[2], si.K0)
-        R = feedback_torque(t, *e, si.F, si.K0, si.R_ff, si.t_on, *refs_si)
-        if (tau < law.t_on) != (t < si.t_on):
-            continue  # the switch-on instant itself, to rounding
-        assert R == pytest.approx(SC.table_torque(r), rel=1e-11, abs=1e-9 * abs(si.F[0]))
+    values = {"u": 0.0, "du": 0.0, "d": p.d0, "g": 0.0, "tau_n": p.tau_n0}
+    out = SC.plant_outputs({**values, "phi": phi, "dphi": dphi, "theta": theta, "dtheta": dtheta},
+                           tau)  # fmt: skip
+    block[L.B_IN : L.B_IN + 4] = [out[k] for k in ("bit_angle", "bit_speed", "table_angle",
+                                                    "table_speed")]  # fmt: skip
+    block[L.B_TIME] = SC.time(tau)
 
 
 def test_law_and_initial_state_round_trip():
-    si = PhysicalFeedback.from_scaled(LAW, SC)
-    back = si.to_scaled(SC)
+    law = SampledAffine(LAW)
+    si = law.to_si(REFERENCE_RIG)
+    back = SampledAffine.from_si(REFERENCE_RIG, si).feedback
     for a, b in zip(back.F, LAW.F, strict=True):
         assert a == pytest.approx(b, rel=1e-15)
     assert (back.K0, back.R_ff, back.t_on) == pytest.approx((LAW.K0, LAW.R_ff, LAW.t_on), rel=1e-14)
-    # the written conversion, by hand
+    # the conversion, by hand: gains by C and C t*, K0 an angle, R_ff a torque deviation
     C, ts = REFERENCE_RIG.C, REFERENCE_RIG.t_star
-    assert si.F == pytest.approx((C * LAW.F[0], C * ts * LAW.F[1], C * LAW.F[2], C * ts * LAW.F[3]))
-    assert si.K0 == pytest.approx(LAW.K0 - REFERENCE_RIG.R0 / C, rel=1e-14)
-    assert si.R_ff == pytest.approx(REFERENCE_RIG.R0 + C * LAW.R_ff, rel=1e-14)
-    assert si.Omega0 == REFERENCE_RIG.Omega0
-    with pytest.raises(ValueError, match="set point Omega0 = 1.0 rad/s is not the rig's"):
-        PhysicalFeedback(si.F, si.K0, si.R_ff, Omega0=1.0).to_scaled(SC)
+    F = tuple(si[f"F[{i}]"] for i in range(1, 5))
+    assert F == pytest.approx((C * LAW.F[0], C * ts * LAW.F[1], C * LAW.F[2], C * ts * LAW.F[3]))
+    assert si["K0"] == LAW.K0
+    assert si["R_ff"] == pytest.approx(C * LAW.R_ff, rel=1e-14)
+    assert si["t_on"] == pytest.approx(ts * LAW.t_on, rel=1e-14)
     x = {"u": 0.1, "du": -2.0, "phi": 0.3, "dphi": -2.5, "theta": -0.2, "dtheta": 1.5}
     si_x = SC.initial_to_si(x)
     assert si_x["dphi"] == pytest.approx(-2.5 / ts) and si_x["u"] == pytest.approx(
@@ -116,6 +145,33 @@ def test_law_and_initial_state_round_trip():
     assert [getattr(back_x, k) for k in x] == pytest.approx(list(x.values()), rel=1e-15)
     with pytest.raises(ValueError, match="unknown initial-state key"):
         SC.initial_to_scaled({"omega": 1.0})
+
+
+def test_every_dimension_has_the_si_unit_of_its_scales():
+    """value_SI = value * C**a * t***b * L***c: the unit must be (N m/rad)**a s**b m**c."""
+    C, s_, m = UNITS["N.m/rad"].exponents, UNITS["s"].exponents, UNITS["m"].exponents
+    for d in DIMENSIONS.values():
+        expect: dict[str, int] = {}
+        for base, power in ((C, d.torque), (s_, d.time), (m, d.length)):
+            for k, v in base.items():
+                expect[k] = expect.get(k, 0) + v * power
+        expect = {k: v for k, v in expect.items() if v}
+        unit = dict(UNITS[d.unit].exponents)
+        unit.pop("rad", None)  # rad is dimensionless: a frequency in rad/s is a rate
+        expect.pop("rad", None)
+        assert unit == expect, d.name
+        if d.display is not None:
+            UNITS[d.unit].display_unit(d.display)
+    rig = REFERENCE_RIG
+    assert si_scale("impedance", rig.C, rig.t_star) == pytest.approx(math.sqrt(rig.C * rig.I1))
+    assert si_scale("inertia", rig.C, rig.t_star) == pytest.approx(rig.I1)
+    assert si_scale("velocity", rig.C, rig.t_star, rig.L_star) == pytest.approx(
+        rig.L_star / rig.t_star
+    )
+    with pytest.raises(ValueError, match="needs the length scale"):
+        si_scale("length", rig.C, rig.t_star)
+    with pytest.raises(ValueError, match="unknown dimension 'mass'"):
+        si_scale("mass", rig.C, rig.t_star)
 
 
 def test_base_unit_exponents_by_dimensional_analysis():

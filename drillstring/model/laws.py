@@ -1,23 +1,27 @@
-"""Digital control laws of the rotary-table torque R - R0, each written once.
+"""Digital control laws of the rotary-table torque R - R0: one abstraction, :class:`Law`.
 
 A top-drive controller is a sampled law: at each sample instant it reads the measurements, puts
 out a torque that is held until the next instant (zero-order hold) and updates its own state.
-Every law here is a frozen dataclass of its parameters with three pure functions,
+Every law here is a frozen dataclass of its parameters that declares them once, in its table
+``PARAMETERS`` of :class:`Parameter` (name, dimension, meaning, range). From that table come
 
-* ``initial_state(m)``: the law's state at switch-on, from the current measurements ``m``;
-* ``output(state, m)``: R - R0 at a sample instant;
-* ``update(state, m, Ts)``: the state after one sample period Ts, the measurements held;
+* the law's SI form: :meth:`Law.to_si` and :meth:`Law.from_si`, one conversion for every law,
+  each parameter scaled by its dimension (:data:`drillstring.model.units.DIMENSIONS`, eqs.
+  (15)-(16)); the feed-forward R_ff is a deviation from the nominal torque R0 in both unit
+  systems (R_ff [N m] = C R_ff [scaled]);
+* the variables of the controller FMUs (``fmu_src/drillstring_controller.py``), one script over
+  a law class;
+* the block the compiled code runs (:meth:`Law.pack`), :mod:`drillstring.model.digital`.
 
-and :func:`sample_output` / :func:`sample_update` add the switch-on time ``t_on`` the same way
-for all of them (``docs/model.md``, "Bumpless switch-on"): before ``t_on`` only the feed-forward
-``R_ff`` acts; at the first sample at or after ``t_on`` the law starts from the current
-measurements, so that nothing jumps but the terms the measurements drive. A law's state is a
-tuple of floats (``None`` before switch-on), so a host (the sampled monolithic loop,
-:func:`drillstring.model.sampled.simulate_sampled`, or a controller FMU) keeps it as data.
+The evaluation is written once, compiled (:mod:`drillstring.model.digital.lawcore`): the
+switch-on state, the output and the update of each law. A host runs a law inside a
+:class:`~drillstring.model.digital.controller.DigitalController` (the law between a sensing
+stage and a top drive): the controller FMUs, the sampled monolithic loop
+(:func:`drillstring.model.sampled.simulate_sampled`) and a Python caller alike.
 
 The laws (tuning rules: ``drillstring.controller.tuning`` and ``docs/controllers.md``):
 
-* :class:`SpeedPI`: PI on the rotary-table speed, set point omega0 (stiff PI, SoftTorque);
+* :class:`SpeedPI`: PI on the rotary-table speed, set point omega0 (stiff PI, SoftSpeed);
 * :class:`ZTorque`: the same PI whose speed set point is lowered by the measured string torque,
   high-pass and low-pass filtered, divided by the string impedance (impedance matching);
 * :class:`SampledAffine`: the paper's state feedback (29)-(31), the
@@ -27,43 +31,47 @@ The laws (tuning rules: ``drillstring.controller.tuning`` and ``docs/controllers
 Everything is in the scaled form of the paper (time tau = t/t*, torques in units of C, angles in
 rad, speeds d/dtau; all in perturbation form, eqs. (9)-(10), (13)). The string torque at the top
 is the twist torque C*(Theta - Phi); its deviation from the nominal R0 is theta - phi in scaled
-form. ``to_si``/``from_si`` convert each law's parameters to and from SI units with the
-characteristic time t* and the stiffness C of a :class:`~drillstring.model.params.PhysicalParams`
-(eqs. (15)-(16)).
+form.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple, Protocol
+from typing import Any, ClassVar, NamedTuple, TypeVar
 
-from drillstring.model.control import (
-    LATCH_MODES,
-    AffineFeedback,
-    feedback_torque,
-    switch_on_references,
+import numpy as np
+
+from drillstring.model.control import LATCH_MODES, AffineFeedback
+from drillstring.model.digital import layout as L
+from drillstring.model.tables import (
+    Parameter,
+    Scales,
+    check_names,
+    table_from_si,
+    table_to_si,
 )
-from drillstring.model.params import PhysicalParams
-from drillstring.validation import check_real
+from drillstring.validation import check_choice
 
 __all__ = [
+    "ANTI_WINDUP",
+    "SATURATION",
+    "FeedForward",
     "Law",
-    "LawState",
     "Measurement",
     "SampledAffine",
     "SpeedPI",
     "ZTorque",
     "law_from_si",
     "measure",
-    "measurement_from_si",
-    "sample_output",
-    "sample_update",
 ]
 
-#: A law's state: a tuple of floats (``None`` before switch-on).
-LawState = tuple[float, ...]
+#: Anti-windup of the PI laws (their index is the block's code).
+ANTI_WINDUP = ("none", "back-calculation", "conditional")
+#: What the affine law does while the top drive saturates (index: the block's code).
+SATURATION = ("none", "freeze-angle")
 
 
 class Measurement(NamedTuple):
@@ -105,206 +113,146 @@ def measure(y: Sequence[float]) -> Measurement:
     return Measurement(theta, dtheta, theta - phi, phi, dphi)
 
 
-def measurement_from_si(
-    rig: PhysicalParams,
-    *,
-    theta: float,
-    dtheta: float,
-    torque: float,
-    phi: float = math.nan,
-    dphi: float = math.nan,
-) -> Measurement:
-    """Scaled measurements from SI perturbations of a rig.
+_FEED_FORWARD = Parameter(
+    "R_ff", "torque", "Feed-forward torque R_ff (eq. (31)): alone before t_on, the law's bias after"
+)
+_SWITCH_ON = Parameter("t_on", "time", "Switch-on time of the law: before it only R_ff acts")
+_PI_GAINS = (
+    Parameter("kp", "impedance", "Proportional gain of the speed PI (torque per speed)", 0.0),
+    Parameter("ki", "stiffness", "Integral gain of the speed PI (torque per angle)", 0.0),
+)
+_WINDUP = (
+    Parameter(
+        "anti_windup",
+        "1",
+        "Anti-windup while the top drive limits the torque: none, back-calculation (the "
+        "integral tracks the limited torque with time constant tracking_time) or conditional "
+        "(the integral is held unless its error drives the torque back into range)",
+        choices=ANTI_WINDUP,
+    ),
+    Parameter(
+        "tracking_time",
+        "time",
+        "Tracking time constant of back-calculation; 0: the integral time kp/ki",
+        0.0,
+    ),
+)
 
-    Parameters
-    ----------
-    rig : PhysicalParams
-        Gives t* = sqrt(I1/C) and C (Section II).
-    theta, phi : float
-        Angle perturbations [rad] (unchanged by the scaling (10)).
-    dtheta, dphi : float
-        Speed perturbations dTheta/dt - Omega0, dPhi/dt - Omega0 [rad/s]; scaled: times t*.
-    torque : float
-        String torque at the top minus R0 [N m]; scaled: divided by C (16).
+LawT = TypeVar("LawT", bound="Law")
 
-    Returns
-    -------
-    Measurement
+
+class Law:
+    """What every law is: a frozen dataclass of the parameters of its ``PARAMETERS`` table.
+
+    Subclasses define the table, their kind (the compiled law, ``KIND``) and :meth:`pack`; the
+    feed-forward ``R_ff`` and the switch-on time ``t_on`` are parameters of every law.
     """
-    t = rig.t_star
-    return Measurement(
-        float(theta), float(dtheta) * t, float(torque) / rig.C, float(phi), float(dphi) * t
-    )
 
-
-class Law(Protocol):
-    """What every law provides (see the module docstring)."""
-
+    KIND: ClassVar[int] = L.LAW_NONE
+    PARAMETERS: ClassVar[tuple[Parameter, ...]] = ()
     R_ff: float
     t_on: float
 
-    def initial_state(self, m: Measurement) -> LawState:
-        """The law's state at switch-on, from the measurements at that instant.
+    def _check_fields(self) -> None:
+        where = type(self).__name__
+        for p in self.PARAMETERS:
+            if p.name in {f.name for f in dataclasses.fields(self)}:  # type: ignore[arg-type]
+                object.__setattr__(self, p.name, p.check(where, getattr(self, p.name)))
+
+    def values(self) -> dict[str, Any]:
+        """The parameters by name, scaled (the ``PARAMETERS`` table's order)."""
+        return {p.name: getattr(self, p.name) for p in self.PARAMETERS}
+
+    @classmethod
+    def from_values(cls: type[LawT], values: Mapping[str, Any]) -> LawT:
+        """The law of scaled parameter values (:meth:`values` inverted).
 
         Parameters
         ----------
-        m : Measurement
-            The measurements at the first sample at or after ``t_on``.
+        values : mapping
+            Parameter name -> value; the names of the ``PARAMETERS`` table, those with a
+            default may be left out.
 
         Returns
         -------
-        tuple of float
-            The state, chosen so that the switch-on is bumpless for this law.
-        """
-        ...
+        Law
 
-    def output(self, state: LawState, m: Measurement) -> float:
-        """R - R0 at a sample instant (pure: does not change ``state``).
+        Raises
+        ------
+        ValueError
+            An unknown name, or a value the law rejects (the message names it).
+        """
+        check_names(cls.__name__, cls.PARAMETERS, values)
+        return cls(**values)  # type: ignore[call-arg]
+
+    def to_si(self, scales: Scales) -> dict[str, Any]:
+        """The parameters in SI units: each scaled by its dimension (``docs/controllers.md``,
+        "SI form").
 
         Parameters
         ----------
-        state : tuple of float
-            The law's state at the instant.
-        m : Measurement
-            The measurements at the instant.
-
-        Returns
-        -------
-        float
-            The torque deviation R - R0 (scaled, units of C), held until the next sample.
-        """
-        ...
-
-    def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """The state one sample period later, the measurements ``m`` held over it (pure).
-
-        Parameters
-        ----------
-        state : tuple of float
-            The state at the start of the period.
-        m : Measurement
-            The measurements at the start of the period.
-        Ts : float
-            Sample period (scaled time), > 0.
-
-        Returns
-        -------
-        tuple of float
-            The state at the end of the period.
-        """
-        ...
-
-    def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """The law's parameters in SI units; the class's ``from_si(rig, values)`` inverts it.
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* and C (eqs. (15)-(16)).
+        scales : PhysicalParams or any object with ``C`` and ``t_star``
+            The rig's torque and time scales (eqs. (15)-(16)).
 
         Returns
         -------
         dict
-            Parameter name to SI value (``docs/controllers.md``, "SI form").
+            Name -> SI value (choices unchanged).
         """
-        ...
+        return table_to_si(self.PARAMETERS, self.values(), scales)
+
+    @classmethod
+    def from_si(cls: type[LawT], scales: Scales, values: Mapping[str, Any]) -> LawT:
+        """The law from SI parameter values, the inverse of :meth:`to_si`.
+
+        Parameters
+        ----------
+        scales : PhysicalParams or any object with ``C`` and ``t_star``
+            The rig's scales.
+        values : mapping
+            Name -> SI value, as :meth:`to_si` returns them (those with a default may be left
+            out).
+
+        Returns
+        -------
+        Law
+            The law in scaled units.
+
+        Raises
+        ------
+        ValueError
+            An unknown name, a value that is not a finite real number, or one the law rejects.
+        """
+        return cls.from_values(
+            table_from_si(f"{cls.__name__}.from_si", cls.PARAMETERS, values, scales)
+        )
+
+    def replace(self: LawT, **changes: Any) -> LawT:
+        """A validated copy with some parameters changed (names of the table)."""
+        return type(self).from_values({**self.values(), **changes})
+
+    def pack(self, b: np.ndarray) -> None:
+        """Write the law (kind and ``LP`` entries) into the block ``b``
+        (:mod:`drillstring.model.digital.layout`)."""
+        b[L.B_LAW] = self.KIND
+        b[L.B_LP : L.B_LP + L.N_LP] = 0.0
+        b[L.B_LP + L.LP_RFF] = self.R_ff
 
 
-def sample_output(law: Law, tau: float, state: LawState | None, m: Measurement) -> float:
-    """R - R0 put out at the sample instant ``tau``: ``R_ff`` before ``t_on``, then the law.
-
-    Parameters
-    ----------
-    law : Law
-        The control law.
-    tau : float
-        The sample instant (scaled time).
-    state : tuple or None
-        The law's state; None until the law has been switched on by :func:`sample_update`. At or
-        after ``t_on`` with ``state`` None, the output is that of the state the law would start
-        from now (so the switch-on instant is bumpless whatever order a host calls in).
-    m : Measurement
-        The measurements at ``tau``.
-
-    Returns
-    -------
-    float
-        The torque deviation R - R0 (scaled, eq. (13)), held until the next sample.
-    """
-    if state is None:
-        if tau < law.t_on:
-            return law.R_ff
-        state = law.initial_state(m)
-    return law.output(state, m)
-
-
-def sample_update(
-    law: Law, tau: float, state: LawState | None, m: Measurement, Ts: float
-) -> LawState | None:
-    """The law's state after the sample period [tau, tau + Ts] (measurements ``m`` at tau).
-
-    Before ``t_on`` the state stays None; at the first sample at or after ``t_on`` the law is
-    switched on from the current measurements (``initial_state``) and then updated.
-
-    Parameters
-    ----------
-    law : Law
-        The control law.
-    tau : float
-        The sample instant that starts the period.
-    state : tuple or None
-        The state at ``tau`` (None before switch-on).
-    m : Measurement
-        The measurements at ``tau``.
-    Ts : float
-        The sample period (> 0; checked by the host).
-
-    Returns
-    -------
-    tuple or None
-        The state at ``tau + Ts``.
-    """
-    if state is None:
-        if tau < law.t_on:
-            return None
-        state = law.initial_state(m)
-    return law.update(state, m, Ts)
-
-
-def _si_time(rig: PhysicalParams) -> float:
-    if not isinstance(rig, PhysicalParams):
-        raise TypeError(f"rig must be a PhysicalParams, got {type(rig).__name__}")
-    return rig.t_star
-
-
-def _si_values(
-    values: Mapping[str, Any], required: Sequence[str], optional: Sequence[str], where: str
-) -> dict[str, float]:
-    """The SI values of a law, checked: ``required`` must be there, ``optional`` default to 0."""
-    unknown = sorted(set(values) - set(required) - set(optional))
-    if unknown:
-        known = ", ".join((*required, *optional))
-        raise ValueError(f"{where}: unknown SI value(s) {unknown} (known: {known})")
-    out = {}
-    for key in (*required, *optional):
-        if key not in values and key in required:
-            raise ValueError(f"{where}: missing SI value {key!r}")
-        out[key] = check_real(f"{where} {key}", values.get(key, 0.0))
-    return out
-
-
-def _preset(kp: float, ki: float, e: float) -> float:
-    """The integral that makes ``kp*e + ki*I = 0``: bumpless transfer of a PI law."""
-    return -kp * e / ki if ki > 0.0 else 0.0
+def _tracking(kp: float, ki: float, tracking_time: float) -> float:
+    """The back-calculation tracking time: given, else the integral time kp/ki, else 1."""
+    if tracking_time > 0.0:
+        return tracking_time
+    return kp / ki if kp > 0.0 and ki > 0.0 else 1.0
 
 
 # --------------------------------------------------------------------------------------------
-# PI on the rotary-table speed
+# the PI family on the rotary-table speed
 # --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class SpeedPI:
+class SpeedPI(Law):
     """PI control of the rotary-table speed, set point omega0 (dtheta/dtau = 0).
 
     ``R - R0 = R_ff + kp*e + ki*I`` with the speed error ``e = -dtheta`` and ``I`` the sum of
@@ -312,8 +260,9 @@ class SpeedPI:
     Bumpless transfer: at switch-on ``I`` is preset to ``-kp*e/ki``, so that the torque is
     continuous, ``R - R0 = R_ff`` at that instant, and the integrator then relaxes the speed
     error (with ``ki = 0`` there is no integrator to preset and the torque steps by ``kp*e``).
-    Stiff PI and SoftTorque are this law with different gains
-    (``drillstring.controller.tuning``).
+    While the top drive limits the torque the integral winds up unless ``anti_windup`` says
+    otherwise. Stiff PI and SoftSpeed are this law with different gains
+    (``drillstring.controller.tuning``); it is :class:`ZTorque` without torque feedback.
 
     Parameters
     ----------
@@ -326,135 +275,33 @@ class SpeedPI:
         Feed-forward torque (31): alone before ``t_on``, the bias of the law after it.
     t_on : float
         Switch-on time (scaled).
+    anti_windup : str
+        One of :data:`ANTI_WINDUP`.
+    tracking_time : float
+        Tracking time of back-calculation (0: kp/ki).
     """
 
     kp: float
     ki: float
     R_ff: float = 0.0
     t_on: float = 0.0
+    anti_windup: str = "back-calculation"
+    tracking_time: float = 0.0
+
+    KIND: ClassVar[int] = L.LAW_PI
+    PARAMETERS: ClassVar[tuple[Parameter, ...]] = (*_PI_GAINS, _FEED_FORWARD, _SWITCH_ON,
+                                                      *_WINDUP)  # fmt: skip
 
     def __post_init__(self) -> None:
-        for name in ("kp", "ki"):
-            value = check_real(f"SpeedPI.{name}", getattr(self, name), lower=0.0, strict=False)
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "R_ff", check_real("SpeedPI.R_ff", self.R_ff))
-        object.__setattr__(self, "t_on", check_real("SpeedPI.t_on", self.t_on))
+        self._check_fields()
 
-    def initial_state(self, m: Measurement) -> LawState:
-        """The integral preset for a continuous torque: ``ki*I = -kp*e`` (0 when ``ki = 0``).
-
-        Parameters
-        ----------
-        m : Measurement
-            The measurements at switch-on; only ``dtheta`` is read (``e = -dtheta``).
-
-        Returns
-        -------
-        tuple of 1 float
-            ``(I,)``.
-        """
-        return (_preset(self.kp, self.ki, -m.dtheta),)
-
-    def output(self, state: LawState, m: Measurement) -> float:
-        """``R_ff + kp*e + ki*I`` with ``e = -dtheta`` (eq. (13)'s input R - R0).
-
-        Parameters
-        ----------
-        state : tuple of 1 float
-            ``(I,)``.
-        m : Measurement
-            The measurements; only ``dtheta`` is read.
-
-        Returns
-        -------
-        float
-            R - R0 (scaled, units of C).
-        """
-        return self.R_ff - self.kp * m.dtheta + self.ki * state[0]
-
-    def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """``I <- I + Ts*e`` (forward Euler).
-
-        Parameters
-        ----------
-        state : tuple of 1 float
-            ``(I,)`` at the start of the period.
-        m : Measurement
-            The measurements at the start of the period; only ``dtheta`` is read.
-        Ts : float
-            Sample period (scaled time).
-
-        Returns
-        -------
-        tuple of 1 float
-            ``(I,)`` at the end of the period.
-        """
-        return (state[0] - Ts * m.dtheta,)
-
-    def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """The parameters in SI units (``docs/controllers.md``, "SI form").
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* = sqrt(I1/C) and C (eqs. (15)-(16)).
-
-        Returns
-        -------
-        dict
-            ``kp`` [N m s/rad], ``ki`` [N m/rad], ``R_ff`` [N m], ``t_on`` [s].
-
-        Raises
-        ------
-        TypeError
-            ``rig`` is not a PhysicalParams.
-        """
-        t = _si_time(rig)
-        return {
-            "kp": self.kp * rig.C * t,
-            "ki": self.ki * rig.C,
-            "R_ff": self.R_ff * rig.C,
-            "t_on": self.t_on * t,
-        }
-
-    @classmethod
-    def from_si(cls, rig: PhysicalParams, values: Mapping[str, Any]) -> SpeedPI:
-        """The law from SI parameters, the inverse of :meth:`to_si`.
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* and C.
-        values : mapping
-            ``kp`` [N m s/rad] and ``ki`` [N m/rad], required; ``R_ff`` [N m] and ``t_on`` [s],
-            default 0.
-
-        Returns
-        -------
-        SpeedPI
-            The law in scaled units.
-
-        Raises
-        ------
-        TypeError
-            ``rig`` is not a PhysicalParams.
-        ValueError
-            A key is unknown or missing, or a value is not a finite real or out of range.
-        """
-        t = _si_time(rig)
-        v = _si_values(values, ("kp", "ki"), ("R_ff", "t_on"), "SpeedPI.from_si")
-        return cls(
-            kp=v["kp"] / (rig.C * t), ki=v["ki"] / rig.C, R_ff=v["R_ff"] / rig.C, t_on=v["t_on"] / t
-        )
-
-
-# --------------------------------------------------------------------------------------------
-# Z-Torque: speed loop whose set point is corrected by the measured string torque
-# --------------------------------------------------------------------------------------------
+    def pack(self, b: np.ndarray) -> None:
+        """The compiled PI without torque feedback (``z_gain = 0``, filters at rest)."""
+        _pack_pi(b, self, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
-class ZTorque:
+class ZTorque(Law):
     """Speed PI whose set point is lowered by the filtered string torque over the impedance.
 
     ``e = -dtheta - z_gain*y`` with ``y = LP(HP(torque))`` and ``R - R0 = R_ff + kp*e + ki*I``,
@@ -466,7 +313,8 @@ class ZTorque:
     waves when it matches the string's impedance, ``z_gain = 1``. Both filters are first order
     and discretised exactly for inputs held over a sample period. At switch-on the high-pass is
     at rest on the current torque (output 0), the low-pass at 0 and the integral preset for a
-    continuous torque as in :class:`SpeedPI`.
+    continuous torque as in :class:`SpeedPI`. With ``z_gain = 0`` it is :class:`SpeedPI`, bit
+    for bit (the same compiled law).
 
     Parameters
     ----------
@@ -479,10 +327,8 @@ class ZTorque:
         ``drillstring.controller.tuning.z_torque``).
     omega_lp : float
         Low-pass corner, > 0.
-    R_ff : float
-        Feed-forward torque (31).
-    t_on : float
-        Switch-on time (scaled).
+    R_ff, t_on, anti_windup, tracking_time
+        As :class:`SpeedPI`.
     """
 
     kp: float
@@ -492,176 +338,106 @@ class ZTorque:
     omega_lp: float = 10.0
     R_ff: float = 0.0
     t_on: float = 0.0
+    anti_windup: str = "back-calculation"
+    tracking_time: float = 0.0
+
+    KIND: ClassVar[int] = L.LAW_PI
+    PARAMETERS: ClassVar[tuple[Parameter, ...]] = (
+        *_PI_GAINS,
+        Parameter(
+            "z_gain",
+            "admittance",
+            "Torque feedback of Z-Torque: speed set-point correction per string torque (1/Z: "
+            "the lumped string's impedance matched); 0: the plain speed PI",
+            0.0,
+        ),
+        Parameter("omega_hp", "frequency", "High-pass corner of the torque feedback", 0.0,
+                     strict=True),
+        Parameter("omega_lp", "frequency", "Low-pass corner of the torque feedback", 0.0,
+                     strict=True),
+        _FEED_FORWARD,
+        _SWITCH_ON,
+        *_WINDUP,
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
-        for name in ("kp", "ki", "z_gain"):
-            value = check_real(f"ZTorque.{name}", getattr(self, name), lower=0.0, strict=False)
-            object.__setattr__(self, name, value)
-        for name in ("omega_hp", "omega_lp"):
-            object.__setattr__(
-                self, name, check_real(f"ZTorque.{name}", getattr(self, name), lower=0.0)
-            )
-        object.__setattr__(self, "R_ff", check_real("ZTorque.R_ff", self.R_ff))
-        object.__setattr__(self, "t_on", check_real("ZTorque.t_on", self.t_on))
+        self._check_fields()
 
-    def initial_state(self, m: Measurement) -> LawState:
-        """The state at switch-on: (integral, high-pass state, low-pass output).
+    def pack(self, b: np.ndarray) -> None:
+        """The compiled PI with its torque feedback."""
+        _pack_pi(b, self, self.z_gain, self.omega_hp, self.omega_lp)
 
-        The integral is preset for a continuous torque as in :class:`SpeedPI` (with y = 0,
-        ``e = -dtheta``), the high-pass sits at rest on the current torque (output 0) and the
-        low-pass at 0.
 
-        Parameters
-        ----------
-        m : Measurement
-            The measurements at switch-on; ``dtheta`` and ``torque`` are read.
-
-        Returns
-        -------
-        tuple of 3 float
-            ``(I, torque, 0.0)``.
-        """
-        return (_preset(self.kp, self.ki, -m.dtheta), float(m.torque), 0.0)
-
-    def _error(self, state: LawState, m: Measurement) -> float:
-        return -m.dtheta - self.z_gain * state[2]
-
-    def output(self, state: LawState, m: Measurement) -> float:
-        """``R_ff + kp*e + ki*I`` with the corrected speed error ``e = -dtheta - z_gain*y``.
-
-        Parameters
-        ----------
-        state : tuple of 3 float
-            ``(I, z, y)``: integral, the high-pass's internal low-pass state, filtered torque.
-        m : Measurement
-            The measurements; only ``dtheta`` is read (the torque enters through the state).
-
-        Returns
-        -------
-        float
-            R - R0 (scaled, units of C).
-        """
-        return self.R_ff + self.kp * self._error(state, m) + self.ki * state[0]
-
-    def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """The integral by forward Euler; the filters exactly for the torque held over Ts.
-
-        Parameters
-        ----------
-        state : tuple of 3 float
-            ``(I, z, y)`` at the start of the period.
-        m : Measurement
-            The measurements at the start of the period; ``dtheta`` and ``torque`` are read.
-        Ts : float
-            Sample period (scaled time).
-
-        Returns
-        -------
-        tuple of 3 float
-            ``(I, z, y)`` at the end of the period.
-        """
-        integral, z, y = state
-        hp = m.torque - z
-        a_hp = -math.expm1(-self.omega_hp * Ts)
-        a_lp = -math.expm1(-self.omega_lp * Ts)
-        return (
-            integral + Ts * self._error(state, m),
-            z + a_hp * (m.torque - z),
-            y + a_lp * (hp - y),
-        )
-
-    def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """The parameters in SI units (``docs/controllers.md``, "SI form").
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* = sqrt(I1/C) and C (eqs. (15)-(16)).
-
-        Returns
-        -------
-        dict
-            ``kp`` [N m s/rad], ``ki`` [N m/rad], ``z_gain`` as a speed correction per torque
-            ``z_gain/Z`` [rad/s per N m] with Z = C*t* = sqrt(C*I1) [N m s/rad], ``omega_hp``
-            and ``omega_lp`` [rad/s], ``R_ff`` [N m], ``t_on`` [s].
-
-        Raises
-        ------
-        TypeError
-            ``rig`` is not a PhysicalParams.
-        """
-        t = _si_time(rig)
-        Z = rig.C * t
-        return {
-            "kp": self.kp * Z,
-            "ki": self.ki * rig.C,
-            "z_gain": self.z_gain / Z,
-            "omega_hp": self.omega_hp / t,
-            "omega_lp": self.omega_lp / t,
-            "R_ff": self.R_ff * rig.C,
-            "t_on": self.t_on * t,
-        }
-
-    @classmethod
-    def from_si(cls, rig: PhysicalParams, values: Mapping[str, Any]) -> ZTorque:
-        """The law from SI parameters, the inverse of :meth:`to_si`.
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* and C.
-        values : mapping
-            ``kp``, ``ki``, ``z_gain``, ``omega_hp``, ``omega_lp`` required, ``R_ff`` and
-            ``t_on`` default 0; units as :meth:`to_si` returns them.
-
-        Returns
-        -------
-        ZTorque
-            The law in scaled units.
-
-        Raises
-        ------
-        TypeError
-            ``rig`` is not a PhysicalParams.
-        ValueError
-            A key is unknown or missing, or a value is not a finite real or out of range.
-        """
-        t = _si_time(rig)
-        Z = rig.C * t
-        required = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
-        v = _si_values(values, required, ("R_ff", "t_on"), "ZTorque.from_si")
-        return cls(
-            kp=v["kp"] / Z,
-            ki=v["ki"] / rig.C,
-            z_gain=v["z_gain"] * Z,
-            omega_hp=v["omega_hp"] * t,
-            omega_lp=v["omega_lp"] * t,
-            R_ff=v["R_ff"] / rig.C,
-            t_on=v["t_on"] / t,
-        )
+def _pack_pi(b: np.ndarray, law: SpeedPI | ZTorque, z_gain: float, w_hp: float, w_lp: float):
+    Law.pack(law, b)
+    p = L.B_LP
+    b[p + L.PI_KP] = law.kp
+    b[p + L.PI_KI] = law.ki
+    b[p + L.PI_ZGAIN] = z_gain
+    b[p + L.PI_WHP] = w_hp
+    b[p + L.PI_WLP] = w_lp
+    b[p + L.PI_AW] = ANTI_WINDUP.index(law.anti_windup)
+    b[p + L.PI_TT] = _tracking(law.kp, law.ki, law.tracking_time)
 
 
 # --------------------------------------------------------------------------------------------
 # the paper's law, sampled
 # --------------------------------------------------------------------------------------------
 
+_GAIN = tuple(f"F[{i}]" for i in range(1, 5))
+_X = ("phi - phi_ref", "dphi", "phi - theta - K0 - twist_ref", "dtheta")
+
 
 @dataclass(frozen=True)
-class SampledAffine:
+class SampledAffine(Law):
     """The state feedback with feed-forward (29)-(31) of an AffineFeedback, at sample instants.
 
     The state is the pair of references (phi_ref, twist_ref) latched at switch-on by
     :func:`~drillstring.model.control.switch_on_references`; the output is
     :func:`~drillstring.model.control.feedback_torque` of the measured phi, dphi, theta, dtheta,
-    the same function the continuous monolithic solver and the controller FMU evaluate.
+    the same function the continuous monolithic solver evaluates. While the top drive limits the
+    torque, ``on_saturation = "freeze-angle"`` holds the bit-angle state x1 = phi - phi_ref (the
+    angle reference moves with the bit), so that the law does not try to make up afterwards the
+    revolutions the bit lost while the torque was limited (conditional integration of x1, the
+    integral of the bit-speed error); ``"none"`` is the paper's law.
 
     Parameters
     ----------
     feedback : AffineFeedback
         Gain, K0, R_ff, t_on and latch of the law.
+    on_saturation : str
+        One of :data:`SATURATION`.
     """
 
     feedback: AffineFeedback
+    on_saturation: str = "none"
+
+    KIND: ClassVar[int] = L.LAW_AFFINE
+    PARAMETERS: ClassVar[tuple[Parameter, ...]] = (
+        *(
+            Parameter(name, dim, f"State-feedback gain on x{i + 1} = {x} (Theorem 1)")
+            for i, (name, dim, x) in enumerate(
+                zip(_GAIN, ("stiffness", "impedance", "stiffness", "impedance"), _X, strict=True)
+            )
+        ),
+        Parameter("K0", "angle", "Nominal twist offset K0 of x3 (eqs. (29)-(30))"),
+        _FEED_FORWARD,
+        _SWITCH_ON,
+        Parameter(
+            "latch",
+            "1",
+            'Bumpless switch-on (docs/model.md, "Bumpless switch-on"): none (the paper\'s law), '
+            "angle (phi_ref = phi at t_on), angle+twist (also twist_ref)",
+            choices=LATCH_MODES,
+        ),
+        Parameter(
+            "on_saturation",
+            "1",
+            "While the top drive limits the torque: none (the paper's law) or freeze-angle (x1 "
+            "held, lost revolutions are not made up)",
+            choices=SATURATION,
+        ),
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.feedback, AffineFeedback):
@@ -669,178 +445,89 @@ class SampledAffine:
                 f"SampledAffine.feedback must be an AffineFeedback, got "
                 f"{type(self.feedback).__name__}"
             )
+        check_choice("SampledAffine.on_saturation", self.on_saturation, SATURATION)
 
     @property
-    def R_ff(self) -> float:
+    def R_ff(self) -> float:  # type: ignore[override]
         """Feed-forward torque (31) of the feedback (scaled, units of C)."""
         return self.feedback.R_ff
 
     @property
-    def t_on(self) -> float:
+    def t_on(self) -> float:  # type: ignore[override]
         """Switch-on time of the feedback (scaled)."""
         return self.feedback.t_on
 
-    def initial_state(self, m: Measurement) -> LawState:
-        """The references (phi_ref, twist_ref) latched by the feedback's ``latch`` mode.
-
-        See :func:`~drillstring.model.control.switch_on_references` and ``docs/model.md``,
-        "Bumpless switch-on".
-
-        Parameters
-        ----------
-        m : Measurement
-            The measurements at switch-on; ``phi``, ``dphi`` must be finite, ``theta`` is read.
-
-        Returns
-        -------
-        tuple of 2 float
-            ``(phi_ref, twist_ref)``.
-
-        Raises
-        ------
-        ValueError
-            ``m.phi`` or ``m.dphi`` is not finite (the law needs the downhole measurements).
-        """
-        if not (math.isfinite(m.phi) and math.isfinite(m.dphi)):
-            raise ValueError(
-                f"the paper's law needs the bit angle and speed, got phi={m.phi!r}, dphi={m.dphi!r}"
-            )
+    def values(self) -> dict[str, Any]:
+        """``F[1]`` ... ``F[4]``, ``K0``, ``R_ff``, ``t_on``, ``latch``, ``on_saturation``."""
         f = self.feedback
-        phi_ref, twist_ref = switch_on_references(f.latch_code, m.phi, m.theta, f.K0)
-        return (float(phi_ref), float(twist_ref))
-
-    def output(self, state: LawState, m: Measurement) -> float:
-        """``R_ff + F x`` of (29)-(31) with the latched references.
-
-        Parameters
-        ----------
-        state : tuple of 2 float
-            ``(phi_ref, twist_ref)``.
-        m : Measurement
-            The measurements; ``phi``, ``dphi``, ``theta``, ``dtheta`` are read.
-
-        Returns
-        -------
-        float
-            R - R0 (scaled, units of C).
-        """
-        f = self.feedback
-        return float(
-            feedback_torque(
-                0.0, m.phi, m.dphi, m.theta, m.dtheta, f.F, f.K0, f.R_ff, 0.0, state[0], state[1]
-            )
-        )
-
-    def update(self, state: LawState, m: Measurement, Ts: float) -> LawState:
-        """The references stay as latched: the state is returned unchanged.
-
-        Parameters
-        ----------
-        state : tuple of 2 float
-            ``(phi_ref, twist_ref)``.
-        m : Measurement
-            Not read.
-        Ts : float
-            Not read.
-
-        Returns
-        -------
-        tuple of 2 float
-            ``state``.
-        """
-        return state
-
-    def to_si(self, rig: PhysicalParams) -> dict[str, Any]:
-        """The parameters in SI units (``docs/controllers.md``, "SI form").
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* = sqrt(I1/C) and C (eqs. (15)-(16)).
-
-        Returns
-        -------
-        dict
-            ``F`` = (F1 [N m/rad], F2 [N m s/rad], F3 [N m/rad], F4 [N m s/rad]), ``K0`` [rad]
-            (an angle, unchanged by the scaling), ``R_ff`` [N m], ``t_on`` [s], ``latch`` (str).
-
-        Raises
-        ------
-        TypeError
-            ``rig`` is not a PhysicalParams.
-        """
-        t = _si_time(rig)
-        F1, F2, F3, F4 = self.feedback.F
-        C = rig.C
         return {
-            "F": (F1 * C, F2 * C * t, F3 * C, F4 * C * t),
-            "K0": self.feedback.K0,
-            "R_ff": self.feedback.R_ff * C,
-            "t_on": self.feedback.t_on * t,
-            "latch": self.feedback.latch,
+            **dict(zip(_GAIN, f.F, strict=True)),
+            "K0": f.K0,
+            "R_ff": f.R_ff,
+            "t_on": f.t_on,
+            "latch": f.latch,
+            "on_saturation": self.on_saturation,
         }
 
     @classmethod
-    def from_si(cls, rig: PhysicalParams, values: Mapping[str, Any]) -> SampledAffine:
-        """The law from SI parameters, the inverse of :meth:`to_si`.
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            Gives t* and C.
-        values : mapping
-            ``F`` (4 entries) and ``K0`` required, ``R_ff`` and ``t_on`` default 0, ``latch``
-            default ``"none"``; units as :meth:`to_si` returns them.
-
-        Returns
-        -------
-        SampledAffine
-            The law in scaled units.
-
-        Raises
-        ------
-        TypeError
-            ``rig`` is not a PhysicalParams.
-        ValueError
-            A key is unknown or missing, ``F`` has not 4 entries, a value is not a finite real,
-            or ``latch`` is not one of :data:`~drillstring.model.control.LATCH_MODES`.
-        """
-        t = _si_time(rig)
-        rest = {k: v for k, v in values.items() if k not in ("F", "latch")}
-        v = _si_values(rest, ("K0",), ("R_ff", "t_on"), "SampledAffine.from_si")
-        if "F" not in values:
-            raise ValueError("SampledAffine.from_si: missing SI value 'F'")
-        F = tuple(values["F"])
-        if len(F) != 4:
-            raise ValueError(f"SampledAffine.from_si: F must have 4 entries, got {F!r}")
-        F = tuple(check_real(f"SampledAffine.from_si F[{i}]", f) for i, f in enumerate(F))
-        C = rig.C
+    def from_values(cls, values: Mapping[str, Any]) -> SampledAffine:
+        """The law of ``F[1]`` ... ``F[4]`` and ``K0`` (required), ``R_ff`` and ``t_on``
+        (default 0), ``latch`` (default "none") and ``on_saturation`` (default "none")."""
+        check_names(cls.__name__, cls.PARAMETERS, values)
+        missing = [k for k in (*_GAIN, "K0") if k not in values]
+        if missing:
+            raise ValueError(f"SampledAffine: missing parameter(s) {missing}")
         feedback = AffineFeedback(
-            F=(F[0] / C, F[1] / (C * t), F[2] / C, F[3] / (C * t)),
-            K0=v["K0"],
-            R_ff=v["R_ff"] / C,
-            t_on=v["t_on"] / t,
+            F=tuple(values[k] for k in _GAIN),  # type: ignore[arg-type]
+            K0=values["K0"],
+            R_ff=values.get("R_ff", 0.0),
+            t_on=values.get("t_on", 0.0),
             latch=values.get("latch", LATCH_MODES[0]),
         )
-        return cls(feedback)
+        return cls(feedback, on_saturation=values.get("on_saturation", SATURATION[0]))
+
+    def pack(self, b: np.ndarray) -> None:
+        """The compiled affine law: F, K0, R_ff, latch and saturation codes."""
+        Law.pack(self, b)
+        f = self.feedback
+        p = L.B_LP
+        b[p + L.AF_F : p + L.AF_F + 4] = f.F
+        b[p + L.AF_K0] = f.K0
+        b[p + L.AF_LATCH] = f.latch_code
+        b[p + L.AF_SAT] = SATURATION.index(self.on_saturation)
 
 
-_LAW_CLASSES: dict[str, type] = {
+@dataclass(frozen=True)
+class FeedForward(Law):
+    """The feed-forward alone: R - R0 = R_ff (the open loop of Figs. 5-6, eq. (31))."""
+
+    R_ff: float = 0.0
+    t_on: float = 0.0
+
+    KIND: ClassVar[int] = L.LAW_NONE
+    PARAMETERS: ClassVar[tuple[Parameter, ...]] = (_FEED_FORWARD, _SWITCH_ON)
+
+    def __post_init__(self) -> None:
+        self._check_fields()
+
+
+_LAW_CLASSES: dict[str, type[Law]] = {
     "SpeedPI": SpeedPI,
     "ZTorque": ZTorque,
     "SampledAffine": SampledAffine,
+    "FeedForward": FeedForward,
 }
 
 
-def law_from_si(kind: str, rig: PhysicalParams, values: Mapping[str, Any]) -> Law:
+def law_from_si(kind: str, scales: Scales, values: Mapping[str, Any]) -> Law:
     """A law from its SI parameters (``docs/controllers.md``, "SI form").
 
     Parameters
     ----------
     kind : str
-        The class name: ``"SpeedPI"``, ``"ZTorque"`` or ``"SampledAffine"``.
-    rig : PhysicalParams
-        Gives t* and C (eqs. (15)-(16)).
+        The class name: ``"SpeedPI"``, ``"ZTorque"``, ``"SampledAffine"`` or ``"FeedForward"``.
+    scales : PhysicalParams or any object with ``C`` and ``t_star``
+        The rig's scales (eqs. (15)-(16)).
     values : mapping
         The SI parameters, as the class's ``to_si`` returns them.
 
@@ -854,8 +541,8 @@ def law_from_si(kind: str, rig: PhysicalParams, values: Mapping[str, Any]) -> La
     ValueError
         ``kind`` is unknown, or the class's ``from_si`` rejects ``values``.
     TypeError
-        ``rig`` is not a PhysicalParams.
+        ``scales`` lacks C or t_star.
     """
     if kind not in _LAW_CLASSES:
         raise ValueError(f"unknown law kind {kind!r} (known: {', '.join(_LAW_CLASSES)})")
-    return _LAW_CLASSES[kind].from_si(rig, values)  # type: ignore[attr-defined, no-any-return]
+    return _LAW_CLASSES[kind].from_si(scales, values)

@@ -4,12 +4,13 @@ The FMUs' front layer (``fmu_src/fmi_front/drillstring_fmi2.c``) serves ``fmi2Se
 inputs, ``fmi2DoStep`` and ``fmi2GetReal``/``fmi2GetInteger`` of the outputs without entering
 Python: it calls the compiled functions below (numba ``cfunc``, their ``.address``), which run the
 same compiled kernel (:func:`drillstring.model.kernel.stepper.advance`; its ``write_sample`` for
-the outputs), the same SI conversions (:mod:`drillstring.model.units`) and the same control law
-(:func:`drillstring.model.control.feedback_torque`, :func:`~drillstring.model.control.
-switch_on_references`) as the Python path of the FMUs, so both give the same bits.
+the outputs), the same SI conversions (:mod:`drillstring.model.units`) and the same digital
+controller (:mod:`drillstring.model.digital.block`) as the Python path of the FMUs, so both give
+the same bits.
 
 Every function takes ``(io, args, t, h)``: ``io`` is a float64 block shared by the Python slave
-and the front layer (layout: the ``IO_*`` and ``PLANT_*``/``CTRL_*`` slots below), ``args`` the
+and the front layer (layout: the ``IO_*`` and ``PLANT_*`` slots below; the controller's is the
+digital controller's block, :mod:`drillstring.model.digital.layout`), ``args`` the
 addresses of the kernel's arrays (:class:`~drillstring.model.kernel.state.KernelState` order,
 for the plant; unused by the controller). A step returns :data:`DONE` (served: the outputs are in
 ``io``), :data:`NOT_STARTED` (nothing changed: the Python path serves the call, with its checks
@@ -31,16 +32,16 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.model import control as _control
 from drillstring.model import params as _params
 from drillstring.model import units as _units
+from drillstring.model.digital import block as _block
+from drillstring.model.digital import layout as _layout
 from drillstring.model.kernel import jit as _jit
 from drillstring.model.kernel import state as S
 from drillstring.model.kernel import stepper as _stepper
 
 __all__ = [
     "AVAILABLE",
-    "CTRL_IO_SIZE",
     "DONE",
     "NOT_STARTED",
     "PLANT_IO_SIZE",
@@ -88,21 +89,14 @@ _BOUNCE_SI = PLANT_OUT + PLANT_SI_KEYS.index("bit_bounce")
 _N_SI = len(_units.PLANT_SI)
 assert S.OUTPUT_COLUMNS == ("tau", *PLANT_SCALED_KEYS[: S.OUT_SIZE - 1]), "a kernel sample's layout"
 
-# --- the controller's io ------------------------------------------------------------------------
-CTRL_SI = IO_BASE  # 1: SI (errors from the set point Omega0), 0: scaled
-CTRL_IN = IO_BASE + 1  # the four measured inputs
-CTRL_OUT = IO_BASE + 5  # the output
-CTRL_LATCHED = IO_BASE + 6
-CTRL_REF = IO_BASE + 7  # phi_ref, twist_ref
-CTRL_ENABLED = IO_BASE + 9
-CTRL_TON = IO_BASE + 10  # the law's t_on
-CTRL_TON_EFF = IO_BASE + 11  # t_on, or inf when the feedback is disabled
-CTRL_F = IO_BASE + 12  # F[0..3]
-CTRL_K0 = IO_BASE + 16
-CTRL_RFF = IO_BASE + 17
-CTRL_LATCH = IO_BASE + 18  # latch code
-CTRL_OMEGA0 = IO_BASE + 19  # set point (SI)
-CTRL_IO_SIZE = IO_BASE + 20
+# --- the controller's io: the block of drillstring.model.digital.layout (its first four entries are
+# the IO_* slots above)
+assert (_layout.B_STALE, _layout.B_RESUME, _layout.B_TIME, _layout.B_NSTEPS) == (
+    IO_STALE,
+    IO_RESUME,
+    IO_TIME,
+    IO_NSTEPS,
+), "the controller's block starts with the io slots every FMU has"
 
 _HERE = Path(__file__).resolve()
 #: Every source the functions below compile (the kernel's, and the conversions and the law).
@@ -187,12 +181,13 @@ def plant_functions() -> tuple[int, int]:
 
 
 def controller_functions() -> tuple[int, int]:
-    """(step, outputs) addresses of the controller's native functions.
+    """(step, outputs) addresses of the controller FMUs' native functions.
 
-    The outputs function evaluates the law (29)-(31)
-    (:func:`~drillstring.model.control.feedback_torque`); the step latches the switch-on
-    references (``docs/model.md``, "Bumpless switch-on"). Both are compiled (or loaded from
-    numba's cache) at the first call.
+    The controller's io block is the digital controller's block
+    (:mod:`drillstring.model.digital.layout`); the step is
+    :func:`drillstring.model.digital.block.fmu_step`, the outputs function
+    :func:`~drillstring.model.digital.block.fmu_output`, the very functions the controller FMU's
+    Python path calls. Both are compiled (or loaded from numba's cache) at the first call.
 
     Returns
     -------
@@ -221,7 +216,6 @@ if AVAILABLE:
         _units.si_plant_values,
         _units.si_to_tau,
         _units.si_torque_deviation,
-        _units.setpoint_errors,
     ):
         register_jitable(_f)
     _SIG = types.int32(types.CPointer(types.float64), types.CPointer(types.voidptr),
@@ -294,41 +288,14 @@ if AVAILABLE:
         io[o + 2] = float(I[S.I_NTSTICK])
         return DONE
 
-    @numba.njit(cache=True, nogil=True)
-    def measured(io):
-        a, b, c, d = io[CTRL_IN], io[CTRL_IN + 1], io[CTRL_IN + 2], io[CTRL_IN + 3]
-        if io[CTRL_SI] != 0.0:
-            return _units.setpoint_errors(io[CTRL_OMEGA0], io[IO_TIME], a, b, c, d)
-        return a, b, c, d
-
-    @numba.njit(cache=True, nogil=True)
-    def candidate_references(io):
-        phi, _, theta, _ = measured(io)
-        return _control.switch_on_references(int(io[CTRL_LATCH]), phi, theta, io[CTRL_K0])
-
     def ctrl_outputs(io_p, args, t, h):
-        # TorsionalController.output_values
-        io = carray(io_p, (CTRL_IO_SIZE,))
-        if io[CTRL_LATCHED] != 0.0:
-            phi_ref, twist_ref = io[CTRL_REF], io[CTRL_REF + 1]
-        else:
-            phi_ref, twist_ref = candidate_references(io)
-        phi, dphi, theta, dtheta = measured(io)
-        F = (io[CTRL_F], io[CTRL_F + 1], io[CTRL_F + 2], io[CTRL_F + 3])
-        io[CTRL_OUT] = _control.feedback_torque(
-            io[IO_TIME], phi, dphi, theta, dtheta, F, io[CTRL_K0], io[CTRL_RFF],
-            io[CTRL_TON_EFF], phi_ref, twist_ref,
-        )  # fmt: skip
+        # ControllerFmu.output_values: the block's fmu_output
+        _block.fmu_output(carray(io_p, (_layout.B_SIZE,)))
         return DONE
 
     def ctrl_step(io_p, args, t, h):
-        # TorsionalController.advance
-        io = carray(io_p, (CTRL_IO_SIZE,))
-        if io[CTRL_LATCHED] == 0.0 and io[CTRL_ENABLED] != 0.0 and t >= io[CTRL_TON]:
-            phi_ref, twist_ref = candidate_references(io)
-            io[CTRL_REF] = phi_ref
-            io[CTRL_REF + 1] = twist_ref
-            io[CTRL_LATCHED] = 1.0
+        # ControllerFmu.advance: the block's fmu_step
+        _block.fmu_step(carray(io_p, (_layout.B_SIZE,)), t, h)
         return DONE
 
     _ENTRY_POINTS.update(plant_step=plant_step, ctrl_outputs=ctrl_outputs, ctrl_step=ctrl_step)

@@ -1,49 +1,61 @@
-"""The sampled closed loop: a digital control law with zero-order hold on the monolithic engine.
+"""The sampled closed loop: a digital controller with zero-order hold on the monolithic engine.
 
 An industrial top-drive controller is digital. At each sample instant tau_k = k*Ts it reads the
 measurements, puts out R - R0 and holds it until tau_k + Ts; this is exactly what a controller
 FMU does under a fixed-step master with macro step Ts. :func:`simulate_sampled` runs that loop
-on :class:`~drillstring.model.engine.Engine`: the law (:mod:`drillstring.model.laws`) is
-evaluated by :func:`~drillstring.model.laws.sample_output` and
-:func:`~drillstring.model.laws.sample_update`, the engine holds the torque
-(:meth:`~drillstring.model.engine.Engine.set_input`) and integrates over the period
-(:meth:`~drillstring.model.engine.Engine.advance`). The paper's law evaluated continuously stays
-the monolithic path of :func:`drillstring.model.simulate.simulate`; its sampled form
+on the engine's kernel with the controller's compiled sample
+(:mod:`drillstring.model.digital.loop`): the same code the controller FMUs run, without Python
+between the samples. The paper's law evaluated continuously stays the monolithic path of
+:func:`drillstring.model.simulate.simulate`; its sampled form
 (:class:`~drillstring.model.laws.SampledAffine`) converges to it as Ts -> 0, to first order.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from drillstring.model.digital.controller import DigitalController
+from drillstring.model.digital.loop import EXTRA_COLUMNS, ROW_SIZE, run_sampled_from
 from drillstring.model.engine import Engine, EngineOptions, InitialState, Status
 from drillstring.model.experiments import DEFAULT_DT_OUT
-from drillstring.model.laws import Law, measure, sample_output, sample_update
+from drillstring.model.laws import Law
 from drillstring.model.params import ScaledParams
 from drillstring.model.prehistory import HistoryFunction
 from drillstring.model.simulate import COLUMNS, SimulationResult
 from drillstring.validation import check_real
 
-__all__ = ["DEFAULT_TS", "SampledResult", "sample_count", "simulate_sampled"]
+__all__ = ["DEFAULT_TS", "SAMPLED_COLUMNS", "SampledResult", "sample_count", "simulate_sampled"]
 
 #: Default sample period of a digital law: the co-simulation's macro step (scaled time).
 DEFAULT_TS = 1e-3
+#: Columns of a sampled run: the engine's, then the top drive's over the samples since the
+#: previous row (sample-exact extremes of the applied torque R/C and the power, and how many
+#: samples the drive limited; :mod:`drillstring.model.digital.loop`).
+SAMPLED_COLUMNS = (*COLUMNS, *EXTRA_COLUMNS)
 
 
 @dataclass
 class SampledResult(SimulationResult):
     """A :class:`~drillstring.model.simulate.SimulationResult` of a sampled loop.
 
-    ``R_minus_R0`` is the torque the law put out and the engine held (the value at a row's
-    time is the one held from that instant on). ``Ts`` is the sample period and ``law`` the law.
+    ``R_minus_R0`` is the torque the controller applied and the engine held (the value at a row's
+    time is the one held from that instant on); the columns ``R_max``, ``R_min`` (absolute
+    applied torque R/C), ``P_max`` (|R Omega|) and ``n_saturated`` cover the samples since the
+    previous row. ``Ts`` is the sample period and ``controller`` the digital controller.
     """
 
     Ts: float = DEFAULT_TS
-    law: Any = None
+    controller: Any = None
+
+    @property
+    def law(self) -> Law:
+        """The controller's law."""
+        return self.controller.law
 
 
 def sample_count(tau: float, Ts: float, what: str) -> int:
@@ -76,7 +88,7 @@ def sample_count(tau: float, Ts: float, what: str) -> int:
 
 def simulate_sampled(
     params: ScaledParams,
-    law: Law,
+    controller: DigitalController | Law,
     tau_end: float,
     Ts: float = DEFAULT_TS,
     *,
@@ -85,18 +97,18 @@ def simulate_sampled(
     options: EngineOptions | None = None,
     dt_out: float = DEFAULT_DT_OUT,
 ) -> SampledResult:
-    """Simulate the full model (11)-(14), (17) under a digital law with zero-order hold.
+    """Simulate the full model (11)-(14), (17) under a digital controller with zero-order hold.
 
-    At each sample instant tau_k = k*Ts (k = 0, 1, ...): the measurements of the state
-    (:func:`~drillstring.model.laws.measure`), the law's output held over [tau_k, tau_k + Ts)
-    as the input R - R0 of (13), the law's state update, the engine's advance to tau_k + Ts.
+    At each sample instant tau_k = k*Ts (k = 0, 1, ...): the controller's sample of the plant's
+    state (sensing, law, top drive), its applied torque held over [tau_k, tau_k + Ts) as the input
+    R - R0 of (13), the controller's state update, the engine's advance to tau_k + Ts.
 
     Parameters
     ----------
     params : ScaledParams
-        The scaled parameter set.
-    law : Law
-        A law of :mod:`drillstring.model.laws` (its ``t_on`` is the switch-on time).
+        The scaled parameter set (also the controller's operating point: omega0, R0, rho).
+    controller : DigitalController or Law
+        The controller; a law alone runs with exact measurements and no top-drive limits.
     tau_end : float
         End of the run, a multiple of ``Ts``.
     Ts : float
@@ -115,38 +127,55 @@ def simulate_sampled(
     -------
     SampledResult
         Rows every ``dt_out`` (and at an early stop), events, counters and status.
+
+    Raises
+    ------
+    ValueError
+        A time that is not a positive multiple of ``Ts``; an observer sampled with another
+        period than the one it was discretised with.
     """
+    if isinstance(controller, Law):
+        controller = DigitalController(controller)
+    if not isinstance(controller, DigitalController):
+        raise TypeError(f"controller must be a DigitalController or a Law, got {controller!r}")
     Ts = check_real("Ts", Ts, lower=0.0)
     tau_end = check_real("tau_end", tau_end, lower=0.0)
     n = sample_count(tau_end, Ts, "tau_end")
     every = sample_count(check_real("dt_out", dt_out, lower=0.0), Ts, "dt_out")
     if every < 1:
         raise ValueError(f"dt_out = {dt_out!r} must be at least the sample period Ts = {Ts!r}")
+    obs = controller.sensing.observer
+    if controller.sensing.downhole == "observer" and obs is not None:
+        if not math.isclose(obs.Ts, Ts, rel_tol=1e-12):
+            raise ValueError(
+                f"the observer was discretised with Ts = {obs.Ts!r}, the loop samples with "
+                f"Ts = {Ts!r}"
+            )
     engine = Engine(params, options=options, initial=initial, history=history)
-    rows = np.empty((n // every + 2, len(COLUMNS)))
-    n_rows = 0
-    state = None
+    block = controller.block(params)
+    rows = np.empty((n // every + 2, ROW_SIZE))
+    acc = np.array([-math.inf, math.inf, 0.0, 0.0])
+    k, i = 0, 0
     status = Status("ok", "", 0.0)
-    for k in range(n + 1):
-        tau = k * Ts
-        m = measure(engine.perturbation())
-        engine.set_input(sample_output(law, tau, state, m))
-        if k % every == 0 or k == n:
-            rows[n_rows] = _row(engine)
-            n_rows += 1
-        if k == n:
+    while True:
+        st, k, i = run_sampled_from(*engine.kernel_arrays(), block, k, n, Ts, every, rows, i, acc)
+        st = int(st)
+        if st == 0:
             break
-        state = sample_update(law, tau, state, m, Ts)
-        # tau_k + Ts, not (k + 1)*Ts: the end a unit reaches when a fixed-step master steps
-        # it from t_k by Ts (they differ by rounding), so that an FMU host can match it exactly
-        status = engine.advance(tau + Ts)
+        # what needs Python (a buffer to drain or grow, or the stop's status): the engine
+        # finishes the advance of sample k, then the loop goes on from k + 1
+        status = engine.finish_advance(k * Ts + Ts, st)
         if not status.ok:
-            if engine.tau > rows[n_rows - 1, 0]:
-                rows[n_rows] = _row(engine)
-                n_rows += 1
+            if i == 0 or engine.tau > rows[i - 1, 0]:
+                rows[i, : len(COLUMNS)] = _row(engine)
+                rows[i, len(COLUMNS) :] = acc
+                i += 1
             break
-    rows = rows[:n_rows]
-    data = {c: rows[:, j].copy() for j, c in enumerate(COLUMNS)}
+        k += 1
+        if k > n:  # pragma: no cover - the loop returns at k == n
+            break
+    rows = rows[:i]
+    data = {c: rows[:, j].copy() for j, c in enumerate(SAMPLED_COLUMNS)}
     return SampledResult(
         params=params,
         options=engine.options,
@@ -155,7 +184,7 @@ def simulate_sampled(
         status=status,
         counters=engine.counters,
         Ts=Ts,
-        law=law,
+        controller=controller,
     )
 
 

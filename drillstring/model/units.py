@@ -27,22 +27,13 @@ bit is at t = 0 of the nominal motion. The rate of penetration is the mean axial
 over the last blade passage (one delay t_n): V0 in the nominal motion, while the axial bit
 velocity itself stops and reverses in axial stick-slip.
 
-The controller of Section V, R - R0 = R_ff + F x with x = [phi - phi_ref, dphi/dtau,
-phi - theta - K0 - twist_ref, dtheta/dtau] (29)-(31), reads in SI (:class:`PhysicalFeedback`)::
-
-    R = R_ff_SI + F1_SI (e_phi - phi_ref) + F2_SI de_phi
-        + F3_SI (e_phi - e_theta - K0_SI - twist_ref) + F4_SI de_theta
-
-with the errors from the speed set point Omega0, e_phi = Phi_SI - Omega0 t,
-de_phi = dPhi_SI/dt - Omega0, e_theta = Theta_SI - Omega0 t, de_theta = dTheta_SI/dt - Omega0,
-and the gains::
-
-    F1_SI = C F1 [N m/rad]    F2_SI = C t* F2 [N m s/rad]
-    F3_SI = C F3 [N m/rad]    F4_SI = C t* F4 [N m s/rad]
-    K0_SI = K0 - R0/C [rad]   R_ff_SI = C (R0/C + R_ff) [N m]    t_on_SI = t* t_on [s]
-
-(e_phi = phi, e_phi - e_theta = phi - theta - R0/C, de_phi = dphi/t*, de_theta = dtheta/t*).
-The references phi_ref, twist_ref are angles, the same in both.
+A parameter of a control law, a top drive or a sensor converts by a pure scale factor: its
+:class:`Dimension` (:data:`DIMENSIONS`) gives the exponents of C (torque) and t* (time) in
+``value_SI = value * C**torque * t***time``, so every law has one SI conversion, driven by its
+table of parameters (:mod:`drillstring.model.laws`). Offsets appear only where a total quantity
+meets a perturbation: the angles (Omega0 t and the nominal twist R0/C), the speeds (Omega0), the
+table torque (R0); the controller FMUs convert their connectors there
+(:mod:`drillstring.model.digital.block`), the plant FMU by :func:`si_plant_values`.
 
 ``docs/si_fmus.md`` has these tables, how well the two unit systems agree and where they are
 used. :data:`UNITS` defines every unit the SI FMUs and the SSP packages use, by the exponents of the
@@ -57,20 +48,19 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from drillstring.model.control import LATCH_MODES, AffineFeedback
 from drillstring.model.engine import InitialState
 from drillstring.model.params import PhysicalParams, ScaledParams, weight_on_bit
-from drillstring.validation import check_choice, check_real
 
 __all__ = [
     "BASE_UNITS",
     "DisplayUnit",
+    "DIMENSIONS",
+    "Dimension",
     "PLANT_SI",
-    "PhysicalFeedback",
     "SIScaling",
     "UNITS",
     "UnitDef",
-    "setpoint_errors",
+    "si_scale",
     "si_plant_values",
     "si_to_tau",
     "si_torque_deviation",
@@ -147,8 +137,92 @@ UNITS: dict[str, UnitDef] = {
         UnitDef("N.m.s/rad", {"kg": 1, "m": 2, "s": -1, "rad": -1}),
         UnitDef("rad/(N.m.s)", {"kg": -1, "m": -2, "s": 1, "rad": 1}),
         UnitDef("Pa", {"kg": 1, "m": -1, "s": -2}, (DisplayUnit("MPa", 1e-6),)),
+        UnitDef("W", {"kg": 1, "m": 2, "s": -3}, (DisplayUnit("kW", 1e-3),)),
+        UnitDef("N.m/s", {"kg": 1, "m": 2, "s": -3}, (DisplayUnit("kN.m/s", 1e-3),)),
     )
 }
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """The dimension of a parameter in the scales of Section II: ``value_SI = value *
+    C**torque * t***time * L***length`` (angles are the same in both unit systems, eq. (10)).
+
+    Attributes
+    ----------
+    name : str
+        The key in :data:`DIMENSIONS`.
+    torque, time, length : int
+        Exponents of the torque scale C [N m/rad], the time scale t* [s] and the length scale
+        L* [m].
+    unit : str
+        The SI unit (a key of :data:`UNITS`); ``display`` a display unit of it, or None.
+    """
+
+    name: str
+    torque: int
+    time: int
+    unit: str
+    display: str | None = None
+    length: int = 0
+
+
+#: Every dimension a law, a top drive or a sensor parameter has.
+DIMENSIONS: dict[str, Dimension] = {
+    d.name: d
+    for d in (
+        Dimension("1", 0, 0, "1"),
+        Dimension("time", 0, 1, "s"),
+        Dimension("angle", 0, 0, "rad"),
+        Dimension("speed", 0, -1, "rad/s", "rpm"),
+        Dimension("frequency", 0, -1, "rad/s"),
+        Dimension("torque", 1, 0, "N.m", "kN.m"),
+        Dimension("torque rate", 1, -1, "N.m/s", "kN.m/s"),
+        Dimension("power", 1, -1, "W", "kW"),
+        Dimension("stiffness", 1, 0, "N.m/rad"),  # torque per angle
+        Dimension("impedance", 1, 1, "N.m.s/rad"),  # torque per speed
+        Dimension("admittance", -1, -1, "rad/(N.m.s)"),  # speed per torque
+        Dimension("inertia", 1, 2, "kg.m2"),
+        Dimension("length", 0, 0, "m", "mm", length=1),
+        Dimension("velocity", 0, -1, "m/s", "mm/s", length=1),
+    )
+}
+
+
+def si_scale(dimension: str, C: float, t_star: float, L_star: float | None = None) -> float:
+    """The factor from scaled to SI values of a parameter of ``dimension``.
+
+    Parameters
+    ----------
+    dimension : str
+        A key of :data:`DIMENSIONS`.
+    C : float
+        Torsional stiffness of the string [N m/rad] (the torque scale, eq. (16)).
+    t_star : float
+        Characteristic time t* = sqrt(I1/C) [s] (Section II).
+    L_star : float, optional
+        Characteristic length L* = 2C/(eps a^2) [m]; needed for a dimension with a length.
+
+    Returns
+    -------
+    float
+        ``C**torque * t_star**time * L_star**length``: SI value = scaled value times this.
+
+    Raises
+    ------
+    ValueError
+        ``dimension`` is not a key of :data:`DIMENSIONS`, or it has a length and no ``L_star``
+        is given.
+    """
+    d = DIMENSIONS.get(dimension)
+    if d is None:
+        raise ValueError(f"unknown dimension {dimension!r} (known: {', '.join(DIMENSIONS)})")
+    scale = C**d.torque * t_star**d.time
+    if d.length:
+        if L_star is None:
+            raise ValueError(f"dimension {dimension!r} needs the length scale L_star")
+        scale *= L_star**d.length
+    return scale
 
 
 @dataclass(frozen=True)
@@ -189,7 +263,7 @@ PLANT_SI: tuple[Quantity, ...] = (
 
 
 # The conversions of the module docstring as plain arithmetic on floats (or numpy arrays), written
-# once: SIScaling and PhysicalFeedback call them, and drillstring.model.native compiles the same
+# once: SIScaling calls them, and drillstring.model.native compiles the same
 # functions into the FMUs' native step, so that both give the same bits.
 
 
@@ -290,38 +364,6 @@ def si_plant_values(
         d_si / delay,
         g,
     )
-
-
-def setpoint_errors(
-    Omega0: float, t: float, bit_angle: float, bit_speed: float, table_angle: float,
-    table_speed: float,
-) -> tuple[float, float, float, float]:  # fmt: skip
-    """(e_phi, de_phi, e_theta, de_theta): the measured angles and speeds minus the set point's
-    Omega0 t and Omega0 (:meth:`PhysicalFeedback.errors`).
-
-    Parameters
-    ----------
-    Omega0 : float
-        Speed set point [rad/s].
-    t : float
-        Time [s].
-    bit_angle : float
-        Measured bit angle Phi [rad].
-    bit_speed : float
-        Measured bit speed dPhi/dt [rad/s].
-    table_angle : float
-        Measured rotary-table angle Theta [rad].
-    table_speed : float
-        Measured rotary-table speed dTheta/dt [rad/s].
-
-    Returns
-    -------
-    tuple of 4 float
-        bit_angle - Omega0 t, bit_speed - Omega0, table_angle - Omega0 t, table_speed - Omega0:
-        the arguments phi, dphi, theta, dtheta of the law (29)-(31) in SI (module docstring).
-    """
-    w = Omega0
-    return bit_angle - w * t, bit_speed - w, table_angle - w * t, table_speed - w
 
 
 @dataclass(frozen=True)
@@ -518,143 +560,3 @@ class SIScaling:
             "theta": x.theta,
             "dtheta": x.dtheta / ts,
         }
-
-
-@dataclass(frozen=True)
-class PhysicalFeedback:
-    """The controller (29)-(31) in SI units (module docstring): R = R_ff + F x [N m].
-
-    Parameters
-    ----------
-    F : tuple of 4 float
-        Gains on x = [e_phi - phi_ref, de_phi, e_phi - e_theta - K0 - twist_ref, de_theta]:
-        N m/rad, N m s/rad, N m/rad, N m s/rad.
-    K0 : float
-        Twist offset of x3 [rad] (K0 - R0/C of the scaled law).
-    R_ff : float
-        Feed-forward table torque [N m] (absolute: C (R0/C + R_ff) of the scaled law).
-    Omega0 : float
-        Speed set point [rad/s]: the errors are taken from Omega0 t and Omega0.
-    t_on : float
-        Switch-on time [s] of the feedback.
-    latch : str
-        Bumpless switch-on, one of :data:`~drillstring.model.control.LATCH_MODES`.
-    """
-
-    F: tuple[float, float, float, float]
-    K0: float
-    R_ff: float
-    Omega0: float
-    t_on: float = 0.0
-    latch: str = "none"
-
-    def __post_init__(self) -> None:
-        if len(self.F) != 4:
-            raise ValueError(f"PhysicalFeedback.F must have 4 entries, got {self.F!r}")
-        F = tuple(check_real(f"PhysicalFeedback.F[{i}]", f) for i, f in enumerate(self.F))
-        object.__setattr__(self, "F", F)
-        for name in ("K0", "R_ff", "t_on"):
-            object.__setattr__(
-                self, name, check_real(f"PhysicalFeedback.{name}", getattr(self, name))
-            )
-        object.__setattr__(
-            self, "Omega0", check_real("PhysicalFeedback.Omega0", self.Omega0, lower=0.0)
-        )
-        check_choice("PhysicalFeedback.latch", self.latch, LATCH_MODES)
-
-    @property
-    def latch_code(self) -> int:
-        """Index of ``latch`` in :data:`~drillstring.model.control.LATCH_MODES`."""
-        return LATCH_MODES.index(self.latch)
-
-    def errors(
-        self, t: float, bit_angle: float, bit_speed: float, table_angle: float, table_speed: float
-    ) -> tuple[float, float, float, float]:
-        """(e_phi, de_phi, e_theta, de_theta): the measured angles and speeds minus the set
-        point's Omega0 t and Omega0, the arguments phi, dphi, theta, dtheta of
-        :func:`~drillstring.model.control.feedback_torque` in SI.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-        bit_angle : float
-            Measured bit angle Phi [rad].
-        bit_speed : float
-            Measured bit speed dPhi/dt [rad/s].
-        table_angle : float
-            Measured rotary-table angle Theta [rad].
-        table_speed : float
-            Measured rotary-table speed dTheta/dt [rad/s].
-
-        Returns
-        -------
-        tuple of 4 float
-            As :func:`setpoint_errors` with this law's :attr:`Omega0`.
-        """
-        return setpoint_errors(self.Omega0, t, bit_angle, bit_speed, table_angle, table_speed)
-
-    @classmethod
-    def from_scaled(cls, law: AffineFeedback, scaling: SIScaling) -> PhysicalFeedback:
-        """The SI law of a scaled law (29)-(31) on the rig of ``scaling``.
-
-        Parameters
-        ----------
-        law : AffineFeedback
-            The scaled law.
-        scaling : SIScaling
-            The rig's scales.
-
-        Returns
-        -------
-        PhysicalFeedback
-            Gains (C F1, C t* F2, C F3, C t* F4), K0 - R0/C, the absolute feed-forward torque
-            C (R0/C + R_ff), the rig's Omega0 as set point, t* t_on and the same latch (module
-            docstring).
-        """
-        C, ts = scaling.rig.C, scaling.t_star
-        F1, F2, F3, F4 = law.F
-        return cls(
-            F=(C * F1, C * ts * F2, C * F3, C * ts * F4),
-            K0=law.K0 - scaling.twist0,
-            R_ff=scaling.table_torque(law.R_ff),
-            Omega0=scaling.rig.Omega0,
-            t_on=scaling.time(law.t_on),
-            latch=law.latch,
-        )
-
-    def to_scaled(self, scaling: SIScaling) -> AffineFeedback:
-        """Inverse of :meth:`from_scaled` (the set point must be the rig's Omega0).
-
-        Parameters
-        ----------
-        scaling : SIScaling
-            The rig's scales.
-
-        Returns
-        -------
-        AffineFeedback
-            The scaled law (29)-(31).
-
-        Raises
-        ------
-        ValueError
-            :attr:`Omega0` differs from the rig's Omega0 by more than 1e-12 relative.
-        """
-        if self.Omega0 != scaling.rig.Omega0 and not math.isclose(
-            self.Omega0, scaling.rig.Omega0, rel_tol=1e-12
-        ):
-            raise ValueError(
-                f"the controller's set point Omega0 = {self.Omega0!r} rad/s is not the rig's "
-                f"nominal speed {scaling.rig.Omega0!r} rad/s: (29)-(31) is a law about the "
-                "nominal motion"
-            )
-        C, ts = scaling.rig.C, scaling.t_star
-        F1, F2, F3, F4 = self.F
-        return AffineFeedback(
-            F=(F1 / C, F2 / (C * ts), F3 / C, F4 / (C * ts)),
-            K0=self.K0 + scaling.twist0,
-            R_ff=scaling.torque_deviation(self.R_ff),
-            t_on=scaling.tau(self.t_on),
-            latch=self.latch,
-        )

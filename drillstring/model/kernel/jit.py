@@ -22,8 +22,14 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 _KERNEL = Path(__file__).resolve().parent
-#: The source files of everything numba compiles for the kernel.
-COMPILED_SOURCES = (*sorted(_KERNEL.glob("*.py")), _KERNEL.parent / "control.py")
+_DIGITAL = _KERNEL.parent / "digital"
+#: The source files of everything numba compiles: the kernel, the law (29)-(31) and the digital
+#: controller (its sampled loop runs the kernel).
+COMPILED_SOURCES = (
+    *sorted(_KERNEL.glob("*.py")),
+    _KERNEL.parent / "control.py",
+    *(_DIGITAL / f"{name}.py" for name in ("layout", "lawcore", "drive", "sense", "block", "loop")),
+)
 _STAMP = "drillstring-kernel-sources.sha256"
 
 F = TypeVar("F", bound=Callable[..., Any])

@@ -1,0 +1,173 @@
+"""A digital controller: a control law between a sensing stage and the top drive.
+
+:class:`DigitalController` is what every host runs (the controller FMUs, the sampled monolithic
+loop :func:`drillstring.model.sampled.simulate_sampled`, a Python caller): a
+:class:`~drillstring.model.laws.Law`, optionally a :class:`~drillstring.model.topdrive.TopDrive`
+(its limits; None: the command is applied as it is) and a
+:class:`~drillstring.model.sensing.Sensing` (default: exact measurements). :meth:`~
+DigitalController.block` writes all of it into the block the compiled code runs
+(:mod:`drillstring.model.digital.layout`); :class:`Running` is a controller in operation for a
+Python caller, one sample at a time, on the same compiled functions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drillstring.model.digital import layout as L
+from drillstring.model.digital.block import commit, sample
+from drillstring.model.laws import Law
+from drillstring.model.params import ScaledParams
+from drillstring.model.sensing import Sensing
+from drillstring.model.topdrive import TopDrive
+from drillstring.validation import check_real
+
+__all__ = ["DigitalController", "OperatingPoint", "Running"]
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    """The nominal motion a controller works about (scaled).
+
+    Parameters
+    ----------
+    omega0 : float
+        Nominal table speed (the speed set point), > 0.
+    R0 : float
+        Nominal table torque (absolute, units of C; eq. (8)), finite.
+    rho : float
+        Inertia ratio I2/I1 of the table (16), > 0 (for the torque estimated from the motor).
+    """
+
+    omega0: float
+    R0: float
+    rho: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "omega0", check_real("OperatingPoint.omega0", self.omega0,
+                                                      lower=0.0))  # fmt: skip
+        object.__setattr__(self, "R0", check_real("OperatingPoint.R0", self.R0))
+        object.__setattr__(self, "rho", check_real("OperatingPoint.rho", self.rho, lower=0.0))
+
+    @classmethod
+    def of(cls, params: ScaledParams) -> OperatingPoint:
+        """The operating point of a scaled parameter set: omega0, R0 of (8), rho."""
+        if not isinstance(params, ScaledParams):
+            raise TypeError(f"params must be a ScaledParams, got {type(params).__name__}")
+        return cls(params.omega0, params.R0, params.rho)
+
+
+@dataclass(frozen=True)
+class DigitalController:
+    """A sampled law with its sensing and its top drive.
+
+    Parameters
+    ----------
+    law : Law
+        The control law (its ``t_on`` is the switch-on time).
+    top_drive : TopDrive or None
+        The drive's limits (None: none).
+    sensing : Sensing
+        How the measurements are made.
+    enabled : bool
+        False: the feed-forward R_ff alone, always.
+    """
+
+    law: Law
+    top_drive: TopDrive | None = None
+    sensing: Sensing = field(default_factory=Sensing)
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.law, Law):
+            raise TypeError(f"law must be a Law, got {type(self.law).__name__}")
+        if self.top_drive is not None and not isinstance(self.top_drive, TopDrive):
+            raise TypeError(f"top_drive must be a TopDrive or None, got {self.top_drive!r}")
+        if not isinstance(self.sensing, Sensing):
+            raise TypeError(f"sensing must be a Sensing, got {type(self.sensing).__name__}")
+        if not isinstance(self.enabled, bool):
+            raise TypeError(f"enabled must be a bool, got {self.enabled!r}")
+
+    def block(self, point: OperatingPoint | ScaledParams) -> np.ndarray:
+        """The block of this controller at the operating point, at rest (nothing sampled yet).
+
+        Parameters
+        ----------
+        point : OperatingPoint or ScaledParams
+            The nominal motion (a parameter set gives its own).
+
+        Returns
+        -------
+        ndarray
+            float64 of :data:`~drillstring.model.digital.layout.B_SIZE`, scaled connectors.
+        """
+        if isinstance(point, ScaledParams):
+            point = OperatingPoint.of(point)
+        if not isinstance(point, OperatingPoint):
+            raise TypeError(f"point must be an OperatingPoint or ScaledParams, got {point!r}")
+        b = np.zeros(L.B_SIZE)
+        b[L.B_RESUME] = -1.0
+        b[L.B_TSTAR] = 1.0
+        b[L.B_C] = 1.0
+        b[L.B_ENABLED] = 1.0 if self.enabled else 0.0
+        b[L.B_TON] = self.law.t_on
+        b[L.B_OMEGA0] = point.omega0
+        b[L.B_R0] = point.R0
+        b[L.B_RHO] = point.rho
+        self.law.pack(b)
+        if self.top_drive is not None:
+            self.top_drive.pack(b)
+        self.sensing.pack(b)
+        return b
+
+    def start(self, point: OperatingPoint | ScaledParams) -> Running:
+        """The controller in operation from rest (see :class:`Running`)."""
+        return Running(self, self.block(point))
+
+
+class Running:
+    """A digital controller in operation: its block, sampled one instant at a time.
+
+    The measurements are the plant's scaled perturbations (phi, dphi, theta, dtheta) at the
+    sample instant; :meth:`output` is pure, :meth:`step` commits the sample and moves the
+    controller's state one period on (what an FMU's output getter and ``fmi2DoStep`` do).
+    """
+
+    def __init__(self, controller: DigitalController, block: np.ndarray) -> None:
+        self.controller = controller
+        self.block = block
+
+    def output(self, tau: float, phi: float, dphi: float, theta: float, dtheta: float) -> float:
+        """R - R0 the controller applies from the sample instant ``tau`` (pure)."""
+        return float(sample(self.block, float(tau), float(phi), float(dphi), float(theta),
+                            float(dtheta))[0])  # fmt: skip
+
+    def step(
+        self, tau: float, phi: float, dphi: float, theta: float, dtheta: float, Ts: float
+    ) -> float:
+        """Commit the sample ``tau`` and advance the state by ``Ts``; returns R - R0 applied."""
+        Ts = check_real("Ts", Ts, lower=0.0)
+        return float(commit(self.block, float(tau), float(phi), float(dphi), float(theta),
+                            float(dtheta), Ts))  # fmt: skip
+
+    @property
+    def law_state(self) -> tuple[float, ...]:
+        """The law's state (``LX``), meaningful once :attr:`active`."""
+        return tuple(self.block[L.B_LX : L.B_LX + L.N_LX].tolist())
+
+    @property
+    def active(self) -> bool:
+        """True once the law has been switched on."""
+        return bool(self.block[L.B_ACTIVE] != 0.0)
+
+    @property
+    def saturated(self) -> bool:
+        """True when the top drive limited the command of the last committed sample."""
+        return bool(self.block[L.B_SAT] != 0.0)
+
+    @property
+    def commanded(self) -> float:
+        """The law's command R - R0 of the last committed sample."""
+        return float(self.block[L.B_RCMD])
