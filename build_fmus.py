@@ -44,7 +44,7 @@ Then ``DrillStringClosedLoop.ssp`` and ``DrillStringClosedLoopSI.ssp``
 units, the parameter sets ``fig5``, ``fig6``, ``reference`` and ``gains``, the default experiment
 with a fixed step, validated against the SSP 1.0 schemas that fmpy ships; and
 ``DrillStringTopDrive.ssp``, ``DrillStringTopDriveSI.ssp``, the same loops closed by the
-top-drive controller, with the sets ``stiff-pi``, ``soft-torque`` and ``z-torque`` instead of
+top-drive controller, with the sets ``stiff-pi``, ``soft-speed`` and ``z-torque`` instead of
 ``gains``.
 
 Building twice gives identical ``modelDescription.xml`` apart from ``generationDateAndTime``, and

@@ -1,10 +1,11 @@
 """The controllers compared at an operating point: three industrial top-drive laws and the LMI law.
 
-:func:`controller_lineup` builds, for one parameter set, the stiff speed PI, SoftTorque, Z-Torque
-(tuned from the lumped string, :mod:`drillstring.controller.tuning`) and the paper's state
-feedback (29)-(31) with a gain :func:`lmi_gain` takes from a gains file or designs by Theorem 1
-at the point. All four share the feed-forward R_ff and the switch-on time, so that they start
-from the same state in the same way (``docs/controllers.md``).
+:func:`controller_lineup` builds, for one parameter set, the stiff speed PI, SoftSpeed, Z-Torque
+(tuned from the string by the rules of :mod:`drillstring.controller.tuning`, the choices a
+:class:`Tuning` states) and the paper's state feedback (29)-(31) with a gain :func:`lmi_gain`
+takes from a gains file or designs by Theorem 1 at the point. All four share the feed-forward
+R_ff and the switch-on time, so that they start from the same state in the same way
+(``docs/controllers.md``).
 """
 
 from __future__ import annotations
@@ -16,28 +17,68 @@ import numpy as np
 from drillstring.controller.averaged import AveragedModel, closed_loop_roots
 from drillstring.controller.gains import GainsFile
 from drillstring.controller.synthesis import synthesize
-from drillstring.controller.tuning import soft_torque, stiff_pi, z_torque
+from drillstring.controller.tuning import (
+    IMPEDANCES,
+    SOFT_SPEED_RULES,
+    impedance,
+    soft_speed,
+    stiff_pi,
+    z_torque,
+)
 from drillstring.model.control import AffineFeedback
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import ScaledParams
-from drillstring.validation import check_choice
+from drillstring.validation import check_choice, check_real
 
 __all__ = [
     "CONTROLLERS",
     "FEEDFORWARD",
     "INDUSTRIAL",
     "LmiGain",
+    "Tuning",
     "controller_lineup",
     "industrial_lineup",
     "lmi_gain",
 ]
 
 #: The controllers, in the order of every table and figure.
-CONTROLLERS = ("stiff-pi", "soft-torque", "z-torque", "lmi")
+CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi")
 #: The surface-only (industrial) controllers of :data:`CONTROLLERS`.
 INDUSTRIAL = CONTROLLERS[:3]
 #: Where the LMI law's K0 and R_ff come from with a gains file: the file, or the point's (31).
 FEEDFORWARD = ("file", "point")
+
+
+@dataclass(frozen=True)
+class Tuning:
+    """The choices of the industrial tuning rules (``docs/controllers.md``).
+
+    Parameters
+    ----------
+    impedance : str
+        The string impedance Z of the rules: ``"lumped"`` (sqrt(C*I1), the model's) or
+        ``"pipe"`` (the reference rig's drill pipe, J*sqrt(G*rho_steel)), :func:`~drillstring.
+        controller.tuning.impedance`.
+    soft_speed : str
+        SoftSpeed's proportional gain: ``"two-mass"`` (2*sqrt(rho)*Z) or ``"impedance"`` (Z).
+    z_matching : float
+        Z-Torque's fraction of full impedance matching (1; Simulator4nDOF: 0.25), >= 0.
+    """
+
+    impedance: str = "lumped"
+    soft_speed: str = "two-mass"
+    z_matching: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_choice("Tuning.impedance", self.impedance, IMPEDANCES)
+        check_choice("Tuning.soft_speed", self.soft_speed, SOFT_SPEED_RULES)
+        value = check_real("Tuning.z_matching", self.z_matching, lower=0.0, strict=False)
+        object.__setattr__(self, "z_matching", value)
+
+    @property
+    def Z(self) -> float:  # noqa: N802 - the rules' symbol
+        """The impedance, scaled (units of sqrt(C*I1))."""
+        return impedance(self.impedance)
 
 
 @dataclass(frozen=True)
@@ -123,16 +164,19 @@ def controller_lineup(
 
 
 def industrial_lineup(
-    params: ScaledParams, *, R_ff: float = 0.0, t_on: float = 0.0
+    params: ScaledParams, *, tuning: Tuning | None = None, R_ff: float = 0.0, t_on: float = 0.0
 ) -> dict[str, SpeedPI | ZTorque]:
-    """The industrial controllers of :data:`INDUSTRIAL` at ``params``, tuned from the lumped
-    string (:mod:`drillstring.controller.tuning`); also the tunings the top-drive controller
-    FMU is built with.
+    """The industrial controllers of :data:`INDUSTRIAL` at ``params``, tuned by the rules of
+    :mod:`drillstring.controller.tuning` with the ``tuning`` choices (default: the lumped
+    string, SoftSpeed's two-mass rule, full matching); the default is also what the top-drive
+    controller FMU is built with.
 
     Parameters
     ----------
     params : ScaledParams
         The operating point (rho).
+    tuning : Tuning, optional
+        The rules' choices.
     R_ff, t_on : float
         Feed-forward (31) and switch-on time of every law.
 
@@ -141,9 +185,11 @@ def industrial_lineup(
     dict
         Name -> law, in the order of :data:`INDUSTRIAL`.
     """
+    tuning = Tuning() if tuning is None else tuning
     common = {"R_ff": R_ff, "t_on": t_on}
+    Z = tuning.Z
     return {
         "stiff-pi": stiff_pi(params, **common),
-        "soft-torque": soft_torque(params, **common),
-        "z-torque": z_torque(params, **common),
+        "soft-speed": soft_speed(params, rule=tuning.soft_speed, Z=Z, **common),
+        "z-torque": z_torque(params, matching=tuning.z_matching, Z=Z, **common),
     }

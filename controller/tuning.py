@@ -8,14 +8,23 @@ per speed in units of C*t*); the rules below are written with them.
 * :func:`stiff_pi`: a speed PI whose loop around the table inertia alone has a bandwidth a decade
   above omega_s and is critically damped: the table holds its speed, the string is a pendulum
   with a fixed top (the rigs' default, and the baseline that shows stick-slip).
-* :func:`soft_torque`: SoftTorque/SoftSpeed. The integral gain cancels the table inertia at the
-  string's frequency, ``ki = rho*omega_s^2``, so that the table is a pure damper kp there; the
-  proportional gain ``kp = 2*sqrt(rho)`` is the smallest that keeps both torsional modes on the
-  circle |s| = omega_s, where they share the damping ratio 1/(2*sqrt(rho)), the largest common
-  one (:func:`soft_torque_damping` states the damping for any kp).
-* :func:`z_torque`: the stiff PI with the set point corrected by the string torque over the
-  impedance (``z_gain = 1``), high-pass (corner 0.3*omega_s) and low-pass (10*omega_s)
-  filtered.
+* :func:`soft_speed`: SoftSpeed (NOV's tuned speed PI; Kyllingstad and Nessjoen). The integral
+  gain cancels the table inertia at the string's frequency, ``ki = rho*omega_s^2``, so that the
+  table is a pure damper kp there; the proportional gain by one of two rules
+  (:data:`SOFT_SPEED_RULES`): ``"two-mass"``, ``kp = 2*sqrt(rho)*Z``, the smallest that keeps
+  both torsional modes of the lumped string on the circle |s| = omega_s, where they share the
+  damping ratio 1/(2*sqrt(rho)), the largest common one (:func:`soft_speed_damping` states the
+  damping for any kp); or ``"impedance"``, the field rule ``kp = Z``, the top a damper matched
+  to the string's impedance (torsional waves absorbed);
+* :func:`z_torque`: Z-Torque (Shell), the stiff PI with the set point corrected by the string
+  torque over the impedance, ``z_gain = matching/Z`` (``matching = 1``: full matching; a
+  fraction, e.g. the 0.25 of the Open Source Drilling Community's Simulator4nDOF), high-pass
+  (corner 0.3*omega_s) and low-pass (10*omega_s) filtered.
+
+The impedance Z (:func:`impedance`) is the lumped string's, ``sqrt(C*I1) = 1`` in scaled units,
+or the pipe's characteristic impedance ``J*sqrt(G*rho_steel)`` of the rig's drill pipe
+(:class:`Pipe`; 296 N m s/rad for the reference rig's 5-in pipe, 1.37 times the lumped 217):
+what a field engineer computes from the pipe tables.
 
 :func:`linear_closed_loop` builds the closed loop of the linearised torsional model (13), (27)
 (:func:`~drillstring.controller.averaged.linearised_ode_matrix`) with a law, in continuous time,
@@ -25,22 +34,28 @@ so that the damping a rule states can be checked on the closed loop's eigenvalue
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from drillstring.controller.averaged import AveragedModel, linearised_ode_matrix
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
-from drillstring.model.params import ScaledParams
-from drillstring.validation import check_real
+from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
+from drillstring.validation import check_choice, check_real
 
 __all__ = [
+    "IMPEDANCES",
     "OMEGA_S",
+    "REFERENCE_PIPE",
+    "SOFT_SPEED_RULES",
     "Z_STRING",
+    "Pipe",
     "damping_ratios",
+    "impedance",
     "linear_closed_loop",
-    "soft_torque",
-    "soft_torque_damping",
+    "soft_speed",
+    "soft_speed_damping",
     "stiff_pi",
     "z_torque",
 ]
@@ -49,6 +64,78 @@ __all__ = [
 OMEGA_S = 1.0
 #: Characteristic impedance sqrt(C*I1) of the lumped string, scaled (units of C*t*).
 Z_STRING = 1.0
+#: Where the string impedance Z of the rules comes from.
+IMPEDANCES = ("lumped", "pipe")
+#: The proportional gain rules of SoftSpeed.
+SOFT_SPEED_RULES = ("two-mass", "impedance")
+
+
+@dataclass(frozen=True)
+class Pipe:
+    """Drill pipe, for its torsional characteristic impedance ``J*sqrt(G*rho_steel)``.
+
+    Parameters
+    ----------
+    od, id : float
+        Outer and inner diameter [m], od > id > 0.
+    G : float
+        Shear modulus [Pa].
+    density : float
+        Density of the steel [kg/m^3].
+    """
+
+    od: float
+    id: float
+    G: float = 79.3e9
+    density: float = 7850.0
+
+    def __post_init__(self) -> None:
+        for name in ("od", "id", "G", "density"):
+            check_real(f"Pipe.{name}", getattr(self, name), lower=0.0)
+        if not self.id < self.od:
+            raise ValueError(f"Pipe: id = {self.id!r} is not below od = {self.od!r}")
+
+    @property
+    def J(self) -> float:  # noqa: N802 - the engineers' symbol
+        """Polar moment of area pi*(od^4 - id^4)/32 [m^4]."""
+        return math.pi * (self.od**4 - self.id**4) / 32.0
+
+    @property
+    def impedance(self) -> float:
+        """Characteristic impedance J*sqrt(G*rho_steel) [N m s/rad]: torque per speed of a
+        torsional wave in the pipe."""
+        return self.J * math.sqrt(self.G * self.density)
+
+
+#: The reference rig's drill pipe: 5-in 19.5 lb/ft, OD 127.0 mm, ID 108.6 mm
+#: (``docs/reference_rig.md``).
+REFERENCE_PIPE = Pipe(od=0.1270, id=0.1086)
+
+
+def impedance(choice: str = "lumped", rig: PhysicalParams | None = None, pipe: Pipe | None = None):
+    """The string impedance Z of the tuning rules, scaled (units of C*t* = sqrt(C*I1)).
+
+    Parameters
+    ----------
+    choice : str
+        One of :data:`IMPEDANCES`: ``"lumped"``, sqrt(C*I1) (1, the model's own); ``"pipe"``,
+        the pipe's J*sqrt(G*rho_steel) on the rig.
+    rig : PhysicalParams, optional
+        The rig (default the reference rig) for ``"pipe"``.
+    pipe : Pipe, optional
+        The pipe (default :data:`REFERENCE_PIPE`) for ``"pipe"``.
+
+    Returns
+    -------
+    float
+        Z in units of sqrt(C*I1).
+    """
+    check_choice("impedance", choice, IMPEDANCES)
+    if choice == "lumped":
+        return Z_STRING
+    rig = REFERENCE_RIG if rig is None else rig
+    pipe = REFERENCE_PIPE if pipe is None else pipe
+    return pipe.impedance / math.sqrt(rig.C * rig.I1)
 
 
 def _rho(params: ScaledParams) -> float:
@@ -90,23 +177,34 @@ def stiff_pi(
     return SpeedPI(kp=2.0 * zc * wc * rho, ki=wc * wc * rho, R_ff=R_ff, t_on=t_on)
 
 
-def soft_torque(
-    params: ScaledParams, *, kp: float | None = None, R_ff: float = 0.0, t_on: float = 0.0
+def soft_speed(
+    params: ScaledParams,
+    *,
+    rule: str = "two-mass",
+    Z: float = Z_STRING,
+    kp: float | None = None,
+    R_ff: float = 0.0,
+    t_on: float = 0.0,
 ) -> SpeedPI:
-    """SoftTorque/SoftSpeed: ``ki = rho*omega_s^2`` (the table inertia cancelled at the string's
-    frequency) and ``kp = 2*sqrt(rho)*Z`` unless given.
+    """SoftSpeed: ``ki = rho*omega_s^2`` (the table inertia cancelled at the string's
+    frequency) and ``kp`` by ``rule`` unless given.
 
-    On the linearised torsional model (13), (27) without the bit's velocity weakening (c = 0:
-    the lumped string the rule is tuned from), the closed loop's four torsional poles then lie on
-    |s| = omega_s with the damping ratios of :func:`soft_torque_damping`.
+    ``"two-mass"``: ``kp = 2*sqrt(rho)*Z``; on the linearised torsional model (13), (27) without
+    the bit's velocity weakening (c = 0: the lumped string the rule is tuned from) the closed
+    loop's four torsional poles then lie on |s| = omega_s with the damping ratios of
+    :func:`soft_speed_damping`. ``"impedance"``: ``kp = Z``, the field rule (the top drive a
+    damper matched to the pipe).
 
     Parameters
     ----------
     params : ScaledParams
         Gives rho.
+    rule : str
+        One of :data:`SOFT_SPEED_RULES`.
+    Z : float
+        The string impedance (:func:`impedance`), > 0.
     kp : float, optional
-        Proportional gain (in [2*sqrt(rho), 2*rho + 1/2] the poles stay on the circle, see
-        :func:`soft_torque_damping`); default 2*sqrt(rho).
+        Proportional gain, overriding the rule.
     R_ff, t_on : float
         Feed-forward (31) and switch-on time.
 
@@ -115,12 +213,17 @@ def soft_torque(
     SpeedPI
     """
     rho = _rho(params)
-    gain = 2.0 * math.sqrt(rho) * Z_STRING if kp is None else check_real("soft_torque kp", kp)
+    check_choice("soft_speed rule", rule, SOFT_SPEED_RULES)
+    Z = check_real("soft_speed Z", Z, lower=0.0)
+    if kp is not None:
+        gain = check_real("soft_speed kp", kp)
+    else:
+        gain = 2.0 * math.sqrt(rho) * Z if rule == "two-mass" else Z
     return SpeedPI(kp=gain, ki=rho * OMEGA_S**2, R_ff=R_ff, t_on=t_on)
 
 
-def soft_torque_damping(rho: float, kp: float) -> tuple[float, float]:
-    """Damping ratios of the two torsional modes of the string under the SoftTorque rule.
+def soft_speed_damping(rho: float, kp: float) -> tuple[float, float]:
+    """Damping ratios of the two torsional modes of the string under the SoftSpeed rule.
 
     With ``ki = rho`` (omega_s = 1) and c = 0 the closed-loop characteristic polynomial of (13),
     (27) is ``rho*s^4 + kp*s^3 + (2*rho + 1)*s^2 + kp*s + rho``: palindromic, so with
@@ -162,7 +265,8 @@ def soft_torque_damping(rho: float, kp: float) -> tuple[float, float]:
 def z_torque(
     params: ScaledParams,
     *,
-    z_gain: float = 1.0,
+    matching: float = 1.0,
+    Z: float = Z_STRING,
     omega_hp: float = 0.3,
     omega_lp: float = 10.0,
     bandwidth: float = 10.0,
@@ -170,14 +274,17 @@ def z_torque(
     t_on: float = 0.0,
 ) -> ZTorque:
     """Z-Torque: the stiff speed PI of :func:`stiff_pi` with the set point lowered by
-    ``z_gain*HP(LP(torque))/Z``.
+    ``matching*HP(LP(torque))/Z``.
 
     Parameters
     ----------
     params : ScaledParams
         Gives rho.
-    z_gain : float
-        Torque feedback in units of 1/Z (1: the impedance of the lumped string, matched).
+    matching : float
+        The fraction of full impedance matching (1: the torque feedback of an impedance Z; the
+        Simulator4nDOF default is 0.25), >= 0.
+    Z : float
+        The string impedance (:func:`impedance`), > 0.
     omega_hp : float
         High-pass corner in units of omega_s. The default 0.3 gives the fastest decay of the
         lumped string's closed loop ((13), (27) with c = 0) at rho = 5 (``docs/controllers.md``):
@@ -195,10 +302,12 @@ def z_torque(
     ZTorque
     """
     pi = stiff_pi(params, bandwidth=bandwidth)
+    matching = check_real("z_torque matching", matching, lower=0.0, strict=False)
+    Z = check_real("z_torque Z", Z, lower=0.0)
     return ZTorque(
         kp=pi.kp,
         ki=pi.ki,
-        z_gain=check_real("z_torque z_gain", z_gain, lower=0.0, strict=False) / Z_STRING,
+        z_gain=matching / Z,
         omega_hp=check_real("z_torque omega_hp", omega_hp, lower=0.0) * OMEGA_S,
         omega_lp=check_real("z_torque omega_lp", omega_lp, lower=0.0) * OMEGA_S,
         R_ff=R_ff,

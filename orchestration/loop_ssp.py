@@ -18,7 +18,7 @@ The packages of the loop closed by the industrial top-drive controller,
 :data:`~drillstring.orchestration.closed_loop.TOPDRIVE`, ``TOPDRIVE_SI``), have the same
 connections and plant sets; the controller binds ``fig5``, ``fig6`` (switch-on time and enabled
 flag: the PI laws have no latch) and one set per tuning of the reference set,
-``stiff-pi``, ``soft-torque`` and ``z-torque`` (:func:`topdrive_tunings`; ``soft-torque`` is the
+``stiff-pi``, ``soft-speed`` and ``z-torque`` (:func:`topdrive_tunings`; ``soft-speed`` is the
 FMU's start values).
 
 Each component binds, in this order, ``fig5``, ``fig6`` and its own nominal set(s), so libcosim
@@ -78,7 +78,7 @@ _GAINS = ("F[1]", "F[2]", "F[3]", "F[4]", "K0", "R_ff")
 #: The top-drive controller FMU's parameters a tuning sets.
 TOPDRIVE_PARAMETERS = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
 #: The tuning that is the top-drive controller FMU's start values.
-TOPDRIVE_DEFAULT = "soft-torque"
+TOPDRIVE_DEFAULT = "soft-speed"
 #: The parameter sets of a top-drive package, in binding order.
 TOPDRIVE_SETS = ("fig5", "fig6", "reference", *INDUSTRIAL)
 

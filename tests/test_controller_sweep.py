@@ -152,15 +152,15 @@ def test_controller_spec_errors(paper_gains, options, message):
 
 
 def test_a_subset_of_controllers_leaves_the_others_empty(paper_gains, serial_map, tmp_path):
-    spec = _spec(paper_gains[1], controllers=["soft-torque", "stiff-pi"])
-    assert spec.options["controllers"] == ("stiff-pi", "soft-torque")
+    spec = _spec(paper_gains[1], controllers=["soft-speed", "stiff-pi"])
+    assert spec.options["controllers"] == ("stiff-pi", "soft-speed")
     report = run_sweep(spec, tmp_path, serial=True, progress=False, plots=False)
     full = _rows(serial_map[1].results)
     for row, ref in zip(_rows(report.results), full, strict=True):
-        for c in ("stiff-pi", "soft-torque"):
+        for c in ("stiff-pi", "soft-speed"):
             assert row[f"utr.{c}"] == ref[f"utr.{c}"]  # the same runs as with every controller
         assert row["utr.lmi"] == row["outcome.z-torque"] == row["lmi_gain_norm"] == ""
-        assert row["best"] in ("stiff-pi", "soft-torque")
+        assert row["best"] in ("stiff-pi", "soft-speed")
     with pytest.raises(SweepSpecError, match="lists a controller twice"):
         _spec(paper_gains[1], controllers=["lmi", "lmi"])
     with pytest.raises(SweepSpecError, match=r"options.controllers\[0\] must be one of"):
@@ -198,8 +198,8 @@ def test_comparison_starts_every_controller_from_the_same_state(paper_gains, tmp
     rows = {r["controller"]: r for r in result.rows}
     C = get_physical("reference-rig").C
     assert rows["lmi"]["peak_torque_Nm"] == pytest.approx(C * rows["lmi"]["peak_torque"])
-    assert result.laws["soft-torque"]["si"]["kp"] == pytest.approx(
-        result.laws["soft-torque"]["scaled"]["kp"] * C * math.sqrt(200.0 / 235.0), rel=1e-12
+    assert result.laws["soft-speed"]["si"]["kp"] == pytest.approx(
+        result.laws["soft-speed"]["scaled"]["kp"] * C * math.sqrt(200.0 / 235.0), rel=1e-12
     )
     # sampled and continuous evaluation of the paper's law agree closely
     assert rows["lmi"]["peak_torque"] == pytest.approx(rows["lmi-continuous"]["peak_torque"], 1e-2)

@@ -141,14 +141,14 @@ def _sev(severity, torque, out="steady"):
 def test_best_controller_ranking():
     m = {
         "stiff-pi": _sev(1.0, 10.0, "stick-slip"),
-        "soft-torque": _sev(0.015, 8.0),
+        "soft-speed": _sev(0.015, 8.0),
         "z-torque": _sev(0.0, 12.0),
         "lmi": _sev(0.0, 5000.0),
     }
     # within the tie of 0.02 of the lowest severity the least torque wins
-    assert best_controller(m) == "soft-torque"
+    assert best_controller(m) == "soft-speed"
     assert best_controller(m, tie=0.0) == "z-torque"
-    m["soft-torque"] = _sev(math.nan, math.nan, "bit_bounce")
+    m["soft-speed"] = _sev(math.nan, math.nan, "bit_bounce")
     m["z-torque"] = _sev(math.nan, 1.0, "stall")
     assert best_controller(m) == "lmi"
     # a negative UTR (the bit above omega0 all through the window) does not rank: severity does

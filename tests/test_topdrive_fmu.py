@@ -1,4 +1,4 @@
-"""The top-drive controller FMUs (stiff PI, SoftTorque, Z-Torque) against their laws.
+"""The top-drive controller FMUs (stiff PI, SoftSpeed, Z-Torque) against their laws.
 
 * the key check: each tuning of ``TopDriveController``, closing the loop of the SSP package
   ``DrillStringTopDrive.ssp`` in the project's master (fixed step H, Jacobi, zero-order hold),
@@ -28,7 +28,7 @@ from fmpy import read_model_description
 
 from drillstring.apps.cosim import cosim_main
 from drillstring.controller.lineup import INDUSTRIAL, industrial_lineup
-from drillstring.controller.tuning import soft_torque
+from drillstring.controller.tuning import soft_speed
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.experiments import FIG6
@@ -159,7 +159,7 @@ def test_si_fmu_in_the_master_equals_its_law_converted_back(built, name):
 
 def test_topdrive_fmu_takes_the_lmi_controllers_place_in_its_package(built):
     """Same connectors: the top-drive FMU closes the LMI loop's package (the FMUs' own start
-    values: SoftTorque from t_on = 0) exactly as its own package does. The package's Fig. 6 set
+    values: SoftSpeed from t_on = 0) exactly as its own package does. The package's Fig. 6 set
     carries the paper's latch, which the top-drive FMU has not: a clear error."""
     swapped = _master(built.ssp, None, 2.0, H, fmus={"controller": built.topdrive.fmu})
     own = _master(built.topdrive_ssp, None, 2.0, H)
@@ -195,9 +195,9 @@ def test_packages_carry_the_tunings_and_the_default_is_the_fmus_start(built, var
     assert {k: starts[k] for k in TOPDRIVE_PARAMETERS} == tunings[TOPDRIVE_DEFAULT]
 
 
-def test_start_values_are_the_soft_torque_rule_and_the_gains_file(built):
+def test_start_values_are_the_soft_speed_rule_and_the_gains_file(built):
     scaled, si = _starts(built.topdrive), _starts(built.si.topdrive)
-    rule = soft_torque(REFERENCE)
+    rule = soft_speed(REFERENCE)
     assert (scaled["kp"], scaled["ki"], scaled["z_gain"]) == (rule.kp, rule.ki, 0.0)
     assert scaled["kp"] == 2.0 * math.sqrt(REFERENCE.rho) and scaled["ki"] == REFERENCE.rho
     assert scaled["R_ff"] == built.gains_values["R_ff"] and scaled["t_on"] == 0.0

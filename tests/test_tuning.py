@@ -1,6 +1,6 @@
 """Tuning rules of the industrial laws (drillstring.controller.tuning, lineup).
 
-The SoftTorque rule states the damping of the string's torsional modes in closed form; the
+The SoftSpeed rule states the damping of the string's torsional modes in closed form; the
 closed loop of the linearised torsional model (13), (27) is built as a matrix and its
 eigenvalues must give that damping. The matrix itself is checked against the characteristic
 polynomial derived by hand.
@@ -16,13 +16,22 @@ import pytest
 
 from drillstring.controller.averaged import averaged_model, linearised_ode_matrix
 from drillstring.controller.gains import PAPER_F, GainsFile
-from drillstring.controller.lineup import CONTROLLERS, controller_lineup, lmi_gain
+from drillstring.controller.lineup import (
+    CONTROLLERS,
+    Tuning,
+    controller_lineup,
+    industrial_lineup,
+    lmi_gain,
+)
 from drillstring.controller.tuning import (
     OMEGA_S,
+    REFERENCE_PIPE,
+    Pipe,
     damping_ratios,
+    impedance,
     linear_closed_loop,
-    soft_torque,
-    soft_torque_damping,
+    soft_speed,
+    soft_speed_damping,
     stiff_pi,
     z_torque,
 )
@@ -44,42 +53,42 @@ def _nonzero(ev: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("rho", [2.5, 5.0, 10.0])
 @pytest.mark.parametrize("kp_over_min", [1.0, 1.3, 1.6])
-def test_soft_torque_gives_the_damping_it_states(rho, kp_over_min):
-    """(13), (27) without velocity weakening (the lumped string), closed by the SoftTorque PI:
-    every torsional pole on |s| = omega_s, damping ratios as soft_torque_damping states."""
+def test_soft_speed_gives_the_damping_it_states(rho, kp_over_min):
+    """(13), (27) without velocity weakening (the lumped string), closed by the SoftSpeed PI:
+    every torsional pole on |s| = omega_s, damping ratios as soft_speed_damping states."""
     params = REFERENCE.replace(rho=rho)
     kp = kp_over_min * 2.0 * math.sqrt(rho)
-    law = soft_torque(params, kp=kp)
+    law = soft_speed(params, kp=kp)
     ev = _nonzero(np.linalg.eigvals(linear_closed_loop(_model(rho, string_only=True), law)))
     assert ev.size == 4
     # a double pole (kp at its minimum) is only found to sqrt(machine epsilon)
     tol = 1e-6 if kp_over_min == 1.0 else 1e-10
     np.testing.assert_allclose(np.abs(ev), OMEGA_S, atol=tol)
     zeta = np.sort(-ev.real / np.abs(ev))
-    lo, hi = soft_torque_damping(rho, kp)
+    lo, hi = soft_speed_damping(rho, kp)
     np.testing.assert_allclose(zeta, [lo, lo, hi, hi], atol=tol)
     assert lo * hi == pytest.approx(1.0 / (4.0 * rho), rel=1e-12)
 
 
-def test_soft_torque_default_is_the_largest_common_damping():
+def test_soft_speed_default_is_the_largest_common_damping():
     rho = REFERENCE.rho
-    law = soft_torque(REFERENCE)
+    law = soft_speed(REFERENCE)
     assert (law.kp, law.ki) == (2.0 * math.sqrt(rho), rho)
-    lo, hi = soft_torque_damping(rho, law.kp)
+    lo, hi = soft_speed_damping(rho, law.kp)
     assert lo == pytest.approx(1.0 / (2.0 * math.sqrt(rho)), rel=1e-7) == pytest.approx(hi)
     # a softer P gain pulls the poles off the circle and damps both modes less
     softer = SpeedPI(kp=0.8 * law.kp, ki=law.ki)
     ev = _nonzero(np.linalg.eigvals(linear_closed_loop(_model(rho, string_only=True), softer)))
     assert np.min(-ev.real / np.abs(ev)) < lo - 0.02
     with pytest.raises(ValueError, match="below 2\\*sqrt\\(rho\\)"):
-        soft_torque_damping(rho, 0.8 * law.kp)
+        soft_speed_damping(rho, 0.8 * law.kp)
     with pytest.raises(ValueError, match="above 2\\*rho \\+ 1/2"):
-        soft_torque_damping(rho, 2.0 * rho + 0.6)
+        soft_speed_damping(rho, 2.0 * rho + 0.6)
 
 
-def test_soft_torque_cancels_the_table_inertia_at_the_string_frequency():
+def test_soft_speed_cancels_the_table_inertia_at_the_string_frequency():
     """The table with the PI, as an impedance torque/speed: rho*s + kp + ki/s = kp at s = i."""
-    law = soft_torque(REFERENCE)
+    law = soft_speed(REFERENCE)
     s = 1j * OMEGA_S
     assert REFERENCE.rho * s + law.kp + law.ki / s == pytest.approx(law.kp, abs=1e-15)
 
@@ -138,11 +147,46 @@ def test_z_torque_high_pass_corner_is_the_fastest_for_the_string():
 def test_stiff_pi_and_z_torque_gains():
     pi = stiff_pi(REFERENCE, bandwidth=10.0, damping=1.0)
     assert (pi.kp, pi.ki) == (2 * 10.0 * 5.0, 100.0 * 5.0)
-    zt = z_torque(REFERENCE, z_gain=0.5, omega_hp=0.2, omega_lp=8.0)
+    zt = z_torque(REFERENCE, matching=0.5, omega_hp=0.2, omega_lp=8.0)
     assert isinstance(zt, ZTorque) and (zt.kp, zt.ki) == (pi.kp, pi.ki)
     assert (zt.z_gain, zt.omega_hp, zt.omega_lp) == (0.5, 0.2, 8.0)
+    # a quarter of full matching against the pipe's impedance: z_gain = 0.25/Z
+    assert z_torque(REFERENCE, matching=0.25, Z=2.0).z_gain == 0.125
     with pytest.raises(ValueError, match="stiff_pi bandwidth must be > 0"):
         stiff_pi(REFERENCE, bandwidth=0.0)
+
+
+def test_pipe_impedance_of_the_reference_rig_by_hand():
+    """5-in 19.5 lb/ft pipe: J = pi (0.127^4 - 0.1086^4)/32 = 1.188e-5 m^4, Z = J sqrt(G rho)
+    = 1.188e-5 * sqrt(79.3e9 * 7850) = 296.5 N m s/rad; the lumped sqrt(C I1) = sqrt(235*200) =
+    216.8: 1.37 times."""
+    J = math.pi * (0.127**4 - 0.1086**4) / 32.0
+    assert REFERENCE_PIPE.J == pytest.approx(J, rel=1e-14) and J == pytest.approx(1.188e-5, 1e-3)
+    assert REFERENCE_PIPE.impedance == pytest.approx(J * math.sqrt(79.3e9 * 7850.0), rel=1e-14)
+    assert REFERENCE_PIPE.impedance == pytest.approx(296.5, abs=0.05)
+    assert impedance("lumped") == 1.0
+    assert impedance("pipe") == pytest.approx(296.5 / math.sqrt(235.0 * 200.0), abs=1e-3)
+    with pytest.raises(ValueError, match="impedance must be one of"):
+        impedance("wave")
+    with pytest.raises(ValueError, match="Pipe: id = 0.2 is not below od = 0.1"):
+        Pipe(od=0.1, id=0.2)
+
+
+def test_tuning_choices_select_the_rules():
+    rho = REFERENCE.rho
+    lumped = industrial_lineup(REFERENCE)
+    assert lumped["soft-speed"].kp == 2.0 * math.sqrt(rho)  # the two-mass optimum, Z = 1
+    field = industrial_lineup(REFERENCE, tuning=Tuning(impedance="pipe", soft_speed="impedance"))
+    Zp = impedance("pipe")
+    assert field["soft-speed"].kp == pytest.approx(Zp)  # the field rule: kp = Z of the pipe
+    assert field["soft-speed"].ki == lumped["soft-speed"].ki == rho  # inertia cancelled
+    assert field["z-torque"].z_gain == pytest.approx(1.0 / Zp)
+    quarter = industrial_lineup(REFERENCE, tuning=Tuning(z_matching=0.25))
+    assert quarter["z-torque"].z_gain == 0.25
+    # the two-mass rule is 3.3 times the pipe's impedance on the reference rig (issue's reading)
+    assert lumped["soft-speed"].kp / Zp == pytest.approx(3.27, abs=0.01)
+    with pytest.raises(ValueError, match="Tuning.soft_speed must be one of"):
+        Tuning(soft_speed="stiff")
 
 
 def test_lineup_shares_feedforward_and_switch_on():

@@ -7,7 +7,7 @@ __all__ = ["CONTROLLER_COLORS", "OUTCOME_COLORS"]
 #: One colour per controller of ``drillstring.controller.lineup.CONTROLLERS``.
 CONTROLLER_COLORS = {
     "stiff-pi": "#7f7f7f",
-    "soft-torque": "#1f77b4",
+    "soft-speed": "#1f77b4",
     "z-torque": "#2ca02c",
     "lmi": "#d62728",
 }

@@ -477,7 +477,7 @@ def write_controller_map(
 def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="drillstring controllers",
-        description="Industrial top-drive controllers (stiff PI, SoftTorque, Z-Torque) beside "
+        description="Industrial top-drive controllers (stiff PI, SoftSpeed, Z-Torque) beside "
         "the LMI design: the Fig. 6-like comparison and a small map over speed and feed.",
     )
     sub = ap.add_subparsers(dest="job", required=True)

@@ -14,7 +14,7 @@ in this process.
   ripple and the largest torque |R - R0| (Remark 1: the design can fail on the full model).
 * ``axial``: the averaged contact force (lambda/vbar0)<gbar>_a of the fast model (18) (Fig. 4).
 * ``controllers``: every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` (stiff
-  PI, SoftTorque, Z-Torque, the LMI law with a fixed or a point-wise gain) as a digital law on
+  PI, SoftSpeed, Z-Torque, the LMI law with a fixed or a point-wise gain) as a digital law on
   the full model with torsional stick, from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity
   metrics of :mod:`drillstring.analysis.severity` over the late window, and the best controller.
 
