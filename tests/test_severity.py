@@ -10,6 +10,8 @@ import pytest
 
 from drillstring.analysis.severity import (
     Severity,
+    axial_average,
+    axial_period,
     best_controller,
     outcome,
     peak_torque,
@@ -82,13 +84,13 @@ def test_window_start():
 
 
 def _result(tau, dphi, mode, events, r=None, status="ok"):
+    r = np.zeros_like(tau) if r is None else r
+    data = {"tau": tau, "dphi": dphi, "dtheta": np.zeros_like(tau), "mode": mode, "R_minus_R0": r}
     return SimpleNamespace(
         params=REFERENCE,
-        tau=tau,
-        dphi=dphi,
-        mode=mode,
+        data=data,
+        **data,
         events=events,
-        R_minus_R0=np.zeros_like(tau) if r is None else r,
         status=Status(status, "", float(tau[-1])),
     )
 
@@ -125,13 +127,70 @@ def test_severity_metrics_of_stick_slip_steady_and_a_stopped_run():
     ripple = 0.01 * np.sin(3 * tau)
     s = severity_metrics(_result(tau, ripple, np.zeros_like(tau), []), 20.0)
     assert s.outcome == "steady" and s.stick_fraction == 0.0
-    assert s.severity == pytest.approx(0.01 / W0, rel=1e-3)
+    # averaged over the default axial period 2 pi/eta (no axial stick events): damped by the
+    # moving average's factor sin(x)/x, x = 3*pi/eta
+    x = 3.0 * math.pi / REFERENCE.eta
+    assert s.severity == pytest.approx(0.01 * math.sin(x) / x / W0, rel=2e-3)
     assert outcome(0.06, 0.0, False) == "vibration"
     # a run that stopped: no numbers, its status as outcome
     s = severity_metrics(
         _result(tau[:100], ripple[:100], np.zeros(100), [], status="bit_bounce"), 20.0
     )
     assert s.outcome == "bit_bounce" and math.isnan(s.utr) and math.isnan(s.peak_torque)
+
+
+def test_the_axial_cycle_averages_out_and_the_torsional_severity_remains():
+    """A bit speed with a torsional part a*sin(t) and an axial ripple b*sin(2 pi t/P): averaged
+    over the axial period P (k samples) the ripple is gone exactly; the torsional part is the
+    mean of k samples of a sine, sin(t - (k-1) dt/2) sin(k dt/2)/(k sin(dt/2))."""
+    P, a, b = 0.25, 0.3, 0.2
+    tau = np.arange(0, 60.0 + 1e-9, 0.005)
+    w = W0 + a * np.sin(tau) + b * np.sin(2 * math.pi * tau / P)
+    entries = [_mode_event(t, "slip", "stick") for t in np.arange(0.1, 60.0, P)]
+    assert axial_period(entries, 40.0, 60.0, 1.0) == pytest.approx(P, rel=1e-12)
+    assert axial_period(entries[:2], 40.0, 60.0, 1.0) == 1.0  # no cycle: the default
+    t, wa = axial_average(tau, w, P)
+    dt, k = 0.005, 50
+    factor = math.sin(k * dt / 2) / (k * math.sin(dt / 2))
+    expect = W0 + a * factor * np.sin(t - (k - 1) * dt / 2)
+    assert np.max(np.abs(wa - expect)) < 1e-10  # the running sum: 12000 values of about 5
+    s = severity_metrics(_result(tau, w - W0, np.zeros_like(tau), entries), 20.0)
+    assert s.severity == pytest.approx(a * factor / W0, rel=2e-3)  # not (a + b)/W0
+    assert speed_severity(w[tau >= 40]) == pytest.approx((a + b) / W0, rel=2e-2)
+
+
+def test_a_decay_is_settling_a_sustained_vibration_is_not():
+    tau = np.arange(0, 100.0 + 1e-9, 0.01)
+    decaying = 3.0 * np.exp(-0.03 * tau) * np.sin(tau)
+    s = severity_metrics(_result(tau, decaying, np.zeros_like(tau), []), 30.0)
+    assert s.outcome == "settling"  # severity 0.07 > 0.05, the amplitude falls by e^-0.9
+    sustained = 0.5 * np.sin(tau)
+    assert severity_metrics(_result(tau, sustained, np.zeros_like(tau), []), 30.0).outcome == (
+        "vibration"
+    )
+    # settling time: the averaged speed leaves the 5% band (0.25) for the last time where
+    # exp(-0.05 t) ~ 0.25 (the average over the default axial period 2 pi/eta barely damps)
+    fast = 2.0 * np.exp(-0.5 * tau) * np.sin(5 * tau)
+    s = severity_metrics(_result(tau, fast, np.zeros_like(tau), []), 30.0, t_from=0.0)
+    assert s.outcome == "steady"
+    assert 2.0 < s.settling_time < math.log(2.0 / 0.25) / 0.5 + 0.5
+    assert math.isnan(severity_metrics(_result(tau, sustained, np.zeros_like(tau), []),
+                                       30.0).settling_time)  # fmt: skip
+
+
+def test_torque_and_power_metrics_by_hand():
+    tau = np.arange(0, 60.0 + 1e-9, 0.01)
+    r = np.where(tau >= 50.0, 3.0, 1.0)  # R = R0 + r
+    res = _result(tau, np.zeros_like(tau), np.zeros_like(tau), [], r=r)
+    s = severity_metrics(res, 20.0, t_from=25.0)
+    R0 = REFERENCE.R0
+    assert s.peak_torque_late == pytest.approx(R0 + 3.0)
+    # RMS over [40, 60]: half the samples R0 + 1, half (and the end point) R0 + 3
+    late = tau >= 40.0 - 1e-9
+    expect = math.sqrt(np.mean((R0 + r[late]) ** 2))
+    assert s.rms_torque_late == pytest.approx(expect, rel=1e-12)
+    assert s.peak_power == pytest.approx((R0 + 3.0) * W0)  # dtheta = 0: Omega = omega0
+    assert s.min_table_speed == W0 and math.isnan(s.saturated_fraction)
 
 
 def _sev(severity, torque, out="steady"):

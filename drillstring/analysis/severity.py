@@ -6,14 +6,23 @@ omega_bit = omega0 + dphi/dtau (scaled, eq. (14)'s omega0 is the nominal speed):
 
 * UTR, the under-the-rotation ratio of Aarsnes and van de Wouw (J. Sound Vib. 444, 2019):
   ``(omega0 - min omega_bit)/omega0``; 1 when the bit stops, 0 for steady drilling;
-* the severity ``(max omega_bit - min omega_bit)/(2*mean omega_bit)``, the industry's stick-slip
-  index (NaN when the mean speed is 0);
+* the severity ``(max - min)/(2*mean)`` of the bit speed averaged over the axial cycle
+  (:func:`axial_average`: the axial stick-slip, which every controller leaves, ripples the bit
+  speed at the axial frequency; the torsional severity is what remains), the industry's
+  stick-slip index (NaN when the mean speed is 0);
 * the fraction of the window spent in torsional stick, exact from the located mode events;
-* the peak top-drive torque ``max R`` (scaled, units of C) from a given time on (the switch-on);
+* the top drive's effort: the peak torque ``max R`` (scaled, units of C) from a given time on
+  (the switch-on), the peak and RMS torque over the window, the peak power ``|R Omega|`` and the
+  minimum table speed from the switch-on, the fraction of samples the drive limited;
+* the settling time: from the switch-on until the averaged bit speed stays within
+  ``settle_band`` of omega0;
 * stall, permanent stick: the bit in torsional stick over the whole window, its own outcome.
 
-:func:`outcome` names what a run did, :func:`best_controller` picks the best of several runs
-(lowest severity, then lowest peak torque).
+:func:`outcome` names what a run did: a run whose averaged bit speed still varies by more than
+``vibration_tol`` is "settling" when its amplitude over the window is at most half of the
+amplitude over the window before (a decay that a longer run would finish), else "vibration".
+:func:`best_controller` picks the best of several runs (lowest severity, then lowest peak
+torque).
 """
 
 from __future__ import annotations
@@ -32,6 +41,8 @@ from drillstring.validation import check_real
 __all__ = [
     "OUTCOMES",
     "Severity",
+    "axial_average",
+    "axial_period",
     "best_controller",
     "outcome",
     "peak_torque",
@@ -43,7 +54,10 @@ __all__ = [
 ]
 
 #: Outcomes of a complete run, best to worst (a stopped run's outcome is its status code).
-OUTCOMES = ("steady", "vibration", "stick-slip", "stall")
+OUTCOMES = ("steady", "settling", "vibration", "stick-slip", "stall")
+#: A decay counts as "settling" when the last window's amplitude is at most this fraction of
+#: the window's before.
+SETTLING_RATIO = 0.5
 _TSTICK = "torsional_stick"
 
 
@@ -117,6 +131,66 @@ def stick_fraction(events: Iterable[Event], t0: float, t1: float, mode_at_t0: st
     return time_in_mode(events, _TSTICK, t0, t1, mode_at_t0) / (t1 - t0)
 
 
+def axial_period(events: Iterable[Event], t0: float, t1: float, default: float) -> float:
+    """The period of the axial stick-slip in [t0, t1]: the median time between entries into
+    axial stick (``default`` with fewer than three entries: no axial limit cycle).
+
+    Parameters
+    ----------
+    events : iterable of Event
+        The run's events in time order.
+    t0, t1 : float
+        The window.
+    default : float
+        The period without enough entries (e.g. 2*pi/eta, the axial mode's), > 0.
+
+    Returns
+    -------
+    float
+    """
+    entries = [
+        e.tau for e in events if e.kind == "mode" and e.to_mode == "stick" and t0 <= e.tau <= t1
+    ]
+    if len(entries) < 3:
+        return check_real("default", default, lower=0.0)
+    return float(np.median(np.diff(entries)))
+
+
+def axial_average(tau: ArrayLike, x: ArrayLike, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """(tau, mean of x over the preceding ``period``): the moving average over one axial cycle.
+
+    Parameters
+    ----------
+    tau : array_like
+        Equally spaced sample times.
+    x : array_like
+        Samples, same shape.
+    period : float
+        Averaging length (scaled time), > 0; at least one sample.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The times from ``tau[0] + period`` on and the trailing means there.
+
+    Raises
+    ------
+    ValueError
+        Fewer samples than the averaging length, or shapes that differ.
+    """
+    t = _nonempty(tau, "tau")
+    v = _nonempty(x, "x")
+    if t.shape != v.shape:
+        raise ValueError(f"tau and x differ in shape: {t.shape} and {v.shape}")
+    period = check_real("period", period, lower=0.0)
+    dt = (t[-1] - t[0]) / max(t.size - 1, 1)
+    k = max(1, int(round(period / dt))) if dt > 0.0 else 1
+    if k > v.size:
+        raise ValueError(f"period = {period!r} is longer than the samples ({t[-1] - t[0]!r})")
+    c = np.concatenate([[0.0], np.cumsum(v)])
+    return t[k - 1 :], (c[k:] - c[:-k]) / k
+
+
 def peak_torque(tau: ArrayLike, R_minus_R0: ArrayLike, R0: float, t_from: float = 0.0) -> float:
     """Largest top-drive torque ``R = R0 + max(R - R0)`` from ``t_from`` on.
 
@@ -187,10 +261,23 @@ class Severity:
     Attributes
     ----------
     utr, severity, stick_fraction, peak_torque : float
+        As the module docstring (peak torque from the switch-on, units of C).
     stall : bool
     outcome : str
         One of :data:`OUTCOMES`, or the status code of a stopped run.
     tau_reached : float
+    peak_torque_late, rms_torque_late : float
+        Peak and RMS of the absolute table torque R over the window (units of C).
+    peak_power : float
+        Peak of ``|R Omega|`` from the switch-on (scaled: units of C per unit of tau).
+    saturated_fraction : float
+        Fraction of the samples from the switch-on whose torque the top drive limited (NaN for
+        a run without the record, e.g. a continuous law).
+    min_table_speed : float
+        Lowest table speed omega0 + dtheta/dtau from the switch-on (scaled).
+    settling_time : float
+        Time from the switch-on until the averaged bit speed stays within the band (NaN: not
+        within it at the end).
     """
 
     utr: float
@@ -200,6 +287,12 @@ class Severity:
     stall: bool
     outcome: str
     tau_reached: float
+    peak_torque_late: float = math.nan
+    rms_torque_late: float = math.nan
+    peak_power: float = math.nan
+    saturated_fraction: float = math.nan
+    min_table_speed: float = math.nan
+    settling_time: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as a plain dict.
@@ -212,12 +305,20 @@ class Severity:
         return asdict(self)
 
 
-def outcome(severity: float, stick: float, stall: bool, *, vibration_tol: float = 0.05) -> str:
+def outcome(
+    severity: float,
+    stick: float,
+    stall: bool,
+    *,
+    vibration_tol: float = 0.05,
+    decay: float = math.nan,
+) -> str:
     """The outcome of a complete run, one of :data:`OUTCOMES`.
 
     "stall" (stuck over the whole window), else "stick-slip" (any torsional stick in it), else
-    "vibration" (severity above ``vibration_tol``, or NaN), else "steady"; see
-    ``docs/controllers.md``, "Severity metrics".
+    for a severity above ``vibration_tol`` (or NaN) "settling" when ``decay`` (the amplitude over
+    the window over the amplitude over the window before) is at most :data:`SETTLING_RATIO`, else
+    "vibration"; else "steady" (``docs/controllers.md``, "Severity metrics").
 
     Parameters
     ----------
@@ -228,7 +329,9 @@ def outcome(severity: float, stick: float, stall: bool, *, vibration_tol: float 
     stall : bool
         Whether the bit was in torsional stick over the whole window.
     vibration_tol : float
-        Severity above which a run without stick counts as a vibration.
+        Severity above which a run without stick counts as a vibration or a decay.
+    decay : float
+        The trend of the amplitude between the two windows (NaN: unknown, no "settling").
 
     Returns
     -------
@@ -240,25 +343,34 @@ def outcome(severity: float, stick: float, stall: bool, *, vibration_tol: float 
     if stick > 0.0:
         return "stick-slip"
     if not severity <= vibration_tol:
-        return "vibration"
+        return "settling" if decay <= SETTLING_RATIO else "vibration"
     return "steady"
 
 
 def severity_metrics(
-    result: Any, window: float, *, t_from: float = 0.0, vibration_tol: float = 0.05
+    result: Any,
+    window: float,
+    *,
+    t_from: float = 0.0,
+    vibration_tol: float = 0.05,
+    settle_band: float = 0.05,
 ) -> Severity:
     """The severity metrics of a full-model run (a SimulationResult or SampledResult).
 
     Parameters
     ----------
     result : SimulationResult
-        With ``params``, ``status``, ``events`` and the columns tau, dphi, R_minus_R0, mode.
+        With ``params``, ``status``, ``events`` and the columns tau, dphi, dtheta, R_minus_R0,
+        mode (a sampled run's ``R_max``, ``R_min``, ``P_max``, ``n_saturated`` are used when
+        present: sample-exact).
     window : float
-        Length of the late window (scaled time).
+        Length of the late window (scaled time); the trend compares it with the window before.
     t_from : float
-        Start of the peak-torque search (the switch-on time).
+        Start of the peak, power, saturation and settling records (the switch-on time).
     vibration_tol : float
         Severity below which a run without stick counts as steady.
+    settle_band : float
+        Relative band about omega0 of the settling time.
 
     Returns
     -------
@@ -271,21 +383,57 @@ def severity_metrics(
         nan = math.nan
         return Severity(nan, nan, nan, nan, False, result.status.code, float(tau[-1]))
     p = result.params
+    data = result.data
     j = window_start(tau, window)
-    w = p.omega0 + np.asarray(result.dphi, dtype=float)[j:]
     t0, t1 = float(tau[j]), float(tau[-1])
+    period = axial_period(result.events, t0, t1, 2.0 * math.pi / p.eta)
+    w_all = p.omega0 + np.asarray(result.dphi, dtype=float)
+    ta, wa = axial_average(tau, w_all, period)
+    late = ta >= t0 - 1e-9 * max(1.0, abs(t0))
+    w = w_all[j:]
     first = MODE_NAMES[int(result.mode[j])]
     stick = stick_fraction(result.events, t0, t1, first)
     stall = bool(stick >= 1.0 - 1e-12 and MODE_NAMES[int(result.mode[-1])] == _TSTICK)
-    sev = math.nan if stall else speed_severity(w)
+    sev = math.nan if stall else speed_severity(wa[late])
+    before = (ta >= t0 - window) & (ta < t0)
+    decay = math.nan
+    if np.count_nonzero(before) > 1 and np.count_nonzero(late) > 1:
+        a_before, a_late = float(np.ptp(wa[before])), float(np.ptp(wa[late]))
+        decay = a_late / a_before if a_before > 0.0 else math.nan
+    R = p.R0 + np.asarray(result.R_minus_R0, dtype=float)
+    on = tau >= t_from
+    Omega = p.omega0 + np.asarray(result.dtheta, dtype=float)
+    if "R_max" in data:
+        peak_late = float(np.max(data["R_max"][j:]))
+        power = float(np.max(data["P_max"][on]))
+        samples = (tau[on][-1] - tau[on][0]) / result.Ts if np.count_nonzero(on) > 1 else 0.0
+        saturated = float(np.sum(data["n_saturated"][on][1:]) / samples) if samples else 0.0
+    else:
+        peak_late = float(np.max(R[j:]))
+        power = float(np.max(np.abs(R[on] * Omega[on])))
+        saturated = math.nan
+    outside = np.abs(wa - p.omega0) > settle_band * p.omega0
+    after = ta >= t_from
+    if outside[-1]:
+        settling = math.nan
+    elif np.any(outside & after):
+        settling = float(ta[np.nonzero(outside & after)[0][-1] + 1] - t_from)
+    else:
+        settling = 0.0
     return Severity(
         utr=utr(w, p.omega0),
         severity=sev,
         stick_fraction=stick,
         peak_torque=peak_torque(tau, result.R_minus_R0, p.R0, t_from),
         stall=stall,
-        outcome=outcome(sev, stick, stall, vibration_tol=vibration_tol),
+        outcome=outcome(sev, stick, stall, vibration_tol=vibration_tol, decay=decay),
         tau_reached=t1,
+        peak_torque_late=peak_late,
+        rms_torque_late=float(np.sqrt(np.mean(R[j:] ** 2))),
+        peak_power=power,
+        saturated_fraction=saturated,
+        min_table_speed=float(np.min(Omega[on])),
+        settling_time=settling,
     )
 
 
@@ -310,7 +458,7 @@ def best_controller(metrics: Mapping[str, Severity], *, tie: float = 0.02) -> st
     """
     tie = check_real("tie", tie, lower=0.0, strict=False)
     ok = {
-        k: m for k, m in metrics.items() if m.outcome in OUTCOMES[:3] and math.isfinite(m.severity)
+        k: m for k, m in metrics.items() if m.outcome in OUTCOMES[:4] and math.isfinite(m.severity)
     }
     if not ok:
         return ""
