@@ -3,15 +3,19 @@
 :func:`design_controller` runs the whole chain for a parameter set: the slope A of (22) from the
 axial limit cycles (the Fig. 4 line at the set's gammabar, etabar^2), taubar_crit of (21), the
 averaged model (29)-(31), the line search of Theorem 1 with its independent certificate, and,
-for comparison, the paper's published gain on the same model. :func:`write_design` writes the
-artifacts the rest of the project consumes: the gains file (baked into the controller FMU) and
-the points of the fit (reused as that line of Fig. 4, so the figure shows the slope the
+for comparison, the paper's published gain on the same model; with a top drive, also the
+input-constrained design (:mod:`drillstring.controller.constrained`: the least peak torque
+from the Fig. 6 switch-on within the drive's rating). :func:`write_design` writes the
+artifacts the rest of the project consumes: the gains file (baked into the controller FMU; the
+paper's design, which the reproduction of Figs. 5-6 uses), the constrained design's gains file
+and the points of the fit (reused as that line of Fig. 4, so the figure shows the slope the
 controller was designed with).
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,6 +23,13 @@ from drillstring.analysis.axial_stability import taubar_crit as critical_delay_o
 from drillstring.analysis.figures import write_average_points
 from drillstring.analysis.limit_cycles import AxialDesignInputs, design_inputs
 from drillstring.controller.averaged import AveragedModel, averaged_model
+from drillstring.controller.constrained import (
+    DEFAULT_DECAY,
+    ConstrainedResult,
+    switch_on_states,
+    synthesize_constrained,
+    torque_budget,
+)
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.synthesis import (
     GAIN_MAX,
@@ -28,14 +39,36 @@ from drillstring.controller.synthesis import (
     synthesize,
     to_gains_file,
 )
+from drillstring.model.experiments import FIG6, Experiment
 from drillstring.model.params import ScaledParams
+from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
 
-__all__ = ["GAINS_FILE", "FIT_FILE", "Design", "design_controller", "write_design"]
+__all__ = [
+    "CONSTRAINED_FILE",
+    "FIT_FILE",
+    "GAINS_FILE",
+    "ConstrainedDesign",
+    "Design",
+    "design_constrained",
+    "design_controller",
+    "write_design",
+]
 
 #: File names of the design's artifacts in its output folder.
 GAINS_FILE = "gains.json"
+CONSTRAINED_FILE = "gains_constrained.json"
 FIT_FILE = "axial_fit.csv"
+
+
+@dataclass(frozen=True, eq=False)
+class ConstrainedDesign:
+    """The input-constrained design: its result (with certificate), gains record and drive."""
+
+    result: ConstrainedResult
+    gains: GainsFile
+    top_drive: TopDrive
+    label: str
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,6 +81,80 @@ class Design:
     synthesis: SynthesisResult
     gains: GainsFile
     paper: GainEvaluation | None
+    constrained: ConstrainedDesign | None = None
+
+
+def design_constrained(
+    params: ScaledParams,
+    model: AveragedModel,
+    top_drive: TopDrive,
+    *,
+    experiment: Experiment = FIG6,
+    decay: float = DEFAULT_DECAY,
+    label: str = "",
+    alphas: Sequence[float] | None = None,
+) -> ConstrainedDesign:
+    """The input-constrained design for a top drive, from an experiment's switch-on states.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The parameter set.
+    model : AveragedModel
+        Its averaged model (29)-(31).
+    top_drive : TopDrive
+        The drive whose torque range bounds the feedback (:func:`~drillstring.controller.
+        constrained.torque_budget`).
+    experiment : Experiment
+        The switch-on (default Fig. 6's, with its latch).
+    decay : float
+        Required decay rate of the certificate (1/tau), >= 0.
+    label : str
+        How the drive was named (for the gains file).
+    alphas : sequence of float, optional
+        The alpha grid (default the synthesis' :data:`~drillstring.controller.synthesis.
+        ALPHA_GRID`, refined around its best point; given: no refinement).
+
+    Returns
+    -------
+    ConstrainedDesign
+
+    Raises
+    ------
+    drillstring.controller.synthesis.SynthesisInfeasible
+        No gain keeps the torque within the drive's range from those states.
+    """
+    states = switch_on_states(params, model, experiment, latch=experiment.latch)
+    u_max = torque_budget(params, top_drive, model.R_ff)
+    if alphas is None:
+        result = synthesize_constrained(model, states, u_max, sigma=decay)
+    else:
+        result = synthesize_constrained(model, states, u_max, sigma=decay, alphas=alphas, refine=0)
+    cert = result.certificate
+    gains = GainsFile(
+        F=tuple(float(v) for v in result.F),  # type: ignore[arg-type]
+        K0=model.K0,
+        R_ff=model.R_ff,
+        alpha=result.alpha,
+        A=model.A,
+        taubar_crit=model.taubar_crit,
+        params=params,
+        certificate=cert.margins(),
+        spectral_abscissa=cert.abscissa_nominal,
+        solver=result.solver,
+        solver_status=result.status,
+        constraint={
+            "u_max": result.u_max,
+            "peak_torque": result.peak_torque,
+            "decay": result.sigma,
+            "tau_max": result.tau_max,
+            "torque_limit": [top_drive.R_min, top_drive.R_max],
+            "top_drive": label,
+            "states": int(len(states)),
+            "experiment": experiment.name,
+        },
+    )
+    return ConstrainedDesign(result=result, gains=gains, top_drive=top_drive, label=label)
 
 
 def design_controller(
@@ -58,6 +165,9 @@ def design_controller(
     gain_max: float = GAIN_MAX,
     evaluate_paper: bool = True,
     progress: bool = False,
+    top_drive: TopDrive | None = None,
+    top_drive_label: str = "",
+    decay: float = DEFAULT_DECAY,
 ) -> Design:
     """Design the torsional controller (29)-(31) for ``params`` by Theorem 1 (LMI (33)).
 
@@ -76,12 +186,18 @@ def design_controller(
         Also evaluate the paper's gain on the same averaged model.
     progress : bool
         Progress bar of the limit cycles.
+    top_drive : TopDrive, optional
+        Also the input-constrained design for this drive (:func:`design_constrained`).
+    top_drive_label : str
+        The drive's name for its gains file.
+    decay : float
+        Required decay rate of the constrained design.
 
     Returns
     -------
     Design
-        The axial inputs, averaged model, synthesis result (with certificate), gains record and
-        the paper's gain evaluated.
+        The axial inputs, averaged model, synthesis result (with certificate), gains record,
+        the paper's gain evaluated and the constrained design.
 
     Raises
     ------
@@ -101,6 +217,11 @@ def design_controller(
     model = averaged_model(params, A, taubar_crit)
     result = synthesize(model, gain_max=gain_max)
     paper = evaluate_gain(PAPER_F, params, A, taubar_crit) if evaluate_paper else None
+    constrained = None
+    if top_drive is not None:
+        constrained = design_constrained(
+            params, model, top_drive, decay=decay, label=top_drive_label
+        )
     return Design(
         params=params,
         axial=axial,
@@ -108,6 +229,7 @@ def design_controller(
         synthesis=result,
         gains=to_gains_file(result, params),
         paper=paper,
+        constrained=constrained,
     )
 
 
@@ -124,17 +246,27 @@ def write_design(design: Design, out_dir: str | os.PathLike[str]) -> dict[str, P
     Returns
     -------
     dict
-        ``{"gains": path}`` and, with an axial fit, ``"fit": path`` (a Fig. 4 points file).
+        ``{"gains": path}``, with a constrained design ``"constrained": path``
+        (:data:`CONSTRAINED_FILE`) and, with an axial fit, ``"fit": path`` (a Fig. 4 points
+        file).
 
     Raises
     ------
     ValueError
-        When the certificate failed: no gains file is written for an uncertified gain.
+        When a certificate failed: no gains file is written for an uncertified gain.
     """
     if not design.synthesis.certificate.passed:
         raise ValueError("the certificate check failed; the gains file is not written")
+    c = design.constrained
+    if c is not None and not c.result.certificate.passed:
+        raise ValueError(
+            f"the constrained design's certificate failed ({c.result.certificate.margins()}); "
+            "no gains file is written"
+        )
     out = Path(out_dir)
     paths = {"gains": write_gains(design.gains, out / GAINS_FILE)}
+    if c is not None:
+        paths["constrained"] = write_gains(c.gains, out / CONSTRAINED_FILE)
     if design.axial is not None:
         paths["fit"] = write_average_points(out / FIT_FILE, design.axial.curve)
     return paths

@@ -7,8 +7,16 @@ JSON layout (``format_version`` 1)::
       "F": [4 numbers], "K0": ..., "R_ff": ..., "alpha": ..., "A": ..., "taubar_crit": ...,
       "params": {ScaledParams.to_dict()}, "params_sha256": "<hex>",
       "certificate": {"lmi32_max_eig": ..., ...}, "spectral_abscissa": ...,
-      "solver": "CLARABEL", "solver_status": "optimal"
+      "solver": "CLARABEL", "solver_status": "optimal",
+      "constraint": null | {"u_max": ..., "peak_torque": ..., "decay": ..., "tau_max": ...,
+                            "torque_limit": ..., "top_drive": "<rating>", "states": <count>}
     }
+
+``constraint`` (optional) records an input-constrained design
+(:mod:`drillstring.controller.constrained`): the feedback torque budget ``u_max`` (units of C),
+the certified peak feedback torque from the switch-on states, the required decay, the largest
+delay covered, the drive's torque limit and rating; ``certificate`` then holds that design's
+margins.
 
 ``x = [phi, dphi/dtau, phi - theta - K0, dtheta/dtau]`` and ``R - R0 = R_ff + F x`` (31).
 ``params_sha256`` is the SHA-256 of the canonical JSON (sorted keys, no spaces) of the parameter
@@ -126,6 +134,7 @@ class GainsFile:
     solver: str
     solver_status: str
     version: str = field(default_factory=_package_version)
+    constraint: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         F = tuple(_real(f"F[{i}]", v) for i, v in enumerate(self.F))
@@ -146,6 +155,20 @@ class GainsFile:
                 raise GainsFileError(f"gains file: {name} must be a string, got {value!r}")
         if self.alpha <= 0.0:
             raise GainsFileError(f"gains file: alpha must be > 0, got {self.alpha!r}")
+        if self.constraint is not None:
+            if not isinstance(self.constraint, Mapping):
+                raise GainsFileError(f"gains file: constraint must be a mapping or null, got "
+                                     f"{self.constraint!r}")  # fmt: skip
+            for key in ("u_max", "peak_torque", "decay", "tau_max"):
+                if key not in self.constraint:
+                    raise GainsFileError(f"gains file: constraint lacks {key!r}")
+                _real(f"constraint[{key!r}]", self.constraint[key])
+            if self.constraint["peak_torque"] > self.constraint["u_max"]:
+                raise GainsFileError(
+                    "gains file: the constraint's peak torque is above its u_max: the design "
+                    "does not meet its own limit"
+                )
+            object.__setattr__(self, "constraint", dict(self.constraint))
         if not math.isclose(self.R_ff, -self.K0, rel_tol=1e-12, abs_tol=1e-15):
             raise GainsFileError(f"gains file: R_ff = {self.R_ff!r} is not -K0 = {-self.K0!r} (31)")
         try:
@@ -188,6 +211,7 @@ class GainsFile:
             "spectral_abscissa": self.spectral_abscissa,
             "solver": self.solver,
             "solver_status": self.solver_status,
+            "constraint": None if self.constraint is None else dict(self.constraint),
         }
 
     @classmethod
@@ -214,7 +238,7 @@ class GainsFile:
         """
         if not isinstance(data, dict):
             raise GainsFileError(f"{source}: expected a JSON object, got {type(data).__name__}")
-        unknown = sorted(set(data) - set(_KEYS))
+        unknown = sorted(set(data) - set(_KEYS) - {"constraint"})
         missing = [k for k in _KEYS if k not in data]
         if unknown:
             raise GainsFileError(f"{source}: unknown key(s) {', '.join(unknown)}")
@@ -251,6 +275,7 @@ class GainsFile:
                 solver=data["solver"],
                 solver_status=data["solver_status"],
                 version=data["version"],
+                constraint=data.get("constraint"),
             )
         except GainsFileError as exc:
             raise GainsFileError(f"{source}: {exc}") from None

@@ -10,11 +10,13 @@ R_ff and the switch-on time, so that they start from the same state in the same 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from drillstring.controller.averaged import AveragedModel, closed_loop_roots
+from drillstring.controller.estimation import design_observer
 from drillstring.controller.gains import GainsFile
 from drillstring.controller.synthesis import synthesize
 from drillstring.controller.tuning import (
@@ -26,8 +28,12 @@ from drillstring.controller.tuning import (
     z_torque,
 )
 from drillstring.model.control import AffineFeedback
+from drillstring.model.digital.controller import DigitalController
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import ScaledParams
+from drillstring.model.sensing import Sensing
+from drillstring.model.tables import Scales, scales_of
+from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
@@ -35,16 +41,29 @@ __all__ = [
     "FEEDFORWARD",
     "INDUSTRIAL",
     "LmiGain",
+    "MUD_PULSE_LATENCY_S",
+    "MUD_PULSE_PERIOD_S",
+    "RIG_CONTROLLERS",
     "Tuning",
     "controller_lineup",
     "industrial_lineup",
     "lmi_gain",
+    "rig_lineup",
 ]
 
-#: The controllers, in the order of every table and figure.
+#: The laws, in the order of every table and figure.
 CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi")
 #: The surface-only (industrial) controllers of :data:`CONTROLLERS`.
 INDUSTRIAL = CONTROLLERS[:3]
+#: The digital controllers of a rig (:func:`rig_lineup`): the industrial laws with the string
+#: torque from the motor, the paper's LMI design with exact downhole measurements, the
+#: input-constrained design with exact measurements, by mud-pulse telemetry and from the
+#: surface observer.
+RIG_CONTROLLERS = (*INDUSTRIAL, "lmi", "lmi-constrained", "lmi-telemetry", "lmi-observer")
+#: Mud-pulse telemetry of the downhole bit angle and speed: a frame every 2 s, used 4 s after
+#: it was taken (a few bits per second, seconds of latency; ``docs/controllers.md``).
+MUD_PULSE_PERIOD_S = 2.0
+MUD_PULSE_LATENCY_S = 4.0
 #: Where the LMI law's K0 and R_ff come from with a gains file: the file, or the point's (31).
 FEEDFORWARD = ("file", "point")
 
@@ -193,3 +212,89 @@ def industrial_lineup(
         "soft-speed": soft_speed(params, rule=tuning.soft_speed, Z=Z, **common),
         "z-torque": z_torque(params, matching=tuning.z_matching, Z=Z, **common),
     }
+
+
+def rig_lineup(
+    params: ScaledParams,
+    model: AveragedModel,
+    *,
+    paper: LmiGain,
+    constrained: LmiGain | None,
+    top_drive: TopDrive | None,
+    scales: Scales,
+    Ts: float,
+    tuning: Tuning | None = None,
+    t_on: float = 0.0,
+    latch: str = "angle",
+    names: Sequence[str] = RIG_CONTROLLERS,
+) -> dict[str, DigitalController]:
+    """The digital controllers of :data:`RIG_CONTROLLERS` at ``params``, all with the same top
+    drive (``docs/controllers.md``, "Fig. 6-like comparison").
+
+    The industrial laws measure the string torque from the motor torque and the table
+    acceleration (``Sensing(torque="motor")``: a rig has no torque sub at the top as a rule);
+    ``lmi`` is the paper's design (Theorem 1) with exact bit angle and speed, the paper's
+    assumption; ``lmi-constrained`` the input-constrained design
+    (:mod:`drillstring.controller.constrained`) with exact measurements, ``lmi-telemetry`` with
+    the bit angle and speed by mud-pulse telemetry (:data:`MUD_PULSE_PERIOD_S`,
+    :data:`MUD_PULSE_LATENCY_S`), ``lmi-observer`` with them estimated from the table speed and
+    the motor torque (:func:`~drillstring.controller.estimation.design_observer`). The LMI laws
+    hold their bit angle while the drive saturates (``on_saturation = "freeze-angle"``).
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The operating point.
+    model : AveragedModel
+        Its averaged model (the observer's).
+    paper, constrained : LmiGain
+        The two LMI designs (``constrained`` None: its rows are left out).
+    top_drive : TopDrive or None
+        The limits of every controller.
+    scales : PhysicalParams or any object with C and t_star
+        The rig's scales, to convert the telemetry's seconds.
+    Ts : float
+        Sample period of every controller (the observer is discretised with it).
+    tuning : Tuning, optional
+        The industrial rules' choices.
+    t_on, latch : float, str
+        Switch-on of every law; the LMI laws' latch.
+    names : sequence of str
+        The controllers wanted (a subset of :data:`RIG_CONTROLLERS`).
+
+    Returns
+    -------
+    dict
+        Name -> DigitalController, in the order of ``names``.
+    """
+    unknown = sorted(set(names) - set(RIG_CONTROLLERS))
+    if unknown:
+        raise ValueError(f"unknown controller(s) {unknown} (known: {', '.join(RIG_CONTROLLERS)})")
+    _, t_star = scales_of(scales)
+    surface = Sensing(torque="motor")
+    laws = industrial_lineup(params, tuning=tuning, R_ff=paper.R_ff, t_on=t_on)
+    out: dict[str, DigitalController] = {}
+
+    def lmi(gain: LmiGain) -> SampledAffine:
+        feedback = AffineFeedback(gain.F, gain.K0, gain.R_ff, t_on, latch)
+        return SampledAffine(feedback, on_saturation="freeze-angle")
+
+    for name in names:
+        if name in INDUSTRIAL:
+            out[name] = DigitalController(laws[name], top_drive, surface)
+        elif name == "lmi":
+            out[name] = DigitalController(lmi(paper), top_drive)
+        elif constrained is not None:
+            if name == "lmi-constrained":
+                sensing = Sensing()
+            elif name == "lmi-telemetry":
+                sensing = Sensing(
+                    downhole="telemetry",
+                    period=MUD_PULSE_PERIOD_S / t_star,
+                    latency=MUD_PULSE_LATENCY_S / t_star,
+                )
+            else:
+                observer = design_observer(model, Ts)
+                sensing = Sensing(downhole="observer", observer=observer, torque="motor")
+            out[name] = DigitalController(lmi(constrained), top_drive, sensing)
+    return out

@@ -21,10 +21,17 @@ from pathlib import Path
 import numpy as np
 
 from drillstring.controller.averaged import AveragedModel, ode_poles, open_loop_roots
-from drillstring.controller.design import Design, design_controller, write_design
+from drillstring.controller.constrained import DEFAULT_DECAY
+from drillstring.controller.design import (
+    CONSTRAINED_FILE,
+    Design,
+    design_controller,
+    write_design,
+)
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F
 from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
-from drillstring.model.params import ParameterError, ScaledParams, params_from_spec
+from drillstring.model.params import KNOWN_PHYSICAL, ParameterError, ScaledParams, params_from_spec
+from drillstring.model.topdrive import top_drive_from_spec
 
 __all__ = ["build_parser", "design_main", "print_design"]
 
@@ -79,6 +86,20 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
     )
     ap.add_argument(
         "--no-paper", action="store_true", help="skip the evaluation of the paper's gain"
+    )
+    ap.add_argument(
+        "--torque-limit",
+        default=None,
+        metavar="DRIVE",
+        help="also the input-constrained design for this top drive, written to "
+        f"{CONSTRAINED_FILE}: a rating (tds-11sa: the reference rig's drive), a multiple of the "
+        "nominal torque (50R0) or a torque in N m on the rig (52kNm)",
+    )
+    ap.add_argument(
+        "--decay",
+        type=float,
+        default=DEFAULT_DECAY,
+        help=f"required decay rate of the constrained design (1/tau; default {DEFAULT_DECAY:g})",
     )
     return ap
 
@@ -179,6 +200,37 @@ def print_design(design: Design) -> None:
             f"  spectral abscissa: {ev.abscissa_nominal:.5f} at tau_n0, max over sweep "
             f"{float(np.max(ev.abscissa)):.5f}; Razumikhin certificate: {cert_txt}"
         )
+    c = design.constrained
+    if c is not None:
+        r, cert = c.result, c.result.certificate
+        td = c.top_drive
+        R0 = params.R0
+        print(f"Input-constrained design ({c.label or 'top drive'}: R in [{td.R_min:.4g}, "
+              f"{td.R_max:.4g}] = [{td.R_min / R0:.3g}, {td.R_max / R0:.3g}] R0)")  # fmt: skip
+        print(
+            f"  {len(r.states)} switch-on states of {c.gains.constraint['experiment']}; feedback "
+            f"budget u_max = {r.u_max:.4g}; decay {r.sigma:g}"
+        )
+        print(f"  alpha = {r.alpha:.4g}: F = [{', '.join(f'{v:.4f}' for v in r.F)}]   ||F|| = "
+              f"{np.linalg.norm(r.F):.4g}")  # fmt: skip
+        print(
+            f"  certified peak feedback torque {r.peak_torque:.4g} = {r.peak_torque / R0:.3g} R0 "
+            f"(<= u_max); largest x^T S^-1 x of the states {cert.state_max:.6f} (<= 1)"
+        )
+        print(
+            f"  (32) shifted, largest eigenvalue {cert.lmi_max_eig:.3e} (< 0); spectral abscissa "
+            f"{cert.abscissa_nominal:.5f} at tau_n0, max over the sweep "
+            f"{float(np.max(cert.abscissa)):.5f}"
+        )
+        print(f"  certificate {'PASSED' if cert.passed else 'FAILED'}")
+
+
+def _same(a: ScaledParams, b: ScaledParams) -> bool:
+    """The scaled sets agree to 1e-9 (a rig's conversion rounds)."""
+    return all(
+        abs(x - y) <= 1e-9 * max(abs(x), abs(y), 1.0)
+        for x, y in zip(a.to_dict().values(), b.to_dict().values(), strict=True)
+    )
 
 
 def design_main(argv: Sequence[str] | None = None) -> int:
@@ -200,6 +252,10 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         params: ScaledParams = params_from_spec(args.params)
+        drive = None
+        if args.torque_limit is not None:
+            rig = next((r for r in KNOWN_PHYSICAL.values() if _same(r.to_scaled(), params)), None)
+            drive = top_drive_from_spec(args.torque_limit, params.R0, rig)
         if args.A is None:
             print("Computing the slope A of (22) from axial limit cycles ...", flush=True)
         design = design_controller(
@@ -209,6 +265,9 @@ def design_main(argv: Sequence[str] | None = None) -> int:
             gain_max=args.gain_max,
             evaluate_paper=not args.no_paper,
             progress=args.A is None,
+            top_drive=drive,
+            top_drive_label=args.torque_limit or "",
+            decay=args.decay,
         )
     except (ParameterError, ValueError, OSError, SynthesisInfeasible) as exc:
         print(f"drillstring design: {exc}", file=sys.stderr)

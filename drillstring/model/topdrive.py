@@ -22,7 +22,8 @@ from drillstring.model.digital import layout as L
 from drillstring.model.tables import Parameter, Scales, table_from_si, table_to_si
 from drillstring.validation import check_choice, check_real
 
-__all__ = ["BRAKING", "RPM", "Rating", "TDS_11SA", "TopDrive", "top_drive"]
+__all__ = ["BRAKING", "RATINGS", "RPM", "Rating", "TDS_11SA", "TopDrive", "top_drive",
+           "top_drive_from_spec"]  # fmt: skip
 
 #: Braking: "four-quadrant" (torque of either sign at any speed: a drive with braking
 #: resistors or a regenerative supply) or "none" (no torque against the rotation).
@@ -228,4 +229,58 @@ def top_drive(rating: Rating, scales: Scales) -> TopDrive:
             "omega_max": rating.max_speed,
             "braking": rating.braking,
         },
+    )
+
+
+#: The named ratings (``top_drive_from_spec`` names).
+RATINGS = {"tds-11sa": TDS_11SA}
+
+
+def top_drive_from_spec(spec: str, R0: float, scales: Scales | None = None) -> TopDrive:
+    """A top drive from a command-line spec.
+
+    ``"tds-11sa"`` (a name of :data:`RATINGS`; needs the rig's ``scales``): the whole rating;
+    ``"<x>R0"``: the torque range [-x R0, x R0] alone (scaled, any parameter set); ``"<x>kNm"``
+    or ``"<x>Nm"``: [-x, x] in SI on the rig of ``scales``.
+
+    Parameters
+    ----------
+    spec : str
+        As above (case is ignored).
+    R0 : float
+        The nominal torque (scaled, units of C).
+    scales : PhysicalParams or any object with C and t_star, optional
+        The rig, for a named rating or an SI torque.
+
+    Returns
+    -------
+    TopDrive
+
+    Raises
+    ------
+    ValueError
+        A spec of none of these forms, a limit that is not positive, or no rig for a rating or
+        an SI torque; the message names the spec.
+    """
+    text = str(spec).strip().lower().replace(" ", "")
+    if text in RATINGS:
+        if scales is None:
+            raise ValueError(f"top drive {spec!r}: a named rating needs the physical rig")
+        return top_drive(RATINGS[text], scales)
+    for suffix, factor, physical in (("knm", 1e3, True), ("nm", 1.0, True), ("r0", R0, False)):
+        if text.endswith(suffix):
+            try:
+                x = float(text[: -len(suffix)]) * factor
+            except ValueError:
+                break
+            if not (math.isfinite(x) and x > 0.0):
+                break
+            if physical:
+                if scales is None:
+                    raise ValueError(f"top drive {spec!r}: a torque in N m needs the physical rig")
+                return TopDrive.from_si(scales, {"R_min": -x, "R_max": x})
+            return TopDrive(R_min=-x, R_max=x)
+    raise ValueError(
+        f"top drive {spec!r}: expected a rating ({', '.join(RATINGS)}), a multiple of the "
+        "nominal torque ('50R0') or a torque in N m ('52kNm', '52000Nm'), positive"
     )
