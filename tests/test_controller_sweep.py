@@ -22,12 +22,14 @@ from drillstring.apps.sweep.runner import run_sweep
 from drillstring.apps.sweep.spec import SweepSpecError, spec_from_dict
 from drillstring.apps.sweep.studies import axial_design
 from drillstring.controller.averaged import averaged_model
+from drillstring.controller.design import design_constrained
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
-from drillstring.controller.lineup import CONTROLLERS, controller_lineup, lmi_gain
+from drillstring.controller.lineup import CONTROLLERS, RIG_CONTROLLERS, controller_lineup, lmi_gain
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import Experiment
-from drillstring.model.params import REFERENCE, get_physical
+from drillstring.model.params import REFERENCE, REFERENCE_RIG, get_physical
 from drillstring.model.sampled import simulate_sampled
+from drillstring.model.topdrive import TDS_11SA, top_drive
 
 
 def _spec(gains_path, **options):
@@ -176,12 +178,25 @@ SHORT_FIG6 = Experiment(
 )
 
 
-def test_comparison_starts_every_controller_from_the_same_state(paper_gains, tmp_path):
+@pytest.fixture(scope="module")
+def constrained_gains(paper_gains, tmp_path_factory):
+    """The input-constrained design for the reference rig's top drive (a short alpha grid)."""
+    g = paper_gains[0]
+    m = averaged_model(REFERENCE, g.A, g.taubar_crit)
+    drive = top_drive(TDS_11SA, REFERENCE_RIG)
+    c = design_constrained(REFERENCE, m, drive, alphas=(0.4, 0.63, 1.0), label="tds-11sa")
+    return write_gains(c.gains, tmp_path_factory.mktemp("gains") / "constrained.json")
+
+
+def test_comparison_starts_every_controller_from_the_same_state(
+    paper_gains, constrained_gains, tmp_path
+):
     result = write_controller_comparison(
-        tmp_path, paper_gains[0], experiment=SHORT_FIG6, window=2.0, log=None
-    )
+        tmp_path, paper_gains[0], constrained_gains, experiment=SHORT_FIG6, tau_end=8.0,
+        window=1.0, log=None,
+    )  # fmt: skip
     names = [r["controller"] for r in result.rows]
-    assert names == ["open-loop", *CONTROLLERS, "lmi-continuous"]
+    assert names == ["open-loop", *RIG_CONTROLLERS, "lmi-unlimited"]
     with open(result.files["table"], newline="") as fh:
         table = list(csv.DictReader(fh))
     assert [r["controller"] for r in table] == names and list(table[0]) == list(COMPARISON_COLUMNS)
@@ -190,19 +205,41 @@ def test_comparison_starts_every_controller_from_the_same_state(paper_gains, tmp
     # location's rounding (see test_laws: the held torque equals the monolithic run)
     ol = result.runs["open-loop"]
     before = ol.tau < 6.0
-    for name in CONTROLLERS:
+    for name in RIG_CONTROLLERS:
         r = result.runs[name]
         np.testing.assert_allclose(r.tau[before], ol.tau[before], atol=1e-12)
         np.testing.assert_allclose(r.dphi[before], ol.dphi[before], atol=1e-8)
-    # the reference rig is found for the reference set: peak torques in N m are C times
+    # the reference rig is found for the reference set: torques in kN m are C R0 times
     rows = {r["controller"]: r for r in result.rows}
-    C = get_physical("reference-rig").C
-    assert rows["lmi"]["peak_torque_Nm"] == pytest.approx(C * rows["lmi"]["peak_torque"])
+    rig = get_physical("reference-rig")
+    kNm = rows["z-torque"]["peak_torque_over_R0"] * REFERENCE.R0 * rig.C / 1e3
+    assert rows["z-torque"]["peak_torque_kNm"] == pytest.approx(kNm, rel=1e-12)
     assert result.laws["soft-speed"]["si"]["kp"] == pytest.approx(
-        result.laws["soft-speed"]["scaled"]["kp"] * C * math.sqrt(200.0 / 235.0), rel=1e-12
+        result.laws["soft-speed"]["scaled"]["kp"] * rig.C * math.sqrt(200.0 / 235.0), rel=1e-12
     )
-    # sampled and continuous evaluation of the paper's law agree closely
-    assert rows["lmi"]["peak_torque"] == pytest.approx(rows["lmi-continuous"]["peak_torque"], 1e-2)
+    # every controller under the drive stays within its rating (50.8 kN m); the paper's set-up
+    # without a drive asks for about 1200 R0
+    rating = TDS_11SA.torque / 1e3
+    for name in RIG_CONTROLLERS:
+        if math.isfinite(rows[name]["peak_torque_kNm"]):
+            assert rows[name]["peak_torque_kNm"] <= rating * (1 + 1e-12), name
+    assert rows["lmi-unlimited"]["peak_torque_over_R0"] > 500.0
+    assert rows["lmi"]["top_drive"] == "tds-11sa" and rows["lmi-unlimited"]["top_drive"] == "none"
+
+
+def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path):
+    result = write_controller_comparison(
+        tmp_path, paper_gains[0], experiment=SHORT_FIG6, tau_end=8.0, window=1.0,
+        top_drive="none", log=None,
+    )  # fmt: skip
+    rows = {r["controller"]: r for r in result.rows}
+    assert "lmi-constrained" not in rows  # no constrained design given
+    assert rows["lmi"]["peak_torque_over_R0"] == pytest.approx(
+        rows["lmi-unlimited"]["peak_torque_over_R0"], rel=1e-2
+    )
+    with pytest.raises(ValueError, match="2 window = 4.0 reaches back before the switch-on"):
+        write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
+                                    tau_end=8.0, window=2.0, log=None)  # fmt: skip
 
 
 def test_cli_compare_and_map(paper_gains, tmp_path, capsys):

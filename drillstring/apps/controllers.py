@@ -36,8 +36,15 @@ from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
 from drillstring.apps.sweep.spec import SweepSpecError, spec_from_dict
 from drillstring.controller.averaged import averaged_model
+from drillstring.controller.design import CONSTRAINED_FILE
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
-from drillstring.controller.lineup import CONTROLLERS, controller_lineup, lmi_gain
+from drillstring.controller.lineup import (
+    CONTROLLERS,
+    RIG_CONTROLLERS,
+    Tuning,
+    lmi_gain,
+    rig_lineup,
+)
 from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
@@ -45,6 +52,7 @@ from drillstring.model.experiments import FIG6, Experiment
 from drillstring.model.params import KNOWN_PARAMS, KNOWN_PHYSICAL, PhysicalParams, ScaledParams
 from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
+from drillstring.model.topdrive import RPM, top_drive_from_spec
 from drillstring.plotting import new_figure
 from drillstring.validation import check_int, check_real
 
@@ -61,21 +69,42 @@ __all__ = [
 #: Columns of ``comparison.csv``.
 COMPARISON_COLUMNS = (
     "controller",
-    "evaluation",
+    "sensing",
+    "top_drive",
     "outcome",
-    "utr",
     "severity",
+    "utr",
     "stick_fraction",
-    "stall",
-    "peak_torque",
     "peak_torque_over_R0",
-    "peak_torque_Nm",
+    "peak_torque_kNm",
+    "rms_torque_late_kNm",
+    "peak_power_kW",
+    "saturated_fraction",
+    "min_table_speed_rpm",
+    "settling_time_s",
     "stick_entries_after_on",
     "status",
     "tau_reached",
 )
 OPEN_LOOP = "open-loop"
-LMI_CONTINUOUS = "lmi-continuous"
+#: The paper's set-up of Fig. 6: its LMI law evaluated continuously, no top drive (the
+#: reproduction of the figure; no real drive delivers its torque).
+LMI_UNLIMITED = "lmi-unlimited"
+#: How each row measures (``sensing`` column).
+SENSING_TEXT = {
+    OPEN_LOOP: "-",
+    "stiff-pi": "table speed",
+    "soft-speed": "table speed",
+    "z-torque": "speed, torque from motor",
+    "lmi": "bit angle, speed exact",
+    "lmi-constrained": "bit angle, speed exact",
+    "lmi-telemetry": "mud pulse 2 s, 4 s late",
+    "lmi-observer": "observer, surface only",
+    LMI_UNLIMITED: "bit angle, speed exact",
+}
+#: The comparison's run: Fig. 6's switch-on at tau = 25, then 75 (13 torsional periods).
+COMPARISON_TAU_END = 100.0
+COMPARISON_WINDOW = 30.0
 
 
 def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
@@ -112,8 +141,8 @@ class Comparison:
     """What :func:`write_controller_comparison` measured and wrote.
 
     ``rows`` are the rows of ``comparison.csv`` (:data:`COMPARISON_COLUMNS`), ``laws`` each
-    law's parameters (scaled and, with a rig, SI), ``files`` the written paths, ``runs`` the
-    simulation results by row name.
+    controller's parameters (scaled and, with a rig, SI), ``files`` the written paths, ``runs``
+    the simulation results by row name.
     """
 
     rows: list[dict[str, Any]]
@@ -122,35 +151,42 @@ class Comparison:
     runs: dict[str, SimulationResult] = field(default_factory=dict, repr=False)
     experiment: str = FIG6.name
     Ts: float = DEFAULT_TS
-    window: float = 20.0
+    window: float = COMPARISON_WINDOW
+    top_drive: str = "tds-11sa"
 
 
 def _row(
     name: str,
-    evaluation: str,
+    drive: str,
     result: SimulationResult,
     window: float,
     t_on: float,
     rig: PhysicalParams | None,
 ) -> dict[str, Any]:
     s = severity_metrics(result, window, t_from=t_on)
-    R0 = result.params.R0
+    p = result.params
     entries = sum(
         1
         for e in result.events
         if e.kind == "mode" and e.to_mode == "torsional_stick" and e.tau >= t_on
     )
+    C = rig.C if rig is not None else math.nan
+    t_star = rig.t_star if rig is not None else math.nan
     return {
         "controller": name,
-        "evaluation": evaluation,
+        "sensing": SENSING_TEXT[name],
+        "top_drive": drive,
         "outcome": s.outcome,
-        "utr": s.utr,
         "severity": s.severity,
+        "utr": s.utr,
         "stick_fraction": s.stick_fraction,
-        "stall": int(s.stall),
-        "peak_torque": s.peak_torque,
-        "peak_torque_over_R0": s.peak_torque / R0,
-        "peak_torque_Nm": rig.physical_torque(s.peak_torque) if rig is not None else math.nan,
+        "peak_torque_over_R0": s.peak_torque / p.R0,
+        "peak_torque_kNm": s.peak_torque * C / 1e3,
+        "rms_torque_late_kNm": s.rms_torque_late * C / 1e3,
+        "peak_power_kW": s.peak_power * C / t_star / 1e3,
+        "saturated_fraction": s.saturated_fraction,
+        "min_table_speed_rpm": s.min_table_speed / t_star / RPM,
+        "settling_time_s": s.settling_time * t_star,
         "stick_entries_after_on": entries,
         "status": result.status.code,
         "tau_reached": s.tau_reached,
@@ -163,9 +199,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
     Parameters
     ----------
     rows : sequence of dict
-        Rows of :attr:`Comparison.rows` (keys of :data:`COMPARISON_COLUMNS`; ``controller``,
-        ``evaluation``, ``outcome``, ``utr``, ``severity``, ``stick_fraction``,
-        ``peak_torque_over_R0``, ``peak_torque_Nm`` and ``stick_entries_after_on`` are read).
+        Rows of :attr:`Comparison.rows` (keys of :data:`COMPARISON_COLUMNS`).
 
     Returns
     -------
@@ -178,15 +212,23 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
         A row lacks one of the keys read.
     """
     head = (
-        f"{'controller':<15} {'evaluation':<13} {'outcome':<11} {'UTR':>7} {'severity':>8} "
-        f"{'stick':>6} {'peak R/R0':>10} {'peak R [N m]':>13} {'sticks':>6}"
+        f"{'controller':<16} {'sensing':<25} {'outcome':<16} {'sev.':>6} {'stick':>5} "
+        f"{'peak R/R0':>9} {'peak kN m':>9} {'rms kN m':>8} {'kW':>6} {'sat.':>5} "
+        f"{'min rpm':>7} {'settle s':>8}"
     )
     lines = [head, "-" * len(head)]
+
+    def num(x: float, fmt: str) -> str:
+        return "-" if not math.isfinite(x) else format(x, fmt)
+
     for r in rows:
         lines.append(
-            f"{r['controller']:<15} {r['evaluation']:<13} {r['outcome']:<11} {r['utr']:>7.3f} "
-            f"{r['severity']:>8.3f} {r['stick_fraction']:>6.3f} {r['peak_torque_over_R0']:>10.2f} "
-            f"{r['peak_torque_Nm']:>13.4g} {r['stick_entries_after_on']:>6d}"
+            f"{r['controller']:<16} {r['sensing']:<25} {r['outcome']:<16} "
+            f"{num(r['severity'], '6.3f'):>6} {num(r['stick_fraction'], '5.3f'):>5} "
+            f"{num(r['peak_torque_over_R0'], '9.1f'):>9} {num(r['peak_torque_kNm'], '9.3g'):>9} "
+            f"{num(r['rms_torque_late_kNm'], '8.3g'):>8} {num(r['peak_power_kW'], '6.0f'):>6} "
+            f"{num(r['saturated_fraction'], '5.3f'):>5} {num(r['min_table_speed_rpm'], '7.1f'):>7} "
+            f"{num(r['settling_time_s'], '8.1f'):>8}"
         )
     return "\n".join(lines)
 
@@ -199,25 +241,24 @@ def _plot(
     window: float,
     title: str,
 ) -> Path:
-    fig = new_figure((8.0, 9.0))
-    axes = fig.subplots(len(CONTROLLERS), 1, sharex=True, sharey=True)
+    names = [n for n in runs if n != OPEN_LOOP]
+    fig = new_figure((9.0, 1.6 * len(names) + 1.0))
+    axes = fig.subplots(len(names), 1, sharex=True, sharey=True)
     open_loop = runs[OPEN_LOOP]
-    tau_end = float(runs[CONTROLLERS[0]].tau[-1])
-    for ax, name in zip(axes, CONTROLLERS, strict=True):
+    tau_end = float(open_loop.tau[-1])
+    for ax, name in zip(np.atleast_1d(axes), names, strict=True):
         ax.plot(open_loop.tau, omega0 + open_loop.dphi, color="0.75", lw=0.8, label="open loop")
         r = runs[name]
-        ax.plot(r.tau, omega0 + r.dphi, color=CONTROLLER_COLORS[name], lw=1.0, label=name)
-        if name == "lmi":
-            c = runs[LMI_CONTINUOUS]
-            ax.plot(c.tau, omega0 + c.dphi, "k--", lw=0.8, label="lmi, continuous")
+        color = CONTROLLER_COLORS.get(name.split("-")[0] if name.startswith("lmi") else name)
+        ax.plot(r.tau, omega0 + r.dphi, color=color, lw=1.0, label=f"{name}: {r.status.code}")
         ax.axvline(t_on, color="k", ls=":", lw=1)
         ax.axvspan(tau_end - window, tau_end, color="0.93", zorder=0)
         ax.axhline(omega0, color="k", lw=0.5)
         ax.set_ylabel(r"$\dot\Phi$ (bit)")
-        ax.legend(loc="upper left", fontsize=7, ncol=3)
+        ax.legend(loc="upper left", fontsize=7, ncol=2)
         ax.grid(alpha=0.3)
-    axes[-1].set_xlabel(r"$\tau$")
-    axes[0].set_title(title, fontsize="medium")
+    np.atleast_1d(axes)[-1].set_xlabel(r"$\tau$")
+    np.atleast_1d(axes)[0].set_title(title, fontsize="medium")
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -225,37 +266,53 @@ def _plot(
 def write_controller_comparison(
     out_dir: str | os.PathLike[str],
     gains: GainsFile | str | os.PathLike[str],
+    constrained: GainsFile | str | os.PathLike[str] | None = None,
     *,
     experiment: Experiment = FIG6,
+    tau_end: float = COMPARISON_TAU_END,
     Ts: float = DEFAULT_TS,
-    window: float = 20.0,
+    window: float = COMPARISON_WINDOW,
+    top_drive: str = "tds-11sa",
+    tuning: Tuning | None = None,
     rig: PhysicalParams | None = None,
     log: Callable[[str], Any] | None = print,
 ) -> Comparison:
-    """Every controller switched on from the same torsional stick-slip state (Fig. 6 set-up).
+    """Every controller switched on from the same torsional stick-slip state (Fig. 6 set-up),
+    all under the same top drive (``docs/controllers.md``, "Fig. 6-like comparison").
 
     The open loop (the feed-forward R_ff alone, (31)) runs from ``experiment.dphi0`` to
-    ``experiment.t_on`` with the torsional-stick model on; then each controller of
-    :data:`~drillstring.controller.lineup.CONTROLLERS` acts as a digital law with sample period
-    ``Ts`` (:func:`~drillstring.model.sampled.simulate_sampled`), the paper's law also
-    continuously (:func:`~drillstring.model.simulate.simulate`). The severity metrics are taken
-    over the last ``window`` of the run, the peak torque from the switch-on on.
+    ``experiment.t_on`` with the torsional-stick model on; then each digital controller of
+    :func:`~drillstring.controller.lineup.rig_lineup` (the industrial laws, the paper-style LMI
+    design of ``gains``, the constrained design of ``constrained`` with exact, mud-pulse and
+    observer sensing) acts with sample period ``Ts`` under the top drive ``top_drive``; and, as
+    the paper's set-up, its LMI law continuously without a drive (:data:`LMI_UNLIMITED`). The
+    metrics are taken over the last ``window`` of the run, the effort from the switch-on on.
 
     Parameters
     ----------
     out_dir : path
         Where ``comparison.png``, ``comparison.csv`` and ``comparison.json`` go.
     gains : GainsFile or path
-        The LMI design (its parameter set, A, taubar_crit, F and feed-forward are used).
+        The paper-style LMI design (its parameter set, A, taubar_crit, F and feed-forward).
+    constrained : GainsFile or path, optional
+        The input-constrained design (``drillstring design --torque-limit``); None: its rows
+        are left out.
     experiment : Experiment
-        The set-up (default :data:`~drillstring.model.experiments.FIG6`).
+        The set-up (default :data:`~drillstring.model.experiments.FIG6`); run to ``tau_end``.
+    tau_end : float
+        End of the run (scaled), after the switch-on by more than ``2*window``.
     Ts : float
-        Sample period of the digital laws (scaled).
+        Sample period of the digital controllers (scaled).
     window : float
         Late window of the metrics (scaled time).
+    top_drive : str
+        The drive of every controller (:func:`~drillstring.model.topdrive.top_drive_from_spec`,
+        or "none").
+    tuning : Tuning, optional
+        The industrial rules' choices.
     rig : PhysicalParams, optional
-        For the SI columns; default: a known rig whose scaled set is the gains' (the reference
-        rig for the reference set), else none.
+        For the SI columns and the drive; default: a known rig whose scaled set is the gains'
+        (the reference rig for the reference set).
     log : callable, optional
         Receives the printed table (None: silent).
 
@@ -264,48 +321,61 @@ def write_controller_comparison(
     Comparison
     """
     g = _gains(gains)
+    gc = None if constrained is None else _gains(constrained)
     Ts = check_real("Ts", Ts, lower=0.0)
     window = check_real("window", window, lower=0.0)
-    if window > experiment.tau_end - experiment.t_on:
+    tau_end = check_real("tau_end", tau_end, lower=0.0)
+    t_on = experiment.t_on
+    if 2.0 * window > tau_end - t_on:
         raise ValueError(
-            f"window = {window!r} reaches back before the switch-on at t_on = {experiment.t_on!r} "
-            f"(run length {experiment.tau_end!r})"
+            f"2 window = {2 * window!r} reaches back before the switch-on at t_on = {t_on!r} "
+            f"(run to {tau_end!r}): the trend test compares two windows"
         )
     params = g.params
+    if gc is not None and gc.params != params:
+        raise ValueError("the constrained design is for another parameter set than the gains")
     rig = rig if rig is not None else _matching_rig(params)
+    if rig is None:
+        raise ValueError("no physical rig maps onto the gains' parameter set: give rig=")
+    drive = None if top_drive == "none" else top_drive_from_spec(top_drive, params.R0, rig)
     model = averaged_model(params, g.A, g.taubar_crit)
-    gain = lmi_gain(model, g, feedforward="file")
-    laws = controller_lineup(params, gain, t_on=experiment.t_on, latch=experiment.latch)
+    paper = lmi_gain(model, g, feedforward="file")
+    cgain = None if gc is None else lmi_gain(model, gc, feedforward="file")
+    names = [n for n in RIG_CONTROLLERS if cgain is not None or n not in _CONSTRAINED_ROWS]
+    controllers = rig_lineup(
+        params, model, paper=paper, constrained=cgain, top_drive=drive, scales=rig, Ts=Ts,
+        tuning=tuning, t_on=t_on, latch=experiment.latch, names=names,
+    )  # fmt: skip
     options = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)
     start = {"initial": experiment.initial(), "options": options}
     runs: dict[str, SimulationResult] = {
-        OPEN_LOOP: simulate(params, experiment.tau_end, control=gain.R_ff, **start)
+        OPEN_LOOP: simulate(params, tau_end, control=paper.R_ff, **start)
     }
-    for name, law in laws.items():
-        runs[name] = simulate_sampled(params, law, experiment.tau_end, Ts, **start)
-    continuous = AffineFeedback(gain.F, gain.K0, gain.R_ff, experiment.t_on, experiment.latch)
-    runs[LMI_CONTINUOUS] = simulate(params, experiment.tau_end, control=continuous, **start)
-    sampled = f"Ts = {Ts:g}"
-    evaluation = {OPEN_LOOP: "feed-forward", LMI_CONTINUOUS: "continuous"}
+    for name, controller in controllers.items():
+        runs[name] = simulate_sampled(params, controller, tau_end, Ts, **start)
+    continuous = AffineFeedback(paper.F, paper.K0, paper.R_ff, t_on, experiment.latch)
+    runs[LMI_UNLIMITED] = simulate(params, tau_end, control=continuous, **start)
     rows = [
-        _row(name, evaluation.get(name, sampled), r, window, experiment.t_on, rig)
+        _row(name, "none" if name in (OPEN_LOOP, LMI_UNLIMITED) else top_drive, r, window, t_on,
+             rig)
         for name, r in runs.items()
-    ]
+    ]  # fmt: skip
     laws_out: dict[str, dict[str, Any]] = {}
-    for name, law in laws.items():
-        scaled = dataclasses.asdict(law.feedback if name == "lmi" else law)
-        laws_out[name] = {"kind": type(law).__name__, "scaled": scaled}
-        if rig is not None:
-            laws_out[name]["si"] = law.to_si(rig)
+    for name, controller in controllers.items():
+        law = controller.law
+        laws_out[name] = {
+            "kind": type(law).__name__,
+            "scaled": law.values(),
+            "si": law.to_si(rig),
+            "sensing": controller.sensing.values(),
+        }
     out = Path(out_dir)
     title = (
-        f"{experiment.name} set-up: controllers switched on at tau = {experiment.t_on:g}, "
-        f"sampled every {Ts:g}"
+        f"{experiment.name} set-up: controllers on at tau = {t_on:g}, sampled every {Ts:g}, "
+        f"top drive {top_drive}"
     )
     files = {
-        "figure": _plot(
-            out / "comparison.png", runs, params.omega0, experiment.t_on, window, title
-        ),
+        "figure": _plot(out / "comparison.png", runs, params.omega0, t_on, window, title),
         "table": write_csv(
             out / "comparison.csv",
             COMPARISON_COLUMNS,
@@ -314,12 +384,13 @@ def write_controller_comparison(
     }
     summary = {
         "experiment": experiment.name,
-        "t_on": experiment.t_on,
-        "tau_end": experiment.tau_end,
+        "t_on": t_on,
+        "tau_end": tau_end,
         "Ts": Ts,
         "window": window,
+        "top_drive": {"spec": top_drive, "limits": None if drive is None else drive.to_si(rig)},
         "params": params.to_dict(),
-        "rig": None if rig is None else rig.to_dict(),
+        "rig": rig.to_dict(),
         "rows": rows,
         "laws": laws_out,
     }
@@ -334,7 +405,11 @@ def write_controller_comparison(
         experiment=experiment.name,
         Ts=Ts,
         window=window,
+        top_drive=top_drive,
     )
+
+
+_CONSTRAINED_ROWS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
 
 
 def _jsonable(obj: Any) -> Any:
@@ -494,8 +569,25 @@ def _parser() -> argparse.ArgumentParser:
         )
         p.add_argument("--out", type=Path, required=True, help="output folder")
         p.add_argument("--Ts", type=float, default=DEFAULT_TS, help="sample period (scaled)")
-        p.add_argument("--window", type=float, default=20.0, help="late window of the metrics")
+    c = sub.choices["compare"]
+    c.add_argument(
+        "--constrained",
+        type=Path,
+        default=None,
+        help="gains file of the input-constrained design (default: gains_constrained.json "
+        "beside --gains, when it is there)",
+    )
+    c.add_argument(
+        "--top-drive",
+        default="tds-11sa",
+        help="top drive of every controller: a rating (tds-11sa), 50R0, 52kNm, or none",
+    )
+    c.add_argument("--tau-end", type=float, default=COMPARISON_TAU_END, help="run length")
+    c.add_argument(
+        "--window", type=float, default=COMPARISON_WINDOW, help="late window of the metrics"
+    )
     m = sub.choices["map"]
+    m.add_argument("--window", type=float, default=20.0, help="late window of the metrics")
     m.add_argument("--n", type=int, default=6, help="points per axis (default 6)")
     m.add_argument(
         "--omega0",
@@ -545,8 +637,18 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
     prog = f"drillstring controllers {args.job}"
     try:
         if args.job == "compare":
+            constrained = args.constrained
+            if constrained is None:
+                beside = Path(args.gains).with_name(CONSTRAINED_FILE)
+                constrained = beside if beside.is_file() else None
             result = write_controller_comparison(
-                args.out, args.gains, Ts=args.Ts, window=args.window
+                args.out,
+                args.gains,
+                constrained,
+                Ts=args.Ts,
+                window=args.window,
+                tau_end=args.tau_end,
+                top_drive=args.top_drive,
             )
             print(f"wrote {', '.join(str(p) for p in result.files.values())}")
             return 0
