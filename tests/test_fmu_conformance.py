@@ -1198,6 +1198,69 @@ def _topdrive_rows(sy: System, H: float) -> list[Case]:
             ERROR,
             r"fmi2DoStep: illegal call sequence: not allowed in state Terminated",
         ),
+        Case(
+            "K13",
+            K,
+            "instantiated",
+            "top-drive lag = -0.01 (out of range)",
+            _set(R, "lag", -0.01),
+            ERROR,
+            r"parameter lag = -0\.01 rejected: lag must be in its declared range \[0\.0, inf\], "
+            r"got -0\.01; the value is not applied",
+        ),
+        Case(
+            "K14",
+            K,
+            "instantiated",
+            "telemetry period = 0 (out of range)",
+            _set(R, "period", 0.0),
+            ERROR,
+            r"parameter period = 0\.0 rejected: period must be in its declared range "
+            r"\[5e-324, inf\], got 0\.0",
+        ),
+        Case(
+            "K15",
+            K,
+            "instantiated",
+            "anti_windup = 4 (not an item)",
+            _set(INT, "anti_windup", 4),
+            ERROR,
+            r"anti_windup must be one of 1 \(none\), 2 \(back-calculation\), 3 "
+            r"\(conditional\), got 4",
+        ),
+        Case(
+            "K16",
+            K,
+            "initialization",
+            "top drive with R_max below R_min: inconsistent at fmi2ExitInitializationMode",
+            _exit_with({"top_drive": True, "R_min": 0.0, "R_max": -1.0}),
+            ERROR,
+            r"fmi2ExitInitializationMode: the parameters are inconsistent: TopDrive: R_min = "
+            r"\S+ is above R_max = \S+; the FMU stays in initialization mode",
+            then=_fix_and_go_on({"top_drive": False}),
+        ),
+        Case(
+            "K17",
+            K,
+            "initialization",
+            "downhole = observer (its gains are not FMU parameters): refused at exit",
+            _exit_with({"downhole": 3}),
+            ERROR,
+            r"fmi2ExitInitializationMode: the parameters are inconsistent: downhole = observer "
+            r"needs the observer's gains, which an FMU parameter cannot carry",
+            then=_fix_and_go_on({"downhole": 1}),
+        ),
+        Case(
+            "K18",
+            K,
+            "initialization",
+            "telemetry latency of 100 frame periods: refused at exit",
+            _exit_with({"downhole": 2, "period": 0.1 * sy.scale, "latency": 10.0 * sy.scale}),
+            ERROR,
+            r"fmi2ExitInitializationMode: the parameters are inconsistent: Sensing\.latency = "
+            r"\S+ is more than 62 frame periods",
+            then=_fix_and_go_on({"downhole": 1, "latency": 0.0}),
+        ),
     ]
 
 
