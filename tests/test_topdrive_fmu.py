@@ -35,14 +35,18 @@ from drillstring.model.experiments import FIG6
 from drillstring.model.laws import SampledAffine, SpeedPI, ZTorque, law_from_si
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sampled import simulate_sampled
+from drillstring.model.sensing import Sensing
+from drillstring.model.topdrive import TDS_11SA, top_drive
 from drillstring.model.units import SIScaling
 from drillstring.orchestration.closed_loop import (
     SCALED,
     SI,
     TOPDRIVE,
     TOPDRIVE_SI,
+    closed_loop_master,
     kept_sys_path,
     read_loop_model,
+    run_cosim,
 )
 from drillstring.orchestration.connections import declared_start_values
 from drillstring.orchestration.hosts import run_ecos
@@ -113,6 +117,38 @@ def test_controller_fmu_in_the_master_equals_its_sampled_law(built, name):
     assert res["plant.torsional_stick"][before][-1] > 0
     assert np.all(res["controller.R_minus_R0"][before] == built.gains_values["R_ff"])
     assert np.ptp(res["controller.R_minus_R0"][~before]) > 0.1
+
+
+def test_lmi_fmu_with_top_drive_and_telemetry_equals_its_digital_controller(built):
+    """The controller FMU's top drive and sensing parameters are the DigitalController's: a low
+    gain with the TDS-11SA (the FMU's start values), the angle frozen while saturated, telemetry
+    frames every 0.1 used 0.2 late with noise: the master and the sampled loop bit for bit,
+    through a run that saturates the drive."""
+    F = (-88.16, -65.50, 52.86, -19.72)
+    g = built.gains_values
+    telemetry = {"period": 0.1, "latency": 0.2, "noise_dphi": 0.01, "seed": 3}
+    overrides = {
+        **{f"controller.F[{i + 1}]": f for i, f in enumerate(F)},
+        "controller.top_drive": True,
+        "controller.on_saturation": 2,  # freeze-angle
+        "controller.downhole": 2,  # telemetry
+        **{f"controller.{k}": v for k, v in telemetry.items()},
+    }
+    with kept_sys_path(), closed_loop_master(built.out, FIG6, overrides=overrides) as m:
+        res = run_cosim(m, TAU_END, H)
+    assert res.completed, res.failure
+    feedback = AffineFeedback(F, g["K0"], g["R_ff"], FIG6.t_on, FIG6.latch)
+    controller = DigitalController(
+        SampledAffine(feedback, on_saturation="freeze-angle"),
+        top_drive(TDS_11SA, REFERENCE_RIG),
+        Sensing(downhole="telemetry", **telemetry),
+    )
+    n = round(TAU_END / H)
+    mono = _sampled(controller, SCALED, built, n, H)
+    worst = {c: float(np.max(np.abs(res[f"plant.{c}"] - getattr(mono, c)))) for c in SIGNALS}
+    worst["R_minus_R0"] = float(np.max(np.abs(res["controller.R_minus_R0"] - mono.R_minus_R0)))
+    assert max(worst.values()) == 0.0, worst
+    assert np.sum(mono.n_saturated) > 100  # the drive limited the torque on this run
 
 
 @pytest.mark.parametrize("name", INDUSTRIAL)

@@ -42,6 +42,7 @@ from drillstring.model.digital.layout import (
     B_TSTAR,
     LP_RFF,
     TD_ON,
+    TDX_DT,
     TDX_INIT,
     TDX_R,
     TDX_T,
@@ -102,8 +103,9 @@ def commit(b, tau, phi, dphi, theta, dtheta, Ts):
     if b[B_TD + TD_ON] != 0.0:
         b[B_TDX + TDX_R] = R
         b[B_TDX + TDX_T] = tau
+        b[B_TDX + TDX_DT] = Ts
         b[B_TDX + TDX_INIT] = 1.0
-    sense_commit(b, tau, phi, dphi, theta, dtheta, r_app)
+    sense_commit(b, tau, phi, dphi, theta, dtheta, r_app, Ts)
     b[B_RCMD] = r_cmd
     b[B_RAPP] = r_app
     saturated = r_lim != r_cmd

@@ -11,10 +11,14 @@ At a sample instant tau with the table speed Omega = omega0 + dtheta/dtau (absol
 1. the envelope [lo, hi] of absolute torques R/C the drive can deliver at Omega
    (:func:`envelope`);
 2. the limited command: the command R0 + r clipped into the envelope, then into the rate limit
-   ``|R - R_prev| <= rate*(tau - tau_prev)`` from the torque of the previous sample;
+   ``|R - R_prev| <= rate*dt`` from the torque of the previous sample, dt the period since it;
 3. the applied torque: with a lag of time constant T, ``R = R_prev + (1 - exp(-dt/T))*(R_lim -
-   R_prev)`` with dt = tau - tau_prev (the lag driven by the limited command over the last
-   interval), clipped into the envelope again.
+   R_prev)`` (the lag driven by the limited command over the last interval), clipped into the
+   envelope again.
+
+dt is the sample period the previous sample was committed with (the step a master took from
+it), not a difference of times: a host's clock and a communication point that differ by
+rounding give the same torque.
 
 The applied torque is held over the sample like any digital controller's output. Without a top
 drive model (``TD_ON`` 0) the command is applied as it is; when nothing limits it the command is
@@ -39,9 +43,9 @@ from drillstring.model.digital.layout import (
     TD_RMIN,
     TD_WMAX,
     TD_WMIN,
+    TDX_DT,
     TDX_INIT,
     TDX_R,
-    TDX_T,
 )
 from drillstring.model.kernel.jit import jit_for
 
@@ -94,7 +98,7 @@ def actuate(b, tau, r_cmd, dtheta):
     R = min(max(R_cmd, lo), hi)
     if b[B_TDX + TDX_INIT] != 0.0:
         R_prev = b[B_TDX + TDX_R]
-        dt = tau - b[B_TDX + TDX_T]
+        dt = b[B_TDX + TDX_DT]
         rate = b[B_TD + TD_RATE]
         if rate < math.inf:
             R = min(max(R, R_prev - rate * dt), R_prev + rate * dt)

@@ -73,7 +73,8 @@ N_TD = 9
 TDX_R = 0  # the applied absolute torque at the last committed sample
 TDX_T = 1  # the time of that sample
 TDX_INIT = 2  # 1 once a sample has been committed
-N_TDX = 3
+TDX_DT = 3  # its sample period: the time from it to the next sample
+N_TDX = 4
 
 #: Sensing parameters (``SN`` + index).
 SN_MODE = 0  # SENSE_IDEAL, SENSE_TELEMETRY, SENSE_OBSERVER (the downhole phi, dphi)
@@ -100,7 +101,7 @@ N_FRAMES = 64
 SNX_NEXT = 0  # time of the next telemetry frame
 SNX_K = 1  # frames captured so far
 SNX_PREV = 2  # 1 once a sample has been committed (for the torque estimate)
-SNX_PT = 3  # time, table speed and applied torque of that sample
+SNX_PT = 3  # sample period, table speed and applied torque of that sample
 SNX_PDTHETA = 4
 SNX_PR = 5
 SNX_XHAT = 6  # observer: prior estimate of x = [phi, dphi, x3, dtheta] (4)

@@ -99,9 +99,9 @@ def string_torque(b, tau, phi, theta, dtheta):
     if int(b[B_SN + SN_TORQUE]) != TORQUE_MOTOR:
         return theta - phi
     x = B_SNX
-    if b[x + SNX_PREV] == 0.0 or not tau > b[x + SNX_PT]:
+    if b[x + SNX_PREV] == 0.0 or not b[x + SNX_PT] > 0.0:
         return 0.0
-    return b[x + SNX_PR] - b[B_RHO] * (dtheta - b[x + SNX_PDTHETA]) / (tau - b[x + SNX_PT])
+    return b[x + SNX_PR] - b[B_RHO] * (dtheta - b[x + SNX_PDTHETA]) / b[x + SNX_PT]
 
 
 @inline
@@ -164,9 +164,9 @@ def sensed(b, tau, phi, dphi, theta, dtheta):
 
 
 @inline
-def sense_commit(b, tau, phi, dphi, theta, dtheta, r_app):
-    """Commit the sample ``tau``: take a due telemetry frame, propagate the observer with the
-    applied torque ``r_app``, keep what the torque estimate needs."""
+def sense_commit(b, tau, phi, dphi, theta, dtheta, r_app, Ts):
+    """Commit the sample ``tau`` (period ``Ts``): take a due telemetry frame, propagate the
+    observer with the applied torque ``r_app``, keep what the torque estimate needs."""
     x = B_SNX
     mode = int(b[B_SN + SN_MODE])
     torque = string_torque(b, tau, phi, theta, dtheta)
@@ -192,6 +192,6 @@ def sense_commit(b, tau, phi, dphi, theta, dtheta, r_app):
             )  # fmt: skip
         b[x + SNX_OBS] = 1.0
     b[x + SNX_PREV] = 1.0
-    b[x + SNX_PT] = tau
+    b[x + SNX_PT] = Ts
     b[x + SNX_PDTHETA] = dtheta
     b[x + SNX_PR] = r_app
