@@ -32,6 +32,8 @@ from drillstring.orchestration.closed_loop import (
 )
 from drillstring.orchestration.figures import FIG6_RIPPLE, run_pair, write_fig5, write_fig6
 
+pytestmark = pytest.mark.fmu
+
 PNG = b"\x89PNG\r\n\x1a\n"
 
 

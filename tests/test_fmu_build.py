@@ -29,6 +29,8 @@ from fmpy.validation import validate_fmu
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE
 
+pytestmark = pytest.mark.fmu
+
 
 def _units(built):
     return {"plant": built.plant, "controller": built.controller, "topdrive": built.topdrive}

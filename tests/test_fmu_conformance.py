@@ -45,6 +45,8 @@ import pytest
 from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.units import SIScaling
 
+pytestmark = pytest.mark.fmu
+
 OK, WARNING, DISCARD, ERROR = tl.OK, tl.WARNING, tl.DISCARD, tl.ERROR
 STATUS = {OK: "fmi2OK", WARNING: "fmi2Warning", DISCARD: "fmi2Discard", ERROR: "fmi2Error"}
 H = 0.01

@@ -26,6 +26,8 @@ import fmu_testlib as tl
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.fmu
+
 H_NS = 2_000_000
 N_STEPS = 1000
 STARTS = {"controller": {"t_on": 0.5}}

@@ -23,6 +23,8 @@ import fmu_testlib as tl
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.fmu
+
 H_NS = 10_000_000
 N = 20
 
