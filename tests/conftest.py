@@ -1,13 +1,18 @@
 """Fixtures shared by the test modules.
 
-``built`` builds both FMUs once per test session with the real command (``build_fmus.py`` in a
-subprocess, see :func:`fmu_testlib.built_fmus`); every FMU test module uses the same build. The
-autouse ``_sys_path`` fixture puts ``sys.path`` back after each test: the FMUs promise to leave
-it alone (tested), this is a second line of defence so that one failing FMU test cannot make the
-next one import another copy of the package. ``clean_home`` is the HOME of the clean-environment
-hosts (``fmu_testlib.clean_env``): one per session, so the FMUs' package cache (and numba's
-compiled kernel in it) is made once for all of them; the test of the first compilation makes its
-own fresh one.
+``built`` builds the FMUs and SSP packages once per test session with the real command
+(``build_fmus.py`` in a subprocess, see :func:`fmu_testlib.built_fmus`); every FMU test module
+uses the same build. The autouse ``_sys_path`` fixture puts ``sys.path`` back after each test:
+the FMUs promise to leave it alone (tested), this is a second line of defence so that one failing
+FMU test cannot make the next one import another copy of the package.
+
+``clean_home`` is the HOME of the hosts outside this process (the clean-environment hosts of
+``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
+by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
+copies the package into its cache and compiles numba's kernel there, once for all of them; the
+test of the first compilation reads that run. Tests that use ``clean_home`` or ``first_use`` are
+marked ``slow`` here (they need that compilation); the markers are described in
+``pyproject.toml``.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty
@@ -20,13 +25,24 @@ a path that would have gone into the user's real home.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import fmu_testlib as tl
 import pytest
+
+#: Session fixtures that cost a numba compilation in a clean HOME.
+SLOW_FIXTURES = {"clean_home", "first_use"}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture(scope="session", autouse=True)
 def _session_folders(tmp_path_factory: pytest.TempPathFactory):
-    """HOME and XDG_CACHE_HOME in the session's temporary folder (see the module docstring)."""
+    """HOME and the XDG folders in the session's temporary folder (see the module docstring)."""
     home = tmp_path_factory.mktemp("session_home")
     xdg = tmp_path_factory.mktemp("session_xdg")
     with pytest.MonkeyPatch.context() as mp:
@@ -44,7 +60,7 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="session")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tl.Built:
-    """Both FMUs of this session's build (plant, controller), their gains file and folder."""
+    """The FMUs of this session's build (both unit systems), their gains file and folder."""
     return tl.built_fmus(tmp_path_factory)
 
 
@@ -54,6 +70,12 @@ def _sys_path():
 
 
 @pytest.fixture(scope="session")
-def clean_home(tmp_path_factory: pytest.TempPathFactory):
-    """HOME of the clean-environment hosts, shared by the session (see the module docstring)."""
-    return tmp_path_factory.mktemp("home")
+def first_use(built: tl.Built, tmp_path_factory: pytest.TempPathFactory) -> tl.FirstUse:
+    """The FMUs' first run in a clean environment with an empty HOME (see the module docstring)."""
+    return tl.first_use(built, tmp_path_factory.mktemp("first_use"))
+
+
+@pytest.fixture(scope="session")
+def clean_home(first_use: tl.FirstUse) -> Path:
+    """HOME of the hosts outside this process, its package cache compiled by ``first_use``."""
+    return first_use.home

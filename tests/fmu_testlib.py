@@ -16,6 +16,8 @@
   (``t_{k+1} = t_k + H`` accumulated in double);
 * :func:`clean_env` is the environment of the "independent host" tests: ``env -i`` with only
   ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's ``OPENBLAS_*`` settings;
+  :func:`first_use` is the first run of the FMUs in such an environment (it compiles the kernel
+  into :func:`package_cache`);
   :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it.
 """
 
@@ -573,11 +575,50 @@ def clean_env(home: Path, **extra: str) -> dict[str, str]:
     """``env -i`` with only ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's
     ``OPENBLAS_*`` settings (plus ``extra``): no ``LD_PRELOAD``, ``PYTHONPATH``,
     ``PYTHONHOME``, ``VIRTUAL_ENV`` or ``DRILLSTRING_*``. ``home`` is a folder of the test
-    session, so the FMUs' package cache (``~/.cache/drillstring``) starts empty once per session."""
+    session, so the FMUs' package cache (:func:`package_cache`) starts empty once per session."""
     env = {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": os.environ.get("LANG", "C.UTF-8")}
     env.update({k: v for k, v in os.environ.items() if k.startswith("OPENBLAS_")})
     env.update(extra)
     return env
+
+
+def package_cache(home: Path) -> Path:
+    """The FMUs' package cache of a clean environment (:func:`clean_env`) with this HOME: there
+    the FMUs keep their copy of the package and numba its compiled kernel."""
+    return home / ".cache" / "drillstring"
+
+
+@dataclass
+class FirstUse:
+    """The FMUs' first use on a machine (:func:`first_use`): the C host's two runs."""
+
+    home: Path
+    #: the first run: the package is copied into the cache and the kernel compiled there
+    first: subprocess.CompletedProcess
+    #: the same closed loop from another unpack folder: the cache is found, nothing compiled
+    again: subprocess.CompletedProcess
+
+
+def first_use(built: Built, root: Path) -> FirstUse:
+    """The C host runs the closed loop (5 steps of 2 ms, logging on) in a clean environment whose
+    HOME is the empty folder ``root/home``, then again from a second unpack folder.
+
+    The HOME is the session's ``clean_home`` (conftest): the one numba compilation of the
+    clean-environment hosts happens here, and the test of the first use reads both runs."""
+    home = root / "home"
+    home.mkdir()
+    exe = compile_c_host(root)
+    runs = []
+    for k in (1, 2):
+        work = root / f"unpack{k}"
+        dirs = {
+            n: unpack(getattr(built, n).fmu, work / UNPACKED / n) for n in ("plant", "controller")
+        }
+        csv = work / "host.csv"
+        starts = {"controller": {"t_on": 0.5}}
+        config = host_config(built, dirs, 2_000_000, 5, starts, csv, logging=True)
+        runs.append(run_c_host(exe, config, work, clean_env(home), csv)[0])
+    return FirstUse(home, *runs)
 
 
 def compile_c_host(out_dir: Path) -> Path:
