@@ -2,17 +2,20 @@
 
 ``built`` builds the FMUs and SSP packages once per test session with the real command
 (``build_fmus.py`` in a subprocess, see :func:`fmu_testlib.built_fmus`); every FMU test module
-uses the same build. The autouse ``_sys_path`` fixture puts ``sys.path`` back after each test:
-the FMUs promise to leave it alone (tested), this is a second line of defence so that one failing
-FMU test cannot make the next one import another copy of the package.
+uses the same build. Two more builds check what needs one: ``designed`` (the build without a
+gains file, :func:`fmu_testlib.designed_fmus`: the synthesis runs, and other gains give another
+closed loop) and the rebuild with a pinned SOURCE_DATE_EPOCH of the determinism test, which
+compares it with the session's build. The autouse ``_sys_path`` fixture puts ``sys.path`` back
+after each test: the FMUs promise to leave it alone (tested), this is a second line of defence
+so that one failing FMU test cannot make the next one import another copy of the package.
 
 ``clean_home`` is the HOME of the hosts outside this process (the clean-environment hosts of
 ``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
 by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
 copies the package into its cache and compiles numba's kernel there, once for all of them; the
-test of the first compilation reads that run. Tests that use ``clean_home`` or ``first_use`` are
-marked ``slow`` here (they need that compilation); the markers are described in
-``pyproject.toml``.
+test of the first compilation reads that run. Tests that use ``clean_home``, ``first_use`` or
+``designed`` are marked ``slow`` here (they need that compilation or a build of their own); the
+markers are described in ``pyproject.toml``.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty
@@ -30,8 +33,8 @@ from pathlib import Path
 import fmu_testlib as tl
 import pytest
 
-#: Session fixtures that cost a numba compilation in a clean HOME.
-SLOW_FIXTURES = {"clean_home", "first_use"}
+#: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
+SLOW_FIXTURES = {"clean_home", "first_use", "designed"}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -62,6 +65,12 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
 def built(tmp_path_factory: pytest.TempPathFactory) -> tl.Built:
     """The FMUs of this session's build (both unit systems), their gains file and folder."""
     return tl.built_fmus(tmp_path_factory)
+
+
+@pytest.fixture(scope="session")
+def designed(tmp_path_factory: pytest.TempPathFactory) -> tl.Designed:
+    """The session's second build: without a gains file, so the synthesis designs one first."""
+    return tl.designed_fmus(tmp_path_factory.mktemp("designed"))
 
 
 @pytest.fixture(autouse=True)

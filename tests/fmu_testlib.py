@@ -49,6 +49,7 @@ from fmpy.fmi2 import (
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
+from drillstring.orchestration.closed_loop import build_fmus_into
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -195,6 +196,31 @@ def run_build(
     if proc.returncode != 0:
         raise AssertionError(f"build_fmus.py failed ({proc.returncode}):\n{proc.stderr}")
     return proc
+
+
+@dataclass
+class Designed:
+    """The session's build without a gains file (:func:`designed_fmus`)."""
+
+    #: the folder of the FMUs and SSP packages
+    out: Path
+    #: the gains file the synthesis wrote (absent before the build)
+    gains: Path
+
+
+def designed_fmus(root: Path) -> Designed:
+    """Build the FMUs with ``build_fmus.py --gains MISSING`` (through
+    :func:`drillstring.orchestration.closed_loop.build_fmus_into`): the controller is designed
+    first and its gains file written, then every FMU is built with it.
+
+    The session's only build besides :func:`built_fmus` (conftest's ``designed``):
+    ``test_fmu_build`` checks that the synthesis ran and its gains are the controller's,
+    ``test_cosim_figures`` that these other gains give another closed loop, which its monolithic
+    twin follows."""
+    gains = root / "design" / "gains.json"
+    assert not gains.exists()
+    out = build_fmus_into(root / "build", gains)
+    return Designed(out, gains)
 
 
 #: Folder of the session's unpacked FMUs, which every in-process fmpy test uses: its file URI
