@@ -23,7 +23,9 @@ folder of the session, and ``XDG_CACHE_HOME`` and ``XDG_CONFIG_HOME`` are folder
 the master's native loop (``orchestration/native_loop.py``) and the FMUs loaded in this process
 keep their cache (``$XDG_CACHE_HOME/drillstring``) there; ``DRILLSTRING_FMU_CACHE`` is unset so
 that this default applies. At the end of the session HOME must still be empty: anything there is
-a path that would have gone into the user's real home.
+a path that would have gone into the user's real home; and that cache must hold no copy of the
+package (an FMU in this process uses the package already imported; a copy there is a host
+outside the process that compiled the kernel a second time instead of using ``clean_home``).
 """
 
 from __future__ import annotations
@@ -58,6 +60,11 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
     assert not written, (
         f"the tests wrote into HOME ({home}), i.e. into the user's home outside a test run: "
         f"{written}"
+    )
+    copies = sorted(p.name for p in (xdg / "cache" / "drillstring").glob("pkg-*"))
+    assert not copies, (
+        f"an FMU host outside this process copied the package into {xdg / 'cache'} (and "
+        f"compiled the kernel there once more): {copies}; give it clean_home's package cache"
     )
 
 
