@@ -213,10 +213,10 @@ def designed_fmus(root: Path) -> Designed:
     :func:`drillstring.orchestration.closed_loop.build_fmus_into`): the controller is designed
     first and its gains file written, then every FMU is built with it.
 
-    The session's only build besides :func:`built_fmus` (conftest's ``designed``):
-    ``test_fmu_build`` checks that the synthesis ran and its gains are the controller's,
-    ``test_cosim_figures`` that these other gains give another closed loop, which its monolithic
-    twin follows."""
+    The session's second build (conftest's ``designed``; the third is the determinism test's
+    pinned rebuild): ``test_fmu_build`` checks that the synthesis ran and its gains are the
+    controller's, ``test_cosim_figures`` that these other gains give another closed loop, which
+    its monolithic twin follows."""
     gains = root / "design" / "gains.json"
     assert not gains.exists()
     out = build_fmus_into(root / "build", gains)
