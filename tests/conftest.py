@@ -14,8 +14,8 @@ so that one failing FMU test cannot make the next one import another copy of the
 by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
 copies the package into its cache and compiles numba's kernel there, once for all of them; the
 test of the first compilation reads that run. Tests that use ``clean_home``, ``first_use`` or
-``designed`` are marked ``slow`` here (they need that compilation or a build of their own); the
-markers are described in ``pyproject.toml``.
+``designed`` are marked ``slow`` here (they need that compilation or a build of their own), and
+every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty
@@ -37,12 +37,20 @@ import pytest
 
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
 SLOW_FIXTURES = {"clean_home", "first_use", "designed"}
+#: Session fixtures of built FMUs.
+FMU_FIXTURES = {"built", *SLOW_FIXTURES}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
+    :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
+    module that forgot it out of ``make test-fast``)."""
     for item in items:
-        if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+        names = set(getattr(item, "fixturenames", ()))
+        if SLOW_FIXTURES & names:
             item.add_marker(pytest.mark.slow)
+        if FMU_FIXTURES & names:
+            item.add_marker(pytest.mark.fmu)
 
 
 @pytest.fixture(scope="session", autouse=True)
