@@ -1,4 +1,5 @@
-# drillstring: `make demo` runs the main job, `make test` runs lint + tests.
+# drillstring: `make demo` runs the main job, `make test` runs lint + the whole suite,
+# `make test-fast` the tests that need no FMU build and no host (markers in pyproject.toml).
 # Both use one virtual environment, .venv, created with `python3 -m venv` on first use and
 # reinstalled (editable, with the test and fast extras) only when pyproject.toml changes.
 
@@ -7,7 +8,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: venv test demo lint format clean
+.PHONY: venv test test-fast demo lint format clean
 
 venv: $(STAMP)
 
@@ -21,6 +22,9 @@ test: venv
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/pytest -q
+
+test-fast: venv
+	$(BIN)/pytest -q -m "not fmu and not slow"
 
 # The main job, a chain of artifacts each computed once (drillstring/apps/demo.py): the LMI design
 # with A from the axial analysis, both FMUs built with its gains, then the figures and the

@@ -1,25 +1,91 @@
 """Fixtures shared by the test modules.
 
-``built`` builds both FMUs once per test session with the real command (``build_fmus.py`` in a
-subprocess, see :func:`fmu_testlib.built_fmus`); every FMU test module uses the same build. The
-autouse ``_sys_path`` fixture puts ``sys.path`` back after each test: the FMUs promise to leave
-it alone (tested), this is a second line of defence so that one failing FMU test cannot make the
-next one import another copy of the package. ``clean_home`` is the HOME of the clean-environment
-hosts (``fmu_testlib.clean_env``): one per session, so the FMUs' package cache (and numba's
-compiled kernel in it) is made once for all of them; the test of the first compilation makes its
-own fresh one.
+``built`` builds the FMUs and SSP packages once per test session with the real command
+(``build_fmus.py`` in a subprocess, see :func:`fmu_testlib.built_fmus`); every FMU test module
+uses the same build. Two more builds check what needs one: ``designed`` (the build without a
+gains file, :func:`fmu_testlib.designed_fmus`: the synthesis runs, and other gains give another
+closed loop) and the rebuild with a pinned SOURCE_DATE_EPOCH of the determinism test, which
+compares it with the session's build. The autouse ``_sys_path`` fixture puts ``sys.path`` back
+after each test: the FMUs promise to leave it alone (tested), this is a second line of defence
+so that one failing FMU test cannot make the next one import another copy of the package.
+
+``clean_home`` is the HOME of the hosts outside this process (the clean-environment hosts of
+``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
+by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
+copies the package into its cache and compiles numba's kernel there, once for all of them; the
+test of the first compilation reads that run. Tests that use ``clean_home``, ``first_use`` or
+``designed`` are marked ``slow`` here (they need that compilation or a build of their own), and
+every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
+
+Nothing is written outside pytest's temporary folders: for the whole session (autouse
+``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty
+folder of the session, and ``XDG_CACHE_HOME`` and ``XDG_CONFIG_HOME`` are folders of another, so
+the master's native loop (``orchestration/native_loop.py``) and the FMUs loaded in this process
+keep their cache (``$XDG_CACHE_HOME/drillstring``) there; ``DRILLSTRING_FMU_CACHE`` is unset so
+that this default applies. At the end of the session HOME must still be empty: anything there is
+a path that would have gone into the user's real home; and that cache must hold no copy of the
+package (an FMU in this process uses the package already imported; a copy there is a host
+outside the process that compiled the kernel a second time instead of using ``clean_home``).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import fmu_testlib as tl
 import pytest
+
+#: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
+SLOW_FIXTURES = {"clean_home", "first_use", "designed"}
+#: Session fixtures of built FMUs.
+FMU_FIXTURES = {"built", *SLOW_FIXTURES}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
+    :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
+    module that forgot it out of ``make test-fast``)."""
+    for item in items:
+        names = set(getattr(item, "fixturenames", ()))
+        if SLOW_FIXTURES & names:
+            item.add_marker(pytest.mark.slow)
+        if FMU_FIXTURES & names:
+            item.add_marker(pytest.mark.fmu)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _session_folders(tmp_path_factory: pytest.TempPathFactory):
+    """HOME and the XDG folders in the session's temporary folder (see the module docstring)."""
+    home = tmp_path_factory.mktemp("session_home")
+    xdg = tmp_path_factory.mktemp("session_xdg")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("HOME", str(home))
+        mp.setenv("XDG_CACHE_HOME", str(xdg / "cache"))
+        mp.setenv("XDG_CONFIG_HOME", str(xdg / "config"))  # matplotlib's configuration folder
+        mp.delenv("DRILLSTRING_FMU_CACHE", raising=False)
+        yield
+    written = sorted(str(p.relative_to(home)) for p in home.rglob("*"))
+    assert not written, (
+        f"the tests wrote into HOME ({home}), i.e. into the user's home outside a test run: "
+        f"{written}"
+    )
+    copies = sorted(p.name for p in (xdg / "cache" / "drillstring").glob("pkg-*"))
+    assert not copies, (
+        f"an FMU host outside this process copied the package into {xdg / 'cache'} (and "
+        f"compiled the kernel there once more): {copies}; give it clean_home's package cache"
+    )
 
 
 @pytest.fixture(scope="session")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tl.Built:
-    """Both FMUs of this session's build (plant, controller), their gains file and folder."""
+    """The FMUs of this session's build (both unit systems), their gains file and folder."""
     return tl.built_fmus(tmp_path_factory)
+
+
+@pytest.fixture(scope="session")
+def designed(tmp_path_factory: pytest.TempPathFactory) -> tl.Designed:
+    """The session's second build: without a gains file, so the synthesis designs one first."""
+    return tl.designed_fmus(tmp_path_factory.mktemp("designed"))
 
 
 @pytest.fixture(autouse=True)
@@ -28,6 +94,12 @@ def _sys_path():
 
 
 @pytest.fixture(scope="session")
-def clean_home(tmp_path_factory: pytest.TempPathFactory):
-    """HOME of the clean-environment hosts, shared by the session (see the module docstring)."""
-    return tmp_path_factory.mktemp("home")
+def first_use(built: tl.Built, tmp_path_factory: pytest.TempPathFactory) -> tl.FirstUse:
+    """The FMUs' first run in a clean environment with an empty HOME (see the module docstring)."""
+    return tl.first_use(built, tmp_path_factory.mktemp("first_use"))
+
+
+@pytest.fixture(scope="session")
+def clean_home(first_use: tl.FirstUse) -> Path:
+    """HOME of the hosts outside this process, its package cache compiled by ``first_use``."""
+    return first_use.home

@@ -16,6 +16,8 @@
   (``t_{k+1} = t_k + H`` accumulated in double);
 * :func:`clean_env` is the environment of the "independent host" tests: ``env -i`` with only
   ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's ``OPENBLAS_*`` settings;
+  :func:`first_use` is the first run of the FMUs in such an environment (it compiles the kernel
+  into :func:`package_cache`);
   :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it.
 """
 
@@ -47,6 +49,7 @@ from fmpy.fmi2 import (
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
+from drillstring.orchestration.closed_loop import build_fmus_into
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -193,6 +196,31 @@ def run_build(
     if proc.returncode != 0:
         raise AssertionError(f"build_fmus.py failed ({proc.returncode}):\n{proc.stderr}")
     return proc
+
+
+@dataclass
+class Designed:
+    """The session's build without a gains file (:func:`designed_fmus`)."""
+
+    #: the folder of the FMUs and SSP packages
+    out: Path
+    #: the gains file the synthesis wrote (absent before the build)
+    gains: Path
+
+
+def designed_fmus(root: Path) -> Designed:
+    """Build the FMUs with ``build_fmus.py --gains MISSING`` (through
+    :func:`drillstring.orchestration.closed_loop.build_fmus_into`): the controller is designed
+    first and its gains file written, then every FMU is built with it.
+
+    The session's second build (conftest's ``designed``; the third is the determinism test's
+    pinned rebuild): ``test_fmu_build`` checks that the synthesis ran and its gains are the
+    controller's, ``test_cosim_figures`` that these other gains give another closed loop, which
+    its monolithic twin follows."""
+    gains = root / "design" / "gains.json"
+    assert not gains.exists()
+    out = build_fmus_into(root / "build", gains)
+    return Designed(out, gains)
 
 
 #: Folder of the session's unpacked FMUs, which every in-process fmpy test uses: its file URI
@@ -573,11 +601,50 @@ def clean_env(home: Path, **extra: str) -> dict[str, str]:
     """``env -i`` with only ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's
     ``OPENBLAS_*`` settings (plus ``extra``): no ``LD_PRELOAD``, ``PYTHONPATH``,
     ``PYTHONHOME``, ``VIRTUAL_ENV`` or ``DRILLSTRING_*``. ``home`` is a folder of the test
-    session, so the FMUs' package cache (``~/.cache/drillstring``) starts empty once per session."""
+    session, so the FMUs' package cache (:func:`package_cache`) starts empty once per session."""
     env = {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": os.environ.get("LANG", "C.UTF-8")}
     env.update({k: v for k, v in os.environ.items() if k.startswith("OPENBLAS_")})
     env.update(extra)
     return env
+
+
+def package_cache(home: Path) -> Path:
+    """The FMUs' package cache of a clean environment (:func:`clean_env`) with this HOME: there
+    the FMUs keep their copy of the package and numba its compiled kernel."""
+    return home / ".cache" / "drillstring"
+
+
+@dataclass
+class FirstUse:
+    """The FMUs' first use on a machine (:func:`first_use`): the C host's two runs."""
+
+    home: Path
+    #: the first run: the package is copied into the cache and the kernel compiled there
+    first: subprocess.CompletedProcess
+    #: the same closed loop from another unpack folder: the cache is found, nothing compiled
+    again: subprocess.CompletedProcess
+
+
+def first_use(built: Built, root: Path) -> FirstUse:
+    """The C host runs the closed loop (5 steps of 2 ms, logging on) in a clean environment whose
+    HOME is the empty folder ``root/home``, then again from a second unpack folder.
+
+    The HOME is the session's ``clean_home`` (conftest): the one numba compilation of the
+    clean-environment hosts happens here, and the test of the first use reads both runs."""
+    home = root / "home"
+    home.mkdir()
+    exe = compile_c_host(root)
+    runs = []
+    for k in (1, 2):
+        work = root / f"unpack{k}"
+        dirs = {
+            n: unpack(getattr(built, n).fmu, work / UNPACKED / n) for n in ("plant", "controller")
+        }
+        csv = work / "host.csv"
+        starts = {"controller": {"t_on": 0.5}}
+        config = host_config(built, dirs, 2_000_000, 5, starts, csv, logging=True)
+        runs.append(run_c_host(exe, config, work, clean_env(home), csv)[0])
+    return FirstUse(home, *runs)
 
 
 def compile_c_host(out_dir: Path) -> Path:

@@ -79,6 +79,7 @@ def serial_map(paper_gains, tmp_path_factory):
     return spec, run_sweep(spec, out, serial=True, progress=False, plots=False)
 
 
+@pytest.mark.slow  # a local Dask cluster of worker processes
 def test_controller_map_on_dask_equals_the_serial_run(serial_map, tmp_path):
     spec, serial = serial_map
     report = run_sweep(spec, tmp_path, workers=2, progress=False)

@@ -20,17 +20,18 @@ import dataclasses
 import numpy as np
 import pytest
 
-from drillstring.controller.gains import read_gains, write_gains
+from drillstring.controller.gains import read_gains
 from drillstring.model.control import AffineFeedback
 from drillstring.model.experiments import FIG5, FIG6
 from drillstring.model.params import REFERENCE
 from drillstring.orchestration.closed_loop import (
-    build_fmus_into,
     closed_loop_master,
     experiment_start_values,
     read_loop_model,
 )
 from drillstring.orchestration.figures import FIG6_RIPPLE, run_pair, write_fig5, write_fig6
+
+pytestmark = pytest.mark.fmu
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -150,13 +151,12 @@ def test_twin_reads_the_gains_and_parameters_baked_into_the_fmus(built):
 
 
 @pytest.fixture(scope="module")
-def rebuilt(built, tmp_path_factory):
-    """The FMUs built again from a gains file whose F is 0.7 times the first one."""
-    root = tmp_path_factory.mktemp("rebuilt")
-    first = read_gains(built.gains)
-    gains = dataclasses.replace(first, F=tuple(0.7 * f for f in first.F))
-    write_gains(gains, root / "gains.json")
-    return build_fmus_into(root / "fmus", root / "gains.json"), gains
+def rebuilt(built, designed):
+    """The FMUs built from other gains: the session's build without a gains file, whose gains
+    the synthesis designed (conftest's ``designed``), and those gains."""
+    gains = read_gains(designed.gains)
+    assert gains.F != read_gains(built.gains).F
+    return designed.out, gains
 
 
 def test_build_gains_change_the_results_and_the_twin_follows(built, rebuilt):

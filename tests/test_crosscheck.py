@@ -37,6 +37,8 @@ from drillstring.orchestration.crosscheck import (
 from drillstring.orchestration.master import Master, Unit
 from drillstring.orchestration.monolithic import run_monolithic
 
+pytestmark = pytest.mark.fmu
+
 LIB_T = 2.0
 LIB_STEPS_NS = (4_000_000, 2_000_000)
 LIB_STARTS = {"controller": {"t_on": 0.5}}  # switch-on (with the FMU's latch) inside the run

@@ -26,6 +26,8 @@ import fmu_testlib as tl
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.fmu
+
 H_NS = 2_000_000
 N_STEPS = 1000
 STARTS = {"controller": {"t_on": 0.5}}
@@ -94,16 +96,14 @@ def test_c_host_in_a_clean_environment_equals_fmpy(built, jacobi, host, tmp_path
     assert err <= 1e-12
 
 
-def test_first_compile_is_logged_and_later_unpacks_reuse_it(built, host, tmp_path_factory):
-    """The kernel is compiled once per machine (here: per fresh HOME), not per unpack folder."""
-    home = tmp_path_factory.mktemp("fresh_home")
-    env = tl.clean_env(home)
-    first, _ = _run_host(host, built, tmp_path_factory.mktemp("unpack1"), env, n=5, logging=True)
-    again, _ = _run_host(host, built, tmp_path_factory.mktemp("unpack2"), env, n=5, logging=True)
+def test_first_compile_is_logged_and_later_unpacks_reuse_it(first_use):
+    """The kernel is compiled once per machine (here: per fresh HOME, the session's clean HOME,
+    see conftest), not per unpack folder."""
+    first, again = first_use.first, first_use.again
     assert first.returncode == 0 and again.returncode == 0, first.stderr + again.stderr
     assert "numba compiled" in first.stderr and "(copied there now)" in first.stderr
     assert "numba compiled" not in again.stderr and "(found there)" in again.stderr
-    cached = list((home / ".cache" / "drillstring").glob("pkg-*/drillstring/**/*.nbi"))
+    cached = list(tl.package_cache(first_use.home).glob("pkg-*/drillstring/**/*.nbi"))
     assert cached, "no numba cache index in the package cache"
 
 

@@ -32,6 +32,8 @@ from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.units import SIScaling
 from drillstring.orchestration.closed_loop import SCALED, SI, experiment_start_values
 
+pytestmark = pytest.mark.fmu
+
 OK, WARNING, DISCARD, ERROR = tl.OK, tl.WARNING, tl.DISCARD, tl.ERROR
 _TS = SIScaling(REFERENCE_RIG).t_star
 #: unit system -> (variant, macro step, du0 that makes the bit bounce in the second step)

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -22,6 +23,8 @@ import textwrap
 import fmu_testlib as tl
 import numpy as np
 import pytest
+
+pytestmark = pytest.mark.fmu
 
 H_NS = 10_000_000
 N = 20
@@ -64,13 +67,19 @@ CYCLES = textwrap.dedent(
 )
 
 
+def _python_host_env(clean_home):
+    """This environment, with the package cache of the session's clean HOME (compiled once)."""
+    return {**os.environ, "DRILLSTRING_FMU_CACHE": str(tl.package_cache(clean_home))}
+
+
 @pytest.mark.parametrize("which", ["plant", "controller"])
-def test_thousand_instances_add_nothing(built, which, tmp_path):
+def test_thousand_instances_add_nothing(built, which, tmp_path, clean_home):
     unit = getattr(built, which)
     proc = subprocess.run(
         [sys.executable, "-c", CYCLES, str(unit.fmu), str(unit.unzipped), "1000"],
         capture_output=True,
         text=True,
+        env=_python_host_env(clean_home),
         timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
@@ -195,13 +204,17 @@ THREADS = textwrap.dedent(
 )
 
 
-def test_all_layers_share_one_lock_and_threads_may_instantiate(built):
+def test_all_layers_share_one_lock_and_threads_may_instantiate(built, clean_home):
     """Both FMUs' copies of the layer bind one process-wide lock; plant and controller
     instantiated, stepped and freed concurrently from two threads leave sys.path unchanged."""
     args = [str(built.plant.fmu), str(built.plant.unzipped)]
     args += [str(built.controller.fmu), str(built.controller.unzipped)]
     proc = subprocess.run(
-        [sys.executable, "-c", THREADS, *args], capture_output=True, text=True, timeout=600
+        [sys.executable, "-c", THREADS, *args],
+        capture_output=True,
+        text=True,
+        env=_python_host_env(clean_home),
+        timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().split(maxsplit=2) == ["1", "True", "[]"], proc.stdout

@@ -30,6 +30,8 @@ from drillstring.model.params import REFERENCE_RIG, ParameterError
 from drillstring.model.units import PLANT_SI, UNITS, SIScaling
 from drillstring.orchestration.closed_loop import SCALED, SI, closed_loop_master, kept_sys_path
 
+pytestmark = pytest.mark.fmu
+
 SC = SIScaling(REFERENCE_RIG)
 H = 0.01  # macro step of the Fig. 5 runs (scaled time); in SI H t*
 SI_REALS = tuple(q.name for q in PLANT_SI)

@@ -20,6 +20,8 @@ import pytest
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE
 
+pytestmark = pytest.mark.fmu
+
 H_NS = 10_000_000  # macro step 0.01
 REALS = ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n")
 INTS = ("mode", "stick_events", "bit_bounce", "torsional_stick")

@@ -18,6 +18,8 @@ import pytest
 from drillstring.orchestration import step_control as sc
 from drillstring.orchestration.master import Master, StepControl, Unit
 
+pytestmark = pytest.mark.fmu
+
 HERE = Path(__file__).resolve().parent
 
 

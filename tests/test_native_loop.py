@@ -39,6 +39,8 @@ from drillstring.orchestration.closed_loop import (
 )
 from drillstring.orchestration.master import Master, StepControl, Unit
 
+pytestmark = pytest.mark.fmu
+
 HERE = Path(__file__).resolve().parent
 TS = REFERENCE_RIG.t_star
 

@@ -41,6 +41,8 @@ from drillstring.orchestration.loop_ssp import PACKAGE_SETS, write_loop_package
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.ssp import SspError, read_ssp, validate_ssp, write_ssp
 
+pytestmark = pytest.mark.fmu
+
 TS = REFERENCE_RIG.t_star
 H = 1e-3
 #: Half a unit in the last place of Ecos's CSV numbers (std::to_string: "%f").

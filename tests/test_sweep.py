@@ -66,6 +66,7 @@ def serial_3x3(tmp_path_factory):
     return spec, report
 
 
+@pytest.mark.slow  # a local Dask cluster of worker processes
 def test_dask_local_cluster_equals_serial(serial_3x3, tmp_path):
     spec, serial = serial_3x3
     report = run_sweep(spec, tmp_path, workers=2, progress=False)

@@ -59,6 +59,8 @@ from drillstring.orchestration.loop_ssp import (
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.ssp import SspError, read_ssp
 
+pytestmark = pytest.mark.fmu
+
 SC = SIScaling(REFERENCE_RIG)
 H = 1e-3
 #: Fig. 6-like run: 25 of open-loop stick-slip, then 15 (about 2.5 stick-slip periods) of control.
