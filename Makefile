@@ -27,10 +27,11 @@ test-fast: venv
 	$(BIN)/pytest -q -m "not fmu and not slow"
 
 # The main job, a chain of artifacts each computed once (drillstring/apps/demo.py): the LMI design
-# with A from the axial analysis, both FMUs built with its gains, then the figures and the
-# co-simulation / monolithic agreement. Everything lands in out/ and build/.
+# with A from the axial analysis and the input-constrained design for the rig's top drive, the
+# FMUs built with the gains, then the figures, the co-simulation / monolithic agreement and the
+# controllers on the top drive. Everything lands in out/ and build/.
 demo: venv
-	$(BIN)/drillstring design --out out/design
+	$(BIN)/drillstring design --out out/design --torque-limit tds-11sa
 	$(BIN)/python build_fmus.py --gains out/design/gains.json --out build
 	$(BIN)/drillstring demo --design out/design --fmus build --out out
 

@@ -2,19 +2,20 @@
 
 ``make demo`` runs, in this order (each step reads only what the one before wrote):
 
-1. ``drillstring design --out out/design``: the slope A of (22) from the axial limit cycles (the
-   Fig. 4 line at the reference set's gammabar, etabar^2: ``axial_fit.csv``), the LMI design (33)
-   and its certificate (``gains.json``);
+1. ``drillstring design --out out/design --torque-limit tds-11sa``: the slope A of (22) from the
+   axial limit cycles (the Fig. 4 line at the reference set's gammabar, etabar^2:
+   ``axial_fit.csv``), the LMI design (33) and its certificate (``gains.json``), the
+   input-constrained design for the reference rig's top drive (``gains_constrained.json``);
 2. ``python build_fmus.py --gains out/design/gains.json --out build``: the plant and controller
    FMUs, the gains baked into the controller FMU;
 3. ``drillstring demo --design out/design --fmus build --out out`` (:func:`run_demo`):
    Section III (Fig. 2, Fig. 3, Fig. 4 with the design's own line reused), then Figs. 5 and 6
    by co-simulation of the FMUs on the fmpy master with the monolithic solver of the same loop
    overlaid, and their measured agreement; then Fig. 5 in SI units from the SSP package in Ecos
-   and in the project's master, against the monolithic solver in SI; then the industrial
-   controllers beside the LMI design: every one switched on from the Fig. 6 state, and a 6 x 6
-   map of their outcomes over surface speed and feed (Dask). ``summary.json`` lists every file
-   and number.
+   and in the project's master, against the monolithic solver in SI; then the controllers on the
+   reference rig's top drive: every one switched on from the Fig. 6 state, and a map of their
+   outcomes over surface speed and weight on bit (Dask). ``summary.json`` lists every file and
+   number.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from drillstring.apps.controllers import (
     write_controller_map,
 )
 from drillstring.apps.cosim import run_si_demo, si_demo_lines
-from drillstring.controller.design import FIT_FILE, GAINS_FILE
+from drillstring.controller.design import CONSTRAINED_FILE, FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import replace_dir, write_json
 from drillstring.model.control import AffineFeedback
@@ -148,8 +149,11 @@ def run_demo(
     summary.seconds["si"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    log("Industrial controllers beside the LMI design: Fig. 6-like comparison, 6 x 6 map")
-    comparison = write_controller_comparison(out / "controllers", gains, log=None)
+    log("Controllers on the reference rig's top drive: Fig. 6-like comparison, map")
+    constrained = design_dir / CONSTRAINED_FILE
+    comparison = write_controller_comparison(
+        out / "controllers", gains, constrained if constrained.is_file() else None, log=None
+    )
     summary.controllers = list(comparison.rows)
     summary.figures["controllers"] = {k: str(v) for k, v in comparison.files.items()}
     # The map is the demo's own artifact: computed afresh into a staging folder that replaces the
@@ -244,7 +248,7 @@ def print_summary(summary: DemoSummary) -> None:
     )
     for line in si_demo_lines(summary.si):
         print(f"   {line}")
-    print("   controllers switched on at tau = 25 from the Fig. 6 state:")
+    print("   controllers switched on at tau = 25 from the Fig. 6 state, on the rig's top drive:")
     for line in format_comparison(summary.controllers).splitlines():
         print(f"     {line}")
     print("   6 x 6 map over omega0 x v0, outcomes per controller:")
