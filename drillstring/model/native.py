@@ -241,7 +241,6 @@ if AVAILABLE:
             carray(args[7], (S.H_ROWS, hcap), dtype=_F64),
             carray(args[8], (ecap, S.E_COLS), dtype=_F64),
             carray(args[9], (S.K_ROWS, S.Y_SIZE), dtype=_F64),
-            carray(args[10], (S.W_ROWS, S.W_COLS), dtype=_F64),
         )
 
     def plant_step(io_p, args, t, h):

@@ -592,26 +592,26 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
 
 
 @jit
-def advance_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+def advance_from(params, options, control, clock, y, ints, diag, history, events, stages,
                  to_tau, ext):  # fmt: skip
     """:func:`advance` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
     return advance(s, to_tau, ext)
 
 
 @jit
 def advance_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                         work, times, rows, i0, i1, ext):  # fmt: skip
+                         times, rows, i0, i1, ext):  # fmt: skip
     """:func:`advance_sampled` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
     return advance_sampled(s, times, rows, i0, i1, ext)
 
 
 @jit
-def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages,
                  ext):  # fmt: skip
     """:func:`refresh` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
     return refresh(s, ext)
 
 
