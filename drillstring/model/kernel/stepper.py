@@ -76,6 +76,7 @@ from drillstring.model.kernel.state import (
     I_HSTART,
     I_KHINT,
     I_MODE,
+    I_NBOUNCE,
     I_NLOCATE,
     I_NSTEPS,
     I_NTRIALS,
@@ -580,18 +581,57 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
     return ST_OK, i1
 
 
+# --- a held input ----------------------------------------------------------------------------
+# The step of a model whose input R - R0 is held over each interval, written once: the plant FMU
+# runs it on both of its paths (drillstring.model.native), Engine.set_input and Engine.advance
+# run its two halves.
+
+
+@inline
+def hold(s: KernelState, r: float) -> None:
+    """Hold R - R0 = r (a ``CTRL_HELD`` law); the derivative and diagnostics at the current state
+    are recomputed only when r changed (a delay not found there is met again, and reported, by
+    the next advance)."""
+    C = s.control
+    if r != C[C_R]:
+        C[C_R] = r
+        refresh(s, None)
+
+
+@inline
+def advance_drained(s: KernelState, to_tau: float, keep_events: bool, ext) -> int:
+    """:func:`advance` to ``to_tau``, the event log drained here when the events are not kept.
+
+    Returns ST_OK, a status that stops the run, ST_HIST_FULL (the caller grows the history
+    buffer and calls again) or, only with ``keep_events``, ST_EVLOG_FULL (the caller takes the
+    events and calls again).
+    """
+    while True:
+        st = advance(s, to_tau, ext)
+        if keep_events:
+            return st
+        s.ints[I_ENUM] = 0
+        if st != ST_EVLOG_FULL:
+            return st
+
+
+@inline
+def held_step(s: KernelState, r: float, to_tau: float, keep_events: bool, bounces: float):
+    """One interval of a held input: :func:`hold` r, then :func:`advance_drained` to ``to_tau``.
+
+    Returns (status, bounced): the status of :func:`advance_drained` (what the caller must do:
+    nothing, stop, grow the history, take the events), and whether the bit bounced in more
+    episodes than the ``bounces`` the caller has reported (``on_invalid = continue``).
+    """
+    hold(s, r)
+    st = advance_drained(s, to_tau, keep_events, None)
+    return st, s.ints[I_NBOUNCE] > bounces
+
+
 # --- entry points from Python ----------------------------------------------------------------
 # numba dispatches a call with arrays in its C fast path but types a named tuple in Python (a few
 # microseconds a call, which is the cost of a whole FMU step); so Python calls these with the
 # arrays of a KernelState, in the order of its fields, and they rebuild the named tuple.
-
-
-@jit
-def advance_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                 to_tau, ext):  # fmt: skip
-    """:func:`advance` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
-    return advance(s, to_tau, ext)
 
 
 @jit
@@ -610,11 +650,30 @@ def refresh_from(params, options, control, clock, y, ints, diag, history, events
     return refresh(s, ext)
 
 
+@jit
+def hold_from(params, options, control, clock, y, ints, diag, history, events, stages, r):
+    """:func:`hold` on the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    hold(s, r)
+
+
+@jit
+def advance_drained_from(params, options, control, clock, y, ints, diag, history, events, stages,
+                         to_tau, keep_events, ext):  # fmt: skip
+    """:func:`advance_drained` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    return advance_drained(s, to_tau, keep_events, ext)
+
+
 __all__ = [
     "advance",
-    "advance_from",
+    "advance_drained",
+    "advance_drained_from",
     "advance_sampled",
     "advance_sampled_from",
+    "held_step",
+    "hold",
+    "hold_from",
     "locate",
     "refresh",
     "refresh_from",
