@@ -7,7 +7,10 @@ state-dependent delay (14); see ``docs/model.md``, "Wearflat contact as a Filipp
 ``resources/`` by ``build_fmus.py``, and the lifecycle (checks, phases, step wrapper, errors,
 FMU states) is :class:`drillstring_fmu_support.FmuModel`. ``fmi2DoStep(t, h)`` holds the input
 ``R_minus_R0`` over the step and advances the engine to ``t + h``; the engine locates the events
-inside the step, so communication points never have to land on an event.
+inside the step, so communication points never have to land on an event. The step is the compiled
+plant step :func:`drillstring.model.native.plant_io_step` on the plant's io block, whether the
+front layer runs it (the native fast path) or this script does; Python keeps what needs Python:
+the messages of a stop or a warning, growing the history buffer, the FMU states.
 
 The FMU state is the whole engine (history buffer, axial mode, counters, integrator state) plus
 the FMU's variables; restoring it is bit exact.
@@ -18,7 +21,9 @@ variables and the conversions between the FMU's quantities and the engine's
 (:meth:`DrillStringPlant.engine_setup`, :meth:`~DrillStringPlant.engine_input`,
 :meth:`~DrillStringPlant.engine_time` and :meth:`~DrillStringPlant.fmu_time`,
 :meth:`~DrillStringPlant.converted_outputs`, :meth:`~DrillStringPlant.stop_message`;
-``docs/si_fmus.md``); everything else is this class.
+``docs/si_fmus.md``) and the unit system of the compiled step (``FAST_SI``, ``FAST_KEYS``,
+:meth:`~DrillStringPlant.fast_constants`), which must agree with them; everything else is this
+class.
 """
 
 from __future__ import annotations
@@ -212,7 +217,11 @@ class DrillStringPlant(fmu.FmuModel):
 
     engine: Engine | None = None
     _out: Mapping[str, Any] = MappingProxyType({})
-    #: The native fast path: its io slots of the outputs (``_out``'s keys) and unit system.
+    #: The io block of the plant's step (layout ``native.PLANT``), one per instance: the front
+    #: layer's native fast path steps on it too.
+    _io: np.ndarray | None = None
+    _input = ""  # the name of the FMU's input
+    #: The unit system of the step: the outputs in the io block (``_out``'s keys), SI or not.
     FAST_KEYS: tuple[str, ...] = native.PLANT_SCALED_KEYS
     FAST_SI = 0.0
     _fast_block: fmu.FastPath | None = None
@@ -252,36 +261,80 @@ class DrillStringPlant(fmu.FmuModel):
 
     # ----------------------------------------------------------------- physics
     def configure(self, values: Mapping[str, Any]) -> None:
-        self.engine = self._new_engine(values)
-        self._out = self.converted_outputs(self.engine)
+        self._use(self._new_engine(values))
 
     def _new_engine(self, v: Mapping[str, Any]) -> Engine:
         params, options, initial = self.engine_setup(v)
         return Engine(params, options=options, initial=initial)
 
+    def _use(self, eng: Engine) -> None:
+        """Make ``eng`` the plant's engine: the io block of the step takes the unit system's
+        constants and the outputs at the engine's state."""
+        assert not eng.options.keep_events, "the plant's step keeps no events (engine_setup)"
+        if self._io is None:
+            self._io = np.zeros(native.PLANT.size)
+            (self._input,) = (v.name for v in self.VARIABLES if v.causality == "input")
+        io = self._io
+        io[native.PLANT.si] = self.FAST_SI
+        io[native.PLANT.k : native.PLANT.k + native.N_K] = self.fast_constants()
+        self.engine = eng
+        self._out = self.converted_outputs(eng)
+        io[native.PLANT.out : native.PLANT.out + len(self.FAST_KEYS)] = [
+            self._out[k] for k in self.FAST_KEYS
+        ]
+
+    def _pull_outputs(self) -> None:
+        """The outputs the step wrote into the io block."""
+        io = self._io
+        assert io is not None
+        values = io[native.PLANT.out : native.PLANT.out + len(self.FAST_KEYS)].tolist()
+        self._out = dict(zip(self.FAST_KEYS, values, strict=True))
+
     def output_values(self) -> Mapping[str, Any]:
         return self._out
 
     def advance(self, t: float, h: float) -> fmu.StepResult:
-        eng = self.engine
-        assert eng is not None
-        bounces = self._out["bit_bounce"]
-        eng.set_input(self.engine_input())
-        if self.fast_resume is None:
-            status = eng.advance(self.engine_time(t + h))
-        else:  # the front layer ran the kernel natively; what advance does after it
-            status = eng.finish_advance(self.engine_time(t + h), self.fast_resume)
-        self._out = self.converted_outputs(eng)
+        eng, io = self.engine, self._io
+        assert eng is not None and io is not None
+        st = self.fast_resume  # the kernel status of a step the front layer began natively
+        while True:
+            if st is None:
+                io[native.PLANT.input] = self.values[self._input]
+                code = native.plant_step_from(io, *eng.kernel_arrays(), t, h)
+                if code == native.DONE:
+                    self._pull_outputs()
+                    return fmu.StepResult(t + h)
+                if code == native.NOT_STARTED:
+                    return self._refused(t, h)
+                st = int(io[native.IO_RESUME])
+                io[native.IO_RESUME] = -1.0
+            status = eng.finish(st)
+            if status is not None:
+                break
+            st = None  # the history buffer grown: the step goes on
+        self._pull_outputs()
         if not status.ok:
             stop = self.stop_message(eng, f"{status.code}: {status.message}")
             return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
-        if self._out["bit_bounce"] > bounces:
-            return fmu.StepResult(
-                t + h,
-                warning=f"bit bouncing (d < 0, outside the model's validity) in the step "
-                f"[{t!r}, {t + h!r}]; continuing as on_invalid = continue",
-            )
-        return fmu.StepResult(t + h)
+        # the step finished with ST_OK only for a new bit-bounce episode (on_invalid = continue)
+        return fmu.StepResult(
+            t + h,
+            warning=f"bit bouncing (d < 0, outside the model's validity) in the step "
+            f"[{t!r}, {t + h!r}]; continuing as on_invalid = continue",
+        )
+
+    def _refused(self, t: float, h: float) -> fmu.StepResult:
+        """A step the compiled step refused, nothing changed: the engine names what is wrong
+        (raises ``ValueError``), or a run that stopped before stops again."""
+        eng = self.engine
+        assert eng is not None
+        eng.set_input(self.engine_input())
+        status = eng.advance(self.engine_time(t + h))
+        if status.ok:  # the compiled step refuses only what the engine refuses
+            raise RuntimeError(f"the plant's step refused the step [{t!r}, {t + h!r}]")
+        self._use(eng)
+        stop = self.stop_message(eng, f"{status.code}: {status.message}")
+        return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
 
     def fmu_time(self, tau: float) -> float:
         """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
@@ -289,27 +342,20 @@ class DrillStringPlant(fmu.FmuModel):
 
     # ----------------------------------------------------------------- native fast path
     def fast_constants(self) -> tuple[float, ...]:
-        """The unit system's constants of the native step (``native.PLANT_K``)."""
+        """The unit system's constants of the step (``native.PLANT.k``)."""
         return (0.0,) * native.N_K
 
     def fast_path(self) -> fmu.FastPath | None:
-        # a subclass is served natively only if it says so (FAST_SI): it may compute otherwise
-        if "FAST_SI" not in type(self).__dict__:
-            return None
         eng = self.engine
-        if not native.AVAILABLE or eng is None or eng.failed is not None:
-            return None
-        if eng.options.keep_events:
+        if not native.AVAILABLE or eng is None or eng.failed is not None or self._io is None:
             return None
         ks = eng.kernel_arrays()
         block = self._fast_block
         if block is None:
             step, outputs = native.plant_functions()
             names = {v.name for v in self.VARIABLES if v.causality == "output"}
-            at = {k: native.PLANT_OUT + i for i, k in enumerate(self.FAST_KEYS) if k in names}
-            (name,) = (v.name for v in self.VARIABLES if v.causality == "input")
-            io = np.zeros(native.PLANT_IO_SIZE)
-            block = fmu.FastPath(io, step, outputs, {name: native.PLANT_INPUT}, at)
+            at = {k: native.PLANT.out + i for i, k in enumerate(self.FAST_KEYS) if k in names}
+            block = fmu.FastPath(self._io, step, outputs, {self._input: native.PLANT.input}, at)
             self._fast_block = block
         if self._fast_kernel is not ks:
             block.args = native.array_addresses(ks)
@@ -317,19 +363,13 @@ class DrillStringPlant(fmu.FmuModel):
         return block if block.args is not None else None
 
     def fast_push(self, io: np.ndarray) -> None:
+        # the rest of the block is kept up to date by the steps, configure and restore
         ks = self._fast_kernel
-        io[native.PLANT_SI] = self.FAST_SI
-        io[native.PLANT_HCAP] = ks.history.shape[1]
-        io[native.PLANT_ECAP] = ks.events.shape[0]
-        io[native.PLANT_K : native.PLANT_K + native.N_K] = self.fast_constants()
-        out = self._out
-        io[native.PLANT_OUT : native.PLANT_OUT + len(self.FAST_KEYS)] = [
-            out[k] for k in self.FAST_KEYS
-        ]
+        io[native.PLANT.hcap] = ks.history.shape[1]
+        io[native.PLANT.ecap] = ks.events.shape[0]
 
     def fast_pull(self, io: np.ndarray) -> None:
-        values = io[native.PLANT_OUT : native.PLANT_OUT + len(self.FAST_KEYS)].tolist()
-        self._out = dict(zip(self.FAST_KEYS, values, strict=True))
+        self._pull_outputs()
 
     # ----------------------------------------------------------------- FMU state
     def save(self) -> tuple[dict[str, Any], Any, Callable[[], bytes]]:
@@ -352,16 +392,16 @@ class DrillStringPlant(fmu.FmuModel):
         if not fields["engine"]:
             self.engine, self._out = None, MappingProxyType({})
             return
-        if snapshot is not None and snapshot[0] is self.engine:
-            self.engine.set_state(snapshot[1])
+        eng = self.engine
+        if eng is not None and snapshot is not None and snapshot[0] is eng:
+            eng.set_state(snapshot[1])
         else:  # deserialized, or of another instance/engine: a fresh engine, then the bytes
             eng = self._new_engine(self.values)
             if snapshot is not None:
                 eng.set_state(snapshot[1])
             else:
                 eng.deserialize_state(payload or b"")
-            self.engine = eng
-        self._out = self.converted_outputs(self.engine)
+        self._use(eng)
 
 
 assert {name for name, _, _ in _OUTPUTS} <= set(OUTPUT_KEYS), "outputs the engine lacks"

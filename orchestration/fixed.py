@@ -12,9 +12,9 @@ Communication points (:func:`run_fixed`):
 
 A last step shorter than ``H`` ends on the stop time in all grids.
 
-A Jacobi run (zero-order hold or linear extrapolation) runs its loop in C (:mod:`.native_loop`)
-on the points of :func:`grid_points`, which are those of the loop below, bit for bit (tested);
-other runs, or without the C loop, run the Python loop below.
+Both loops, the C loop of a Jacobi run (zero-order hold or linear extrapolation,
+:mod:`.native_loop`) and the Python loop below (other runs, or without the C loop), step through
+the points of :func:`grid_points`; their rows are the same bits (tested).
 """
 
 from __future__ import annotations
@@ -59,9 +59,9 @@ def grid_points(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The communication points of a fixed-step run and the steps passed to the units.
 
-    The points of the loop of :func:`run_fixed` (module docstring), computed with numpy: the
-    same operations on the same doubles (integer nanoseconds in int64, the sum grid accumulated
-    in order by ``np.add.accumulate``).
+    The points both loops of :func:`run_fixed` step through (module docstring), computed with
+    numpy (integer nanoseconds in int64, the sum grid accumulated in order by
+    ``np.add.accumulate``).
 
     Parameters
     ----------
@@ -128,9 +128,9 @@ def run_fixed(
     sum_grid : bool
         Accumulate the time, ``t + H`` (Ecos's grid; module docstring).
     """
+    times, steps = grid_points(t0, t_end, h, ns_grid, sum_grid)
+    recorder.reserve(len(times))  # exact size: no growth in the loop
     if native_loop.supported(step):
-        recorder.reserve(n_steps(t_end - t0, h)[0] + 1)
-        times, steps = grid_points(t0, t_end, h, ns_grid, sum_grid)
         native_loop.run_native(step, recorder, stats, times, steps, progress)
         return
     y = step.y
@@ -140,21 +140,8 @@ def run_fixed(
     have_prev = False
     h_prev = h
     t = t0
-    n_total, exact = n_steps(t_end - t0, h)
-    h_ns, t0_ns = round(h * 1e9), round(t0 * 1e9)
-    recorder.reserve(n_total + 1)  # exact size: no growth in the loop
     record, advance = recorder.record, step.advance
-    for n in range(1, n_total + 1):
-        # the grid inline: this loop is the master's hot path
-        if ns_grid and (n < n_total or exact):  # libcosim: integer ns, then double
-            t_next = (t0_ns + n * h_ns) / 1e9
-            hn = t_next - t
-        elif sum_grid and (n < n_total or exact):
-            t_next = t + h
-            hn = h
-        else:
-            t_next = t0 + n * h if n < n_total else t_end
-            hn = h if n < n_total or exact else t_next - t
+    for n, (hn, t_next) in enumerate(zip(steps.tolist(), times[1:].tolist(), strict=True), 1):
         if need_prev:
             np.copyto(y_save, y)
         advance(t, hn, y_prev if have_prev else None, h_prev, 1)

@@ -186,7 +186,8 @@ def test_every_grid_option(small, grid, exchange, extrapolation, stop, monkeypat
 
 
 def _literal_grid(t0, t_end, h, ns_grid, sum_grid):
-    """The points of run_fixed's Python loop, written out step by step."""
+    """The points of each grid (``fixed``'s module docstring), written out step by step as the
+    Python loop of run_fixed computed them before both loops took grid_points."""
     n_total, exact = fixed.n_steps(t_end - t0, h)
     h_ns, t0_ns = round(h * 1e9), round(t0 * 1e9)
     t, times, steps = t0, [t0], []
@@ -209,7 +210,7 @@ def _literal_grid(t0, t_end, h, ns_grid, sum_grid):
 @pytest.mark.parametrize(
     "t0, t_end, h", [(0.0, 60.0, 1e-3), (0.1, 2.5004, 1e-3), (3.0, 3.7, 0.1), (0.0, 1e-3, 1e-3)]
 )
-def test_grid_points_are_the_python_loops(t0, t_end, h, ns_grid, sum_grid):
+def test_grid_points_are_the_grids_step_by_step(t0, t_end, h, ns_grid, sum_grid):
     times, steps = fixed.grid_points(t0, t_end, h, ns_grid, sum_grid)
     ref_t, ref_h = _literal_grid(t0, t_end, h, ns_grid, sum_grid)
     assert times.tobytes() == ref_t.tobytes() and steps.tobytes() == ref_h.tobytes()

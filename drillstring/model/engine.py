@@ -406,7 +406,10 @@ class Engine:
         """Hold the rotary-table torque deviation R - R0 = r over the following advances.
 
         R - R0 is the input of (13). A law set by :meth:`set_control` (an :class:`AffineFeedback`
-        or a callable) is replaced by the held value.
+        or a callable) is replaced by the held value. The kernel holds it
+        (:func:`~drillstring.model.kernel.stepper.hold`, the first half of the held-input step
+        the plant FMU runs): the derivative and diagnostics at the current state are recomputed
+        only when it changed.
 
         Parameters
         ----------
@@ -419,13 +422,10 @@ class Engine:
             ``r`` cannot be converted to a finite float.
         """
         value = self._check_torque(r)
-        C = self._s.control
-        if int(C[S.C_KIND]) != S.CTRL_HELD:
+        if int(self._s.control[S.C_KIND]) != S.CTRL_HELD:
             self.set_control(value)
             return
-        if value != C[S.C_R]:
-            C[S.C_R] = value
-            self._refresh()
+        self._stepper.hold_from(*self._s, value)
 
     # ----------------------------------------------------------------- stepping
     def _refresh_with_mode(self, mode: int) -> int:
@@ -452,11 +452,12 @@ class Engine:
         to_tau = self._check_target(to_tau)
         if self._failed is not None:
             return self._failed
+        keep = self.options.keep_events
         while True:
-            st = int(self._stepper.advance_from(*self._s, to_tau, self._ext))
-            if not self._service(st):
-                break
-        return self._status(st)
+            st = int(self._stepper.advance_drained_from(*self._s, to_tau, keep, self._ext))
+            status = self.finish(st)
+            if status is not None:
+                return status
 
     def sample(
         self, times: np.ndarray, rows: np.ndarray | None = None
@@ -497,10 +498,9 @@ class Engine:
             st, i = self._stepper.advance_sampled_from(
                 *self._s, times, rows, i, times.size, self._ext
             )
-            st = int(st)
-            if not self._service(st):
-                break
-        return rows[:i], self._status(st)
+            status = self.finish(int(st))
+            if status is not None:
+                return rows[:i], status
 
     def _check_target(self, to_tau: Any) -> float:
         try:
@@ -514,15 +514,31 @@ class Engine:
             )
         return to_tau
 
-    def _service(self, st: int) -> bool:
-        """Drain the event log, grow the history if asked; True when the kernel must resume."""
+    def finish(self, st: int) -> Status | None:
+        """What Python does after a kernel call on :meth:`kernel_arrays` returned ``st``.
+
+        The event log is drained (into :attr:`events` if ``options.keep_events``); a full
+        history buffer is grown.
+
+        Parameters
+        ----------
+        st : int
+            The kernel status (an ``ST_*`` code of :mod:`~drillstring.model.kernel.state`).
+
+        Returns
+        -------
+        Status or None
+            None when the kernel call must be made again (the event log was full, or the
+            history buffer); otherwise the outcome, as :meth:`advance` returns it (a stop is
+            kept: :attr:`failed`).
+        """
         self._drain_events()
         if st == S.ST_EVLOG_FULL:
-            return True
+            return None
         if st == S.ST_HIST_FULL:
             self._grow_history()
-            return True
-        return False
+            return None
+        return self._status(st)
 
     def _status(self, st: int) -> Status:
         if st == S.ST_OK:
@@ -778,12 +794,12 @@ class Engine:
         n_events = int(arrays.pop("n_events")[0])
         self.set_state(EngineState(arrays=arrays, n_events=n_events))
 
-    # ----------------------------------------------------------------- native callers
-    # (an addition for the FMUs' fast path, drillstring.model.native; nothing above uses it)
+    # ----------------------------------------------------------------- other callers of the kernel
+    # (the plant FMU's step, drillstring.model.native; with finish() after each of its calls)
     def kernel_arrays(self) -> S.KernelState:
-        """The kernel's arrays themselves (not copies), for a native caller that runs the
-        kernel on them. Valid until the next call of a method of this engine: the history
-        buffer grows and :meth:`set_state` replaces the arrays.
+        """The kernel's arrays themselves (not copies), for a caller that runs the kernel on
+        them (and then :meth:`finish`). Valid until the next call of a method of this engine:
+        the history buffer grows and :meth:`set_state` replaces the arrays.
 
         Returns
         -------
@@ -791,35 +807,6 @@ class Engine:
             The live arrays, in :class:`~drillstring.model.kernel.state.KernelState` order.
         """
         return self._s
-
-    def finish_advance(self, to_tau: float, st: int) -> Status:
-        """Finish an :meth:`advance` to ``to_tau`` whose kernel call (``advance`` of
-        :mod:`~drillstring.model.kernel.stepper` on :meth:`kernel_arrays`, made by a native
-        caller) returned the status ``st``: what :meth:`advance` does after each kernel call.
-
-        Parameters
-        ----------
-        to_tau : float
-            The target time of the native call.
-        st : int
-            The kernel status it returned (an ``ST_*`` code of
-            :mod:`~drillstring.model.kernel.state`).
-
-        Returns
-        -------
-        Status
-            As :meth:`advance`; after a full event log or history buffer the advance is resumed
-            here, in Python.
-
-        Raises
-        ------
-        ValueError
-            ``to_tau`` is not a finite number or is before the current time.
-        """
-        to_tau = self._check_target(to_tau)
-        if self._service(st):
-            return self.advance(to_tau)
-        return self._status(st)
 
 
 def stick_entries(events: Iterable[Event]) -> list[Event]:

@@ -1,21 +1,28 @@
-"""C entry points of the engine's step and of the control law, for native callers.
+"""The plant FMU's step on its io block, and the C entry points of the FMUs' native fast path.
 
 The FMUs' front layer (``fmu_src/fmi_front/drillstring_fmi2.c``) serves ``fmi2SetReal`` of the
 inputs, ``fmi2DoStep`` and ``fmi2GetReal``/``fmi2GetInteger`` of the outputs without entering
-Python: it calls the compiled functions below (numba ``cfunc``, their ``.address``), which run the
-same compiled kernel (:func:`drillstring.model.kernel.stepper.advance`; its ``write_sample`` for
-the outputs), the same SI conversions (:mod:`drillstring.model.units`) and the same digital
-controller (:mod:`drillstring.model.digital.block`) as the Python path of the FMUs, so both give
-the same bits.
+Python: it calls the compiled functions below (numba ``cfunc``, their ``.address``).
 
-Every function takes ``(io, args, t, h)``: ``io`` is a float64 block shared by the Python slave
-and the front layer (layout: the ``IO_*`` and ``PLANT_*`` slots below; the controller's is the
-digital controller's block, :mod:`drillstring.model.digital.layout`), ``args`` the
-addresses of the kernel's arrays (:class:`~drillstring.model.kernel.state.KernelState` order,
-for the plant; unused by the controller). A step returns :data:`DONE` (served: the outputs are in
-``io``), :data:`NOT_STARTED` (nothing changed: the Python path serves the call, with its checks
-and messages) or :data:`RESUME` (the kernel returned ``io[IO_RESUME]``, a status the Python path
-must finish: a full history buffer, a stop of the model, a warning to log).
+The plant's step is written once, :func:`plant_io_step`: the unit conversions
+(:mod:`drillstring.model.units`), the kernel's held-input step
+(:func:`drillstring.model.kernel.stepper.held_step`) and the outputs, on the io block of the plant
+(:data:`PLANT`). The front layer runs it through the ``cfunc`` :func:`plant_step`, the plant's
+Python path (``fmu_src/drillstring_plant.py``) through :func:`plant_step_from`, on the same
+block; without numba (or with ``DRILLSTRING_JIT=0``) it is the same source run as plain Python.
+The controller's entry points run the digital controller's own functions
+(:func:`drillstring.model.digital.block.fmu_step`, :func:`~drillstring.model.digital.block.
+fmu_output`) on its block, as the controller FMU's Python path does.
+
+Every entry point takes ``(io, args, t, h)``: ``io`` is a float64 block shared by the Python
+slave and the front layer (layout: :data:`PLANT` for the plant, the digital controller's block
+:mod:`drillstring.model.digital.layout` for the controller; the four ``IO_*`` slots begin every
+block), ``args`` the addresses of the
+kernel's arrays (:class:`~drillstring.model.kernel.state.KernelState` order, for the plant;
+unused by the controller). A step returns :data:`DONE` (served: the outputs are in ``io``),
+:data:`NOT_STARTED` (nothing changed: the Python path serves the call, with its checks and
+messages) or :data:`RESUME` (``io[IO_RESUME]`` is a kernel status the Python path must finish:
+a full history buffer, a stop of the model, a warning to log).
 
 The entry points are compiled at their first use (a process that never steps an FMU compiles
 nothing). numba caches compiled code keyed by this file alone; the cache of this module is
@@ -26,6 +33,7 @@ Python path only.
 
 from __future__ import annotations
 
+import collections
 import math
 from pathlib import Path
 from typing import Any
@@ -44,10 +52,14 @@ __all__ = [
     "AVAILABLE",
     "DONE",
     "NOT_STARTED",
+    "PLANT",
     "PLANT_IO_SIZE",
     "RESUME",
     "controller_functions",
+    "io_layout",
     "plant_functions",
+    "plant_io_step",
+    "plant_step_from",
     "refresh_cache",
 ]
 
@@ -65,15 +77,36 @@ IO_TIME = 2  # the FMU's time
 IO_NSTEPS = 3  # steps the front layer served natively (a count for the FMU's report)
 IO_BASE = 4
 
-# --- the plant's io -----------------------------------------------------------------------------
-PLANT_SI = IO_BASE  # 1: SI units (DrillStringPlantSI), 0: scaled
-PLANT_HCAP = IO_BASE + 1  # columns of the history buffer
-PLANT_ECAP = IO_BASE + 2  # rows of the event log
-PLANT_INPUT = IO_BASE + 3  # the FMU's input (R - R0 scaled, or the table torque R in N m)
-PLANT_K = IO_BASE + 4  # SIScaling.plant_constants (12 slots)
+# --- the plant's io ---------------------------------------------------------------------------
+
+
+def io_layout(name: str, table: tuple[tuple[str, int], ...]) -> Any:
+    """The offsets of the entries of an io block laid out as ``table``.
+
+    Parameters
+    ----------
+    name : str
+        The name of the layout (of its named-tuple class).
+    table : tuple of (str, int)
+        The block's entries in order: name and size (slots of float64).
+
+    Returns
+    -------
+    namedtuple
+        The offset of each entry by its name, and ``size``, the length of the block (numba
+        reads such a tuple as constants).
+    """
+    offsets, at = [], 0
+    for _, size in table:
+        offsets.append(at)
+        at += size
+    layout = collections.namedtuple(name, [entry for entry, _ in table] + ["size"])
+    return layout(*offsets, at)
+
+
+#: Entries of the io block that every FMU's begins with (the ``IO_*`` slots).
+COMMON_IO = (("stale", 1), ("resume", 1), ("time", 1), ("nsteps", 1))
 N_K = 12
-PLANT_TAU = PLANT_K + N_K  # the engine's time (the OUT_TAU column of a kernel sample)
-PLANT_OUT = PLANT_TAU + 1  # the outputs, in the order of PLANT_SCALED_KEYS / PLANT_SI_KEYS
 #: Output slots of the scaled plant: Engine.outputs() keys, in order.
 PLANT_SCALED_KEYS = (
     "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n", "R_minus_R0",
@@ -83,9 +116,25 @@ PLANT_SCALED_KEYS = (
 PLANT_SI_KEYS = (
     *(q.name for q in _units.PLANT_SI), "mode", "stick_events", "bit_bounce", "torsional_stick"
 )  # fmt: skip
-PLANT_IO_SIZE = PLANT_OUT + max(len(PLANT_SCALED_KEYS), len(PLANT_SI_KEYS))
-_BOUNCE_SCALED = PLANT_OUT + PLANT_SCALED_KEYS.index("bit_bounce")
-_BOUNCE_SI = PLANT_OUT + PLANT_SI_KEYS.index("bit_bounce")
+#: The plant's io block, entry by entry.
+PLANT = io_layout(
+    "PlantIO",
+    (
+        *COMMON_IO,
+        ("si", 1),  # 1: SI units (DrillStringPlantSI), 0: scaled
+        ("hcap", 1),  # columns of the history buffer (what the native step reads of it)
+        ("ecap", 1),  # rows of the event log
+        ("input", 1),  # the FMU's input (R - R0 scaled, or the table torque R in N m)
+        ("k", N_K),  # the unit system's constants (SIScaling.plant_constants; zeros when scaled)
+        ("tau", 1),  # the engine's time (the OUT_TAU column of a kernel sample)
+        ("out", max(len(PLANT_SCALED_KEYS), len(PLANT_SI_KEYS))),  # the outputs, by *_KEYS
+    ),
+)
+PLANT_IO_SIZE = PLANT.size
+assert PLANT[: len(COMMON_IO)] == (IO_STALE, IO_RESUME, IO_TIME, IO_NSTEPS) == tuple(range(IO_BASE))
+assert PLANT.out == PLANT.tau + 1, "a kernel sample (tau, then the outputs) is written at tau"
+_BOUNCE_SCALED = PLANT.out + PLANT_SCALED_KEYS.index("bit_bounce")
+_BOUNCE_SI = PLANT.out + PLANT_SI_KEYS.index("bit_bounce")
 _N_SI = len(_units.PLANT_SI)
 assert S.OUTPUT_COLUMNS == ("tau", *PLANT_SCALED_KEYS[: S.OUT_SIZE - 1]), "a kernel sample's layout"
 
@@ -99,7 +148,7 @@ assert (_layout.B_STALE, _layout.B_RESUME, _layout.B_TIME, _layout.B_NSTEPS) == 
 ), "the controller's block starts with the io slots every FMU has"
 
 _HERE = Path(__file__).resolve()
-#: Every source the functions below compile (the kernel's, and the conversions and the law).
+#: Every source the functions of this module compile (the kernel's, the conversions, the law).
 SOURCES = (*_jit.COMPILED_SOURCES, _HERE, Path(_units.__file__), Path(_params.__file__))
 _STAMP = "drillstring-native-sources.sha256"
 
@@ -203,6 +252,99 @@ def controller_functions() -> tuple[int, int]:
     return _address("ctrl_step"), _address("ctrl_outputs")
 
 
+# --- the plant's step -------------------------------------------------------------------------
+jit = _jit.jit_for(__name__)
+inline = _jit.jit_for(__name__, inline=True)
+
+
+@inline
+def plant_constants(io):
+    """The unit system's constants of the plant's io block (``PLANT.k``) as a tuple."""
+    k = PLANT.k
+    return (io[k], io[k + 1], io[k + 2], io[k + 3], io[k + 4], io[k + 5], io[k + 6], io[k + 7],
+            io[k + 8], io[k + 9], io[k + 10], io[k + 11])  # fmt: skip
+
+
+@inline
+def write_plant_outputs(io, s, si, K):
+    """The plant's outputs at the kernel state ``s`` into ``io``: the engine's time, then the
+    scaled outputs (a kernel sample) and the counters, or their SI values
+    (:func:`~drillstring.model.units.si_plant_values` with the constants ``K``)."""
+    I, D = s.ints, s.diag  # noqa: E741
+    _stepper.write_sample(s, io[PLANT.tau : PLANT.tau + S.OUT_SIZE])
+    o = PLANT.out + S.OUT_SIZE - 1
+    if si:
+        o = PLANT.out
+        v = _units.si_plant_values(K, io[PLANT.tau], io[o], io[o + 1], io[o + 2], io[o + 3],
+                                   io[o + 4], io[o + 5], D[S.D_D], D[S.D_G], D[S.D_TAUN],
+                                   D[S.D_TOB])  # fmt: skip
+        for i in range(_N_SI):
+            io[o + i] = v[i]
+        o += _N_SI
+        io[o] = float(I[S.I_MODE])
+        o += 1
+    io[o] = float(I[S.I_NSTICK])
+    io[o + 1] = float(I[S.I_NBOUNCE])
+    io[o + 2] = float(I[S.I_NTSTICK])
+
+
+@inline
+def plant_io_step(io, s, t, h):
+    """The plant FMU's step from t to t + h on its io block :data:`PLANT`, its input held.
+
+    The FMU's input and time in the engine's units, the kernel's held-input step
+    (:func:`~drillstring.model.kernel.stepper.held_step`: the input held, refreshed only when
+    it changed; the engine advanced to t + h; the event log drained, the FMU keeps no events),
+    the outputs written (``PLANT.tau``, ``PLANT.out``).
+
+    Parameters
+    ----------
+    io : ndarray
+        The plant's io block (:data:`PLANT`).
+    s : KernelState
+        The engine's kernel state.
+    t, h : float
+        The communication point and step size, in the FMU's time.
+
+    Returns
+    -------
+    int
+        :data:`DONE`; :data:`NOT_STARTED`, nothing changed (an input or a time the engine would
+        refuse, a law that is not a held input, a run stopped before); or :data:`RESUME` with
+        ``io[IO_RESUME]`` the kernel status for Python to finish: ``ST_HIST_FULL`` (outputs
+        untouched: grow the history, then step again), a stop of the model (the outputs at the
+        stop), or ``ST_OK`` (the outputs written; a new bit-bounce episode to warn of).
+    """
+    si = io[PLANT.si] != 0.0
+    K = plant_constants(io)
+    x = io[PLANT.input]
+    r = _units.si_torque_deviation(K[5], K[4], x) if si else x
+    target = _units.si_to_tau(K[2], t + h) if si else t + h
+    if not (math.isfinite(r) and math.isfinite(target)) or target < s.clock[S.X_TAU]:
+        return NOT_STARTED  # the Python path names the error
+    if int(s.control[S.C_KIND]) != S.CTRL_HELD or s.ints[S.I_STATUS] != S.ST_OK:
+        return NOT_STARTED
+    reported = io[_BOUNCE_SI if si else _BOUNCE_SCALED]
+    st, bounced = _stepper.held_step(s, r, target, False, reported)
+    if st == S.ST_HIST_FULL:
+        io[IO_RESUME] = st
+        return RESUME
+    write_plant_outputs(io, s, si, K)
+    if st != S.ST_OK or bounced:
+        io[IO_RESUME] = st
+        return RESUME
+    return DONE
+
+
+@jit
+def plant_step_from(io, params, options, control, clock, y, ints, diag, history, events, stages,
+                    t, h):  # fmt: skip
+    """:func:`plant_io_step` on the kernel state made of these arrays (the plant's Python path:
+    numba dispatches arrays fast, a named tuple slowly)."""
+    s = S.KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    return plant_io_step(io, s, t, h)
+
+
 _ENTRY_POINTS: dict[str, Any] = {}
 if AVAILABLE:
     import numba
@@ -235,58 +377,13 @@ if AVAILABLE:
             carray(args[7], (S.H_ROWS, hcap), dtype=_F64),
             carray(args[8], (ecap, S.E_COLS), dtype=_F64),
             carray(args[9], (S.K_ROWS, S.Y_SIZE), dtype=_F64),
-            carray(args[10], (S.W_ROWS, S.W_COLS), dtype=_F64),
         )
 
     def plant_step(io_p, args, t, h):
-        # DrillStringPlant.advance and Engine.set_input/advance, for a held input (the FMU's)
-        io = carray(io_p, (PLANT_IO_SIZE,))
-        si = io[PLANT_SI] != 0.0
-        s = kernel_state(args, int(io[PLANT_HCAP]), int(io[PLANT_ECAP]))
-        K = (io[PLANT_K], io[PLANT_K + 1], io[PLANT_K + 2], io[PLANT_K + 3], io[PLANT_K + 4],
-             io[PLANT_K + 5], io[PLANT_K + 6], io[PLANT_K + 7], io[PLANT_K + 8],
-             io[PLANT_K + 9], io[PLANT_K + 10], io[PLANT_K + 11])  # fmt: skip
-        x = io[PLANT_INPUT]
-        r = _units.si_torque_deviation(K[5], K[4], x) if si else x
-        target = _units.si_to_tau(K[2], t + h) if si else t + h
-        C, X, I, D = s.control, s.clock, s.ints, s.diag  # noqa: E741
-        if not (math.isfinite(r) and math.isfinite(target)) or target < X[S.X_TAU]:
-            return NOT_STARTED  # the Python path names the error
-        if int(C[S.C_KIND]) != S.CTRL_HELD:
-            return NOT_STARTED
-        if r != C[S.C_R]:
-            C[S.C_R] = r
-            _stepper.refresh(s, None)
-        while True:
-            st = _stepper.advance(s, target, None)
-            I[S.I_ENUM] = 0  # the event log drained (the FMU keeps no events)
-            if st != S.ST_EVLOG_FULL:
-                break
-        if st != S.ST_OK:
-            io[IO_RESUME] = st
-            return RESUME
-        bounces = float(I[S.I_NBOUNCE])
-        if bounces > io[_BOUNCE_SI if si else _BOUNCE_SCALED]:
-            io[IO_RESUME] = st  # a warning for the Python path to log
-            return RESUME
-        # the engine's outputs (tau, then Engine.outputs() up to the mode) as the kernel writes
-        # them for a sample; then the counters, or the SI values of the scaled ones
-        _stepper.write_sample(s, io[PLANT_TAU : PLANT_TAU + S.OUT_SIZE])
-        o = PLANT_OUT + S.OUT_SIZE - 1
-        if si:
-            o = PLANT_OUT
-            v = _units.si_plant_values(K, io[PLANT_TAU], io[o], io[o + 1], io[o + 2], io[o + 3],
-                                       io[o + 4], io[o + 5], D[S.D_D], D[S.D_G], D[S.D_TAUN],
-                                       D[S.D_TOB])  # fmt: skip
-            for i in range(_N_SI):
-                io[o + i] = v[i]
-            o += _N_SI
-            io[o] = float(I[S.I_MODE])
-            o += 1
-        io[o] = float(I[S.I_NSTICK])
-        io[o + 1] = bounces
-        io[o + 2] = float(I[S.I_NTSTICK])
-        return DONE
+        # plant_io_step on the block and the kernel's arrays at these addresses
+        io = carray(io_p, (PLANT.size,))
+        s = kernel_state(args, int(io[PLANT.hcap]), int(io[PLANT.ecap]))
+        return plant_io_step(io, s, t, h)
 
     def ctrl_outputs(io_p, args, t, h):
         # ControllerFmu.output_values: the block's fmu_output

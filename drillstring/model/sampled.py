@@ -157,14 +157,19 @@ def simulate_sampled(
     acc = np.array([-math.inf, math.inf, 0.0, 0.0])
     k, i = 0, 0
     status = Status("ok", "", 0.0)
+    keep = engine.options.keep_events
     while True:
-        st, k, i = run_sampled_from(*engine.kernel_arrays(), block, k, n, Ts, every, rows, i, acc)
+        st, k, i = run_sampled_from(
+            *engine.kernel_arrays(), block, k, n, Ts, every, rows, i, acc, keep
+        )
         st = int(st)
         if st == 0:
             break
-        # what needs Python (a buffer to drain or grow, or the stop's status): the engine
-        # finishes the advance of sample k, then the loop goes on from k + 1
-        status = engine.finish_advance(k * Ts + Ts, st)
+        # what needs Python (a buffer to drain or grow, or the stop's status): then the engine
+        # finishes the advance of sample k, and the loop goes on from k + 1
+        status = engine.finish(st)
+        if status is None:
+            status = engine.advance(k * Ts + Ts)
         if not status.ok:
             if i == 0 or engine.tau > rows[i - 1, 0]:
                 rows[i, : len(COLUMNS)] = _row(engine)

@@ -25,7 +25,6 @@ from drillstring.model.digital.layout import B_OMEGA0, B_R0, B_RAPP, B_SAT
 from drillstring.model.kernel.coordinates import to_perturbation
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.kernel.state import (
-    C_R,
     OUT_SIZE,
     ST_EVLOG_FULL,
     ST_HIST_FULL,
@@ -39,7 +38,7 @@ from drillstring.model.kernel.state import (
     Y_WT,
     KernelState,
 )
-from drillstring.model.kernel.stepper import advance, refresh, write_sample
+from drillstring.model.kernel.stepper import advance_drained, hold, write_sample
 
 jit = jit_for(__name__)
 
@@ -55,20 +54,15 @@ ROW_SIZE = OUT_SIZE + 4
 
 
 @jit
-def _run(s, b, k, n, Ts, every, rows, i, acc):
+def _run(s, b, k, n, Ts, every, rows, i, acc, keep_events):
     """Samples k..n of the loop; see :func:`run_sampled_from`."""
-    P, C, X, Y = s.params, s.control, s.clock, s.y
+    P, X, Y = s.params, s.clock, s.y
     while True:
         tau = k * Ts
         _, _, phi, dphi, theta, dtheta = to_perturbation(
             P, X[X_TAU], Y[Y_U], Y[Y_V], Y[Y_PHI], Y[Y_W], Y[Y_THETA], Y[Y_WT]
         )
-        r = commit(b, tau, phi, dphi, theta, dtheta, Ts)
-        if r != C[C_R]:
-            C[C_R] = r
-            st = refresh(s, None)
-            if st != ST_OK:
-                return st, k, i
+        hold(s, commit(b, tau, phi, dphi, theta, dtheta, Ts))
         R = b[B_RAPP] + b[B_R0]
         power = abs(R * (b[B_OMEGA0] + dtheta))
         acc[0] = max(acc[0], R)
@@ -89,7 +83,7 @@ def _run(s, b, k, n, Ts, every, rows, i, acc):
         if k == n:
             return ST_OK, k, i
         # tau_k + Ts, not (k + 1)*Ts: the end a fixed-step master reaches from tau_k
-        st = advance(s, tau + Ts, None)
+        st = advance_drained(s, tau + Ts, keep_events, None)
         if st == ST_EVLOG_FULL or st == ST_HIST_FULL:
             return st, k, i
         if st != ST_OK:
@@ -106,7 +100,7 @@ def _run(s, b, k, n, Ts, every, rows, i, acc):
 
 @jit
 def run_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                     work, b, k, n, Ts, every, rows, i, acc):  # fmt: skip
+                     b, k, n, Ts, every, rows, i, acc, keep_events):  # fmt: skip
     """Run the sampled loop from sample ``k`` to ``n`` on the kernel state of these arrays and
     the controller block ``b``; rows from ``rows[i]`` on.
 
@@ -115,5 +109,5 @@ def run_sampled_from(params, options, control, clock, y, ints, diag, history, ev
     (ST_EVLOG_FULL, ST_HIST_FULL: the advance of sample k is unfinished; finish it, then call
     again from k + 1 and i), or the status that stopped the run (its last row at the stop).
     """
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
-    return _run(s, b, k, n, Ts, every, rows, i, acc)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    return _run(s, b, k, n, Ts, every, rows, i, acc, keep_events)

@@ -16,10 +16,16 @@ BOUNCE          d                        not bouncing   bit bouncing: stop, or c
 BOUNCE_END      -d                       bouncing       contact again
 RELEASE         T_max - S                torsional st.  slip restarts from V = W = 0
 REVERSE         S                        torsional st.  stop: reverse rotation
+DELAY           t_disc - (tau - tau_n)   every mode     the step ends there (RK4's order kept)
 =============== ======================== ============== =========================================
 
 The W event is not watched when the torsion is frozen (the fast axial model (18)). Entering axial
 or torsional stick is counted; entering torsional stick needs S >= 0 (else reverse rotation).
+
+The last row is not a mode event: a step also ends where the delayed instant tau - tau_n reaches
+the next stored discontinuity t_disc of the history (``EVF_DELAY``). These ten are the candidates
+for the end of a trial step: :data:`WATCHED` has a bit for each candidate watched in a mode,
+:func:`event_value` is its function, :func:`inside` says whether its event lies inside a step.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from drillstring.model.kernel.state import (
     D_GSTAR,
     D_RELEASE,
     D_S,
+    D_TAUN,
     E_FROM,
     E_GINT,
     E_GSTAR,
@@ -86,6 +93,8 @@ N_EVF = 9
 #: Not a mode event: the delayed instant tau - tau_n passes a stored discontinuity, where the
 #: step must end to keep RK4's order (``drillstring.model.kernel.hermite.next_discontinuity``).
 EVF_DELAY = 9
+#: The candidates for the end of a trial step: the event functions and the delayed discontinuity.
+N_CANDIDATES = 10
 
 # --- what each event function is -------------------------------------------------------------
 # quantity: a column of the state (Q_STATE, index Y_*) or of the diagnostics (Q_DIAG, index D_*)
@@ -142,11 +151,13 @@ ACT_COUNT = np.array([NONE, NONE, NONE, NONE, NONE, I_NBOUNCE, NONE, NONE, NONE]
 
 
 def _watched_masks() -> np.ndarray:
-    """WATCHED[mode, bouncing, frozen]: bit ev set when event function ev is watched there."""
+    """WATCHED[mode, bouncing, frozen]: bit ev set when candidate ev is watched there (the
+    delayed discontinuity in every mode)."""
     masks = np.zeros((4, 2, 2), dtype=np.int64)
     for mode in range(4):
         for bouncing in range(2):
             for frozen in range(2):
+                masks[mode, bouncing, frozen] = 1 << EVF_DELAY
                 for ev in range(N_EVF):
                     if (
                         (EVF_MODES[ev] >> mode) & 1
@@ -157,22 +168,40 @@ def _watched_masks() -> np.ndarray:
     return masks
 
 
-#: The event functions watched in each mode, bouncing state and frozen-torsion setting, from
-#: the tables above (a bit per event function).
+#: The candidates watched in each mode, bouncing state and frozen-torsion setting, from the
+#: tables above (a bit per candidate: the event functions, and the delayed discontinuity).
 WATCHED = _watched_masks()
+assert N_CANDIDATES == N_EVF + 1 == EVF_DELAY + 1 and len(EVF_INDEX) == N_EVF
 
 
 @inline
 def watched(mode: int, bouncing: int, frozen: bool) -> int:
-    """The event functions watched in ``mode``, as a bit mask (bit ev: function ev)."""
+    """The candidates watched in ``mode``, as a bit mask (bit ev: candidate ev)."""
     return WATCHED[mode, bouncing, 1 if frozen else 0]
 
 
 @inline
-def event_value(ev: int, Y: np.ndarray, D: np.ndarray) -> float:
-    """Event function ``ev`` at state Y with diagnostics D (positive before the event)."""
+def event_value(ev: int, t: float, Y: np.ndarray, D: np.ndarray, t_disc: float) -> float:
+    """Candidate ``ev`` at time t, state Y with diagnostics D (positive before its event).
+
+    An event function is a signed entry of Y or D; the delayed discontinuity's is the distance
+    ``t_disc - (t - tau_n)`` of the delayed instant to the discontinuity ``t_disc`` ahead of it.
+    """
+    if ev == EVF_DELAY:
+        return t_disc - (t - D[D_TAUN])
     q = Y[EVF_INDEX[ev]] if EVF_SOURCE[ev] == Q_STATE else D[EVF_INDEX[ev]]
     return EVF_SIGN[ev] * q + EVF_OFFSET[ev]
+
+
+@inline
+def inside(ev: int, f0: float, f1: float) -> bool:
+    """True when the event of candidate ``ev`` lies inside a step whose ends have the values
+    f0, f1 of its function: an event function reaches <= 0 at the end (0 counts when coming
+    from > 0); the delayed discontinuity lies strictly inside (a step that ends on it, or that
+    has none ahead of it, f0 = -inf, passes nothing)."""
+    if ev == EVF_DELAY:
+        return f0 > 0.0 and f1 < 0.0
+    return f1 < 0.0 or (f1 == 0.0 and f0 > 0.0)
 
 
 @jit

@@ -17,8 +17,10 @@ in the kernel. The arrays:
 * ``history`` past of U, V, Phi, W at the integrator's nodes (rows ``H_*``, live columns
   ``ints[I_HSTART]:ints[I_HEND]``);
 * ``events`` the event log (rows of ``E_*`` columns), drained by the engine;
-* ``stages`` RK stage derivatives (row ``K_NOW`` is always the derivative at the current state);
-* ``work`` scratch rows of a step (trial states and their diagnostics, ``W_*``).
+* ``stages`` RK stage derivatives (row ``K_NOW`` is always the derivative at the current state).
+
+A step's trial states and their diagnostics are tuples of the compiled code, not arrays
+(``drillstring.model.kernel.stepper``).
 """
 
 from __future__ import annotations
@@ -132,24 +134,10 @@ E_GINT = 6  # running integral of g at the event
 E_U = 7  # u = U - v0*tau at the event
 E_COLS = 8
 
-# --- RK stages K and work rows W -------------------------------------------------------------
+# --- RK stages K ----------------------------------------------------------------------------
 K_NOW = 0  # derivative at the current state (stage 1 of the next step)
 K_END = 4  # derivative at the end state of the last trial step
 K_ROWS = 5
-W_YNEW = 0  # end state of the main trial step
-W_YTRY = 1  # end state of an event-location trial
-W_YEV = 2  # far-side state of the event being located
-W_YBEST = 3  # far-side state of the earliest event of the step
-W_DNEW = 4  # diagnostics of W_YNEW, and so on
-W_DTRY = 5
-W_DEV = 6
-W_DBEST = 7
-W_KNEW = 8  # end derivative of W_YNEW
-W_KEV = 9  # end derivative of W_YEV
-W_KBEST = 10  # end derivative of W_YBEST
-W_YSTAGE = 11  # stage input state
-W_ROWS = 12
-W_COLS = max(Y_SIZE, D_SIZE)
 
 # --- output columns OUT (one sample of a run: time, perturbations, diagnostics, mode) ---------
 OUT_TAU = 0
@@ -219,11 +207,9 @@ class KernelState(NamedTuple):
     history: np.ndarray
     events: np.ndarray
     stages: np.ndarray
-    work: np.ndarray
 
 
-#: Arrays that make up the resumable state (``events`` is drained after every call, ``work``
-#: is scratch).
+#: Arrays that make up the resumable state (``events`` is drained after every call).
 PERSISTENT = ("params", "options", "control", "clock", "y", "ints", "diag", "history", "stages")
 
 
@@ -240,5 +226,4 @@ def allocate(history: np.ndarray, event_capacity: int) -> KernelState:
         history=history,
         events=np.zeros((event_capacity, E_COLS)),
         stages=np.zeros((K_ROWS, Y_SIZE)),
-        work=np.zeros((W_ROWS, W_COLS)),
     )

@@ -2,12 +2,13 @@
 
 One step (:func:`step`) integrates the current mode's smooth vector field (:func:`rk4`, whose
 stages evaluate :func:`stage`: delay look-up in the Hermite history, depth of cut, contact
-multiplier, torque, right-hand side). The event functions watched in the mode (table in
-:mod:`.events`) are compared at both ends of the step; a sign change is located by regula falsi
-(Illinois) on the step fraction, each trial being a genuine RK4 step from the step start
-(:func:`locate`). The step then ends at the earliest event, on the far side of the switching
-surface; the mode changes (:func:`.events.apply_event`) and the event instant becomes a history
-node. Steps never pass an event, a switch-on time or the target time; :func:`advance` splits an
+multiplier, torque, right-hand side). The candidates for the end of the step watched in the
+mode (the event functions and the delayed discontinuity: one table in :mod:`.events`) are
+compared at both ends of the step; a sign change is located by regula falsi (Illinois) on the
+step fraction, each trial being a genuine RK4 step from the step start (:func:`locate`). The
+step then ends at the earliest event, on the far side of the switching surface; at a mode event
+the mode changes (:func:`.events.apply_event`), and the event instant becomes a history node.
+Steps never pass an event, a switch-on time or the target time; :func:`advance` splits an
 interval into equal steps no longer than the nominal h.
 
 The derivative at the current state (``stages[K_NOW]``) and the diagnostics (``diag``) are kept
@@ -31,9 +32,10 @@ from drillstring.model.kernel.coordinates import to_perturbation
 from drillstring.model.kernel.equations import rhs
 from drillstring.model.kernel.events import (
     EVF_DELAY,
-    N_EVF,
+    N_CANDIDATES,
     apply_event,
     event_value,
+    inside,
     log_event,
     watched,
 )
@@ -74,6 +76,7 @@ from drillstring.model.kernel.state import (
     I_HSTART,
     I_KHINT,
     I_MODE,
+    I_NBOUNCE,
     I_NLOCATE,
     I_NSTEPS,
     I_NTRIALS,
@@ -130,7 +133,20 @@ ZENO_LIMIT = 64
 # The hot path (stage, rk4, locate) works on tuples: the parameters and the control law as
 # tuples of floats (indexed like the arrays, ``P[P_ETA]``), the state, its derivative and its
 # diagnostics as tuples; the history is its only array. Passing arrays between compiled
-# functions costs reference counting, which cost more than the arithmetic.
+# functions costs reference counting, which cost more than the arithmetic. What travels
+# together is one tuple:
+#
+# * ``ctx = (P, C, H, hs, he, mode, frozen)``, what the vector field reads besides time and
+#   state, fixed during a step: parameters, control law, history and its live window, contact
+#   mode, frozen torsion;
+# * ``start = (tau, y, dy/dtau, diagnostics)``, the state a step starts from;
+# * a far side ``(y, dy/dtau, diagnostics)``, the state that ends a step;
+# * a candidate ``(ev, f0, f1, t_disc)``, a candidate end of the step (``.events``) and the
+#   values of its function at the step's ends.
+#
+# Besides them: ``hint``, the history look-up's search start, which every evaluation updates,
+# and ``ext``, the control law as a Python callable (None when compiled: numba prunes the call
+# of a None argument, not of a tuple's entry).
 
 
 @jit
@@ -200,12 +216,12 @@ def control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext):
 
 
 @inline
-def stage(P, C, H, hs, he, hint, mode, frozen, tau, y, ext):
+def stage(ctx, hint, tau, y, ext):
     """One evaluation of the vector field at (tau, y): delay, depth of cut, contact, torque.
 
-    ``hs``, ``he``, ``hint`` are the history window and the look-up hint. Returns (status,
-    hint, dy/dtau, d, tau_n, g, g*, R - R0).
+    Returns (status, hint, dy/dtau, d, tau_n, g, g*, R - R0).
     """
+    P, C, H, hs, he, mode, frozen = ctx
     U, V, Phi, W, Theta, Wt = y
     k, s, u_past = delay_lookup(H, hs, he, hint, Phi, P[P_BLADE])
     if k < 0:
@@ -233,21 +249,22 @@ _ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @inline
-def rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, ext):
-    """Classical RK4 step of size h from (tau, y0), whose derivative is k0 and contact g0.
+def rk4(ctx, hint, start, h, ext):
+    """Classical RK4 step of size h from ``start`` = (tau, y0, dy/dtau, diagnostics).
 
     Returns (status, hint, y, dy/dtau, diagnostics) of the end state; the diagnostics'
     ``D_QG`` is the RK4 quadrature of g over the step. The end state's derivative serves the
     event functions and, when the step is accepted, as the next step's first stage.
     """
+    P = ctx[0]
+    mode = ctx[5]
+    tau, y0, k0, d0 = start
     k = k0
     acc = k0
-    qg = g0
+    qg = d0[D_G]
     for i in range(3):
         yt = axpy6(y0, RK_A[i] * h, k)
-        st, hint, k, d, taun, g, gs, r = stage(
-            P, C, H, hs, he, hint, mode, frozen, tau + RK_C[i] * h, yt, ext
-        )
+        st, hint, k, d, taun, g, gs, r = stage(ctx, hint, tau + RK_C[i] * h, yt, ext)
         if st != ST_OK:
             return st, hint, y0, _ZERO6, _ZERO9
         acc = axpy6(acc, RK_B6[i + 1], k)
@@ -256,28 +273,31 @@ def rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, ext):
     for j in range(Y_SIZE):
         if not math.isfinite(yn[j]):
             return ST_NONFINITE, hint, y0, _ZERO6, _ZERO9
-    st, hint, k, d, taun, g, gs, r = stage(P, C, H, hs, he, hint, mode, frozen, tau + h, yn, ext)
+    st, hint, k, d, taun, g, gs, r = stage(ctx, hint, tau + h, yn, ext)
     if st != ST_OK:
         return st, hint, y0, _ZERO6, _ZERO9
     return ST_OK, hint, yn, k, diagnostics(P, mode, yn, d, taun, g, gs, r, h / 6.0 * qg)
 
 
 @jit
-def locate(ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, f0, f1, tdisc, tol,
-           far, ext):  # fmt: skip
-    """The event of function ``ev`` inside a step of size h from (tau, y0).
+def locate(ctx, hint, start, h, tol, candidate, far, ext):
+    """The event of ``candidate`` = (ev, f0, f1, t_disc) inside a step of size h from ``start``.
 
     Regula falsi with the Illinois modification on the bracket [lo, hi] (f(lo) > 0 >= f(hi)),
     each trial a genuine RK4 step of size theta*h from the step start. When the estimate comes
     within half the tolerance of an end of the bracket, the trial is put half a tolerance past
     that end, which closes the bracket from the other side; so the far side is reached in a few
     trials instead of by bisection. Trial steps are ``(tau + theta*h) - tau``, so the state of
-    a trial belongs exactly to the time ``tau + theta*h`` it is labelled with. ``far`` is the
-    end of the step, (y, dy/dtau, diagnostics), the far side until a trial finds a nearer one.
+    a trial belongs exactly to the time ``tau + theta*h`` it is labelled with. f0, f1 are the
+    values of the candidate's function at the step's ends (:func:`.events.event_value`, which
+    reads ``t_disc`` for the delayed discontinuity); ``far`` is the end of the step, (y,
+    dy/dtau, diagnostics), the far side until a trial finds a nearer one.
 
     Returns (status, hint, theta, trials, far side): theta in (0, 1] lies within ``tol`` (in
     time) after the root.
     """
+    ev, f0, f1, t_disc = candidate
+    tau = start[0]
     lo = 0.0
     hi = 1.0
     flo = f0
@@ -299,14 +319,11 @@ def locate(ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, h, f0, f1, 
         elif hi - th < half:
             th = hi - half
         t = tau + th * h
-        st, hint, y, k, dg = rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, g0, t - tau, ext)
+        st, hint, y, k, dg = rk4(ctx, hint, start, t - tau, ext)
         trials += 1
         if st != ST_OK:
             return st, hint, -1.0, trials, far
-        if ev == EVF_DELAY:
-            f = tdisc - (t - dg[D_TAUN])
-        else:
-            f = event_value(ev, y, dg)
+        f = event_value(ev, t, y, dg, t_disc)
         if f <= 0.0:
             hi = th
             fhi = f
@@ -342,19 +359,9 @@ def refresh(s: KernelState, ext) -> int:
     P = as_tuple_14(s.params)
     mode = I[I_MODE]
     y = as_tuple_6(s.y)
-    st, hint, k, d, taun, g, gs, r = stage(
-        P,
-        as_tuple_13(s.control),
-        s.history,
-        I[I_HSTART],
-        I[I_HEND],
-        I[I_KHINT],
-        mode,
-        s.options[O_FREEZE] > 0.0,
-        s.clock[X_TAU],
-        y,
-        ext,
-    )
+    frozen = s.options[O_FREEZE] > 0.0
+    ctx = (P, as_tuple_13(s.control), s.history, I[I_HSTART], I[I_HEND], mode, frozen)
+    st, hint, k, d, taun, g, gs, r = stage(ctx, I[I_KHINT], s.clock[X_TAU], y, ext)
     I[I_KHINT] = hint
     if st != ST_OK:
         return st
@@ -363,59 +370,47 @@ def refresh(s: KernelState, ext) -> int:
 
 
 @inline
-def attempt(P, C, H, hs, he, hint, mode, bouncing, frozen, tol, tau, y0, k0, d0, h, t_end, ext):
-    """An RK4 step of size h from (tau, y0) to t_end, cut at the first event inside it.
+def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
+    """An RK4 step of size h from ``start`` = (tau, y0, dy/dtau, diagnostics) to t_end, cut at
+    the first event inside it.
 
-    ``y0``, ``k0``, ``d0`` are the state, its derivative and its diagnostics. The event
-    functions watched in the mode are compared at both ends; each sign change is located
-    (:func:`locate`), and so is a stored discontinuity passed by the delayed instant. Returns
-    (status, hint, event, theta, far side, trials, locations): ``event`` is the earliest event
-    function (-1: none, ``EVF_DELAY``: a delayed discontinuity), theta its step fraction, the
+    The candidates watched in the mode (:data:`.events.WATCHED`: the event functions, and the
+    delayed instant passing a stored discontinuity) are compared at both ends; each whose event
+    lies inside the step is located (:func:`locate`), and the earliest ends the step. Returns
+    (status, hint, event, theta, far side, trials, locations): ``event`` is the earliest
+    candidate (-1: none, ``EVF_DELAY``: a delayed discontinuity), theta its step fraction, the
     far side (y, dy/dtau, diagnostics) the state that ends the step.
     """
-    st, hint, yn, kn, dn = rk4(P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, d0[D_G], h, ext)
+    tau, y0, k0, d0 = start
+    st, hint, yn, kn, dn = rk4(ctx, hint, start, h, ext)
     if st != ST_OK:
         return st, hint, -1, 0.0, (y0, k0, d0), 0, 0
+    _, _, H, hs, he, mode, frozen = ctx
+    # the first stored discontinuity the delayed instant passes in the step (-inf: none)
+    t_disc = next_discontinuity(H, hs, he, hint, tau - d0[D_TAUN], t_end - dn[D_TAUN])
     best = 2.0
     best_ev = -1
     far = (yn, kn, dn)
     trials = 0
     located = 0
     mask = watched(mode, bouncing, frozen)
-    for ev in range(N_EVF):
+    for ev in range(N_CANDIDATES):
         if (mask >> ev) & 1 == 0:
             continue
-        f1 = event_value(ev, yn, dn)
-        f0 = event_value(ev, y0, d0)
-        if f1 < 0.0 or (f1 == 0.0 and f0 > 0.0):
-            st, hint, th, n, found = locate(
-                ev, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, d0[D_G], h, f0, f1, 0.0,
-                tol, (yn, kn, dn), ext,
-            )  # fmt: skip
-            trials += n
-            located += 1
-            if st != ST_OK:
-                return ST_DELAY, hint, -1, 0.0, far, trials, located
-            if th < best:
-                best = th
-                best_ev = ev
-                far = found
-    # a stored discontinuity passed by the delayed instant ends the step there (order of RK4)
-    s0 = tau - d0[D_TAUN]
-    s1 = t_end - dn[D_TAUN]
-    tdisc = next_discontinuity(H, hs, he, hint, s0, s1)
-    if tdisc > s0 and tdisc - s1 < 0.0:
+        f0 = event_value(ev, tau, y0, d0, t_disc)
+        f1 = event_value(ev, t_end, yn, dn, t_disc)
+        if not inside(ev, f0, f1):
+            continue
         st, hint, th, n, found = locate(
-            EVF_DELAY, P, C, H, hs, he, hint, mode, frozen, tau, y0, k0, d0[D_G], h, tdisc - s0,
-            tdisc - s1, tdisc, tol, (yn, kn, dn), ext,
-        )  # fmt: skip
+            ctx, hint, start, h, tol, (ev, f0, f1, t_disc), (yn, kn, dn), ext
+        )
         trials += n
         located += 1
         if st != ST_OK:
             return ST_DELAY, hint, -1, 0.0, far, trials, located
         if th < best:
             best = th
-            best_ev = EVF_DELAY
+            best_ev = ev
             far = found
     return ST_OK, hint, best_ev, best, far, trials, located
 
@@ -430,10 +425,11 @@ def step(P, C, H, I, X, Y, K, D, frozen, tol, h, t_end, ext):
     (:func:`finish_event`), or -1.
     """
     tau = X[X_TAU]
+    ctx = (P, C, H, I[I_HSTART], I[I_HEND], I[I_MODE], frozen)
+    start = (tau, as_tuple_6(Y), row_tuple_6(K, K_NOW), as_tuple_9(D))
     st, hint, ev, th, far, trials, located = attempt(
-        P, C, H, I[I_HSTART], I[I_HEND], I[I_KHINT], I[I_MODE], I[I_BOUNCING], frozen, tol,
-        tau, as_tuple_6(Y), row_tuple_6(K, K_NOW), as_tuple_9(D), h, t_end, ext,
-    )  # fmt: skip
+        ctx, I[I_KHINT], I[I_BOUNCING], tol, start, h, t_end, ext
+    )
     I[I_KHINT] = hint
     I[I_NTRIALS] += trials
     I[I_NLOCATE] += located
@@ -585,6 +581,53 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
     return ST_OK, i1
 
 
+# --- a held input ----------------------------------------------------------------------------
+# The step of a model whose input R - R0 is held over each interval, written once: the plant FMU
+# runs it on both of its paths (drillstring.model.native), Engine.set_input and Engine.advance
+# run its two halves.
+
+
+@inline
+def hold(s: KernelState, r: float) -> None:
+    """Hold R - R0 = r (a ``CTRL_HELD`` law); the derivative and diagnostics at the current state
+    are recomputed only when r changed (a delay not found there is met again, and reported, by
+    the next advance)."""
+    C = s.control
+    if r != C[C_R]:
+        C[C_R] = r
+        refresh(s, None)
+
+
+@inline
+def advance_drained(s: KernelState, to_tau: float, keep_events: bool, ext) -> int:
+    """:func:`advance` to ``to_tau``, the event log drained here when the events are not kept.
+
+    Returns ST_OK, a status that stops the run, ST_HIST_FULL (the caller grows the history
+    buffer and calls again) or, only with ``keep_events``, ST_EVLOG_FULL (the caller takes the
+    events and calls again).
+    """
+    while True:
+        st = advance(s, to_tau, ext)
+        if keep_events:
+            return st
+        s.ints[I_ENUM] = 0
+        if st != ST_EVLOG_FULL:
+            return st
+
+
+@inline
+def held_step(s: KernelState, r: float, to_tau: float, keep_events: bool, bounces: float):
+    """One interval of a held input: :func:`hold` r, then :func:`advance_drained` to ``to_tau``.
+
+    Returns (status, bounced): the status of :func:`advance_drained` (what the caller must do:
+    nothing, stop, grow the history, take the events), and whether the bit bounced in more
+    episodes than the ``bounces`` the caller has reported (``on_invalid = continue``).
+    """
+    hold(s, r)
+    st = advance_drained(s, to_tau, keep_events, None)
+    return st, s.ints[I_NBOUNCE] > bounces
+
+
 # --- entry points from Python ----------------------------------------------------------------
 # numba dispatches a call with arrays in its C fast path but types a named tuple in Python (a few
 # microseconds a call, which is the cost of a whole FMU step); so Python calls these with the
@@ -592,34 +635,45 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
 
 
 @jit
-def advance_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
-                 to_tau, ext):  # fmt: skip
-    """:func:`advance` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
-    return advance(s, to_tau, ext)
-
-
-@jit
 def advance_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                         work, times, rows, i0, i1, ext):  # fmt: skip
+                         times, rows, i0, i1, ext):  # fmt: skip
     """:func:`advance_sampled` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
     return advance_sampled(s, times, rows, i0, i1, ext)
 
 
 @jit
-def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages, work,
+def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages,
                  ext):  # fmt: skip
     """:func:`refresh` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, work)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
     return refresh(s, ext)
+
+
+@jit
+def hold_from(params, options, control, clock, y, ints, diag, history, events, stages, r):
+    """:func:`hold` on the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    hold(s, r)
+
+
+@jit
+def advance_drained_from(params, options, control, clock, y, ints, diag, history, events, stages,
+                         to_tau, keep_events, ext):  # fmt: skip
+    """:func:`advance_drained` of the state made of these arrays."""
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    return advance_drained(s, to_tau, keep_events, ext)
 
 
 __all__ = [
     "advance",
-    "advance_from",
+    "advance_drained",
+    "advance_drained_from",
     "advance_sampled",
     "advance_sampled_from",
+    "held_step",
+    "hold",
+    "hold_from",
     "locate",
     "refresh",
     "refresh_from",
