@@ -612,6 +612,28 @@ def compile_front_layer(header: str, out: Path, include: str, work: Path) -> Non
 # ------------------------------------------------------------------------------------------------
 
 
+def _time_base(variables: Sequence[Any]) -> str:
+    """The paragraph of ``documentation/index.html`` on what a host reads as the FMU's time."""
+    from drillstring.model.params import REFERENCE_RIG
+
+    implicit = (
+        "The FMU declares no independent variable, so by FMI 2.0 (section 2.2.7) its time is a "
+        "variable <code>time</code> with unit <code>s</code>, and every host reads it as seconds."
+    )
+    if any(v.type == "Real" and v.unit not in (None, "1") for v in variables):
+        return f"<p>{implicit} It is: this FMU's time is in seconds.</p>"
+    times = [f"<code>{v.name}</code>" for v in variables if v.name in ("h", "event_tol", "t_on")]
+    return (
+        f"<p>{implicit} Its numbers are the paper's scaled time tau = t/t*: one unit of this "
+        f"FMU's time is t* = sqrt(I1/C) seconds of the rig ({REFERENCE_RIG.t_star:.6g} s for the "
+        "reference rig), and in that unit are the start time, the communication points and step "
+        "sizes of <code>fmi2SetupExperiment</code> and <code>fmi2DoStep</code>, the default "
+        f'experiment and the time parameters ({", ".join(times)}; unit <code>"1"</code>). The '
+        "FMUs named <code>...SI</code> are the same model in seconds and SI units, for coupling "
+        "with models in seconds.</p>"
+    )
+
+
 def documentation(cls: Any, variables: Sequence[Any], starts: dict[str, Any]) -> str:
     """``documentation/index.html`` of one FMU (FMI 2.0, section 2.1: the documentation's entry)."""
     esc = html.escape
@@ -652,6 +674,7 @@ def documentation(cls: Any, variables: Sequence[Any], starts: dict[str, Any]) ->
 model's history before it is the nominal motion. Any step size &gt; 0 is accepted and need not
 be constant; the communication point of <code>fmi2DoStep</code> must be the FMU's current time.
 Inputs are held constant over each step.</p>
+{_time_base(variables)}
 
 <h2>Variables</h2>
 <table border="1" cellspacing="0" cellpadding="3">

@@ -7,6 +7,14 @@ derives what the master needs before any FMU is instantiated: the direct depende
 the connected outputs on the connected inputs (``ModelStructure/Outputs``, FMI 2.0,
 section 2.2.8; an output without a ``dependencies`` attribute depends on all inputs), and
 from them the exchange schedule and the default Gauss-Seidel order (:mod:`.schedule`).
+
+Units. Where both ends of a connection declare a unit (FMI 2.0 ``unit`` with its
+``UnitDefinitions``) and the two differ, the value is converted on the way
+(:func:`~drillstring.model.units.unit_conversion`: a torque output in kN.m into an input in
+N.m is multiplied by 1000); units of different dimensions are refused, naming the connection,
+both units and their dimensions. A connection made with ``convert_units=False`` (SSP's
+``suppressUnitConversion``) passes values unchanged; so does one with an end that declares no
+unit.
 """
 
 from __future__ import annotations
@@ -18,6 +26,13 @@ from typing import Any
 
 from fmpy import read_model_description
 
+from drillstring.model.units import (
+    BASE_UNITS,
+    Conversion,
+    UnitDef,
+    UnitMismatch,
+    unit_conversion,
+)
 from drillstring.orchestration.schedule import (
     ExchangeRound,
     exchange_schedule,
@@ -34,6 +49,8 @@ __all__ = [
     "declared_start_values",
     "effective_start_values",
     "StartValue",
+    "unit_definitions",
+    "variable_unit",
 ]
 
 StartValue = float | int | bool | str
@@ -70,10 +87,13 @@ class Unit:
 
 @dataclass(frozen=True)
 class Connection:
-    """``source`` (``"unit.output"``) feeds ``target`` (``"unit.input"``)."""
+    """``source`` (``"unit.output"``) feeds ``target`` (``"unit.input"``); the value is
+    converted between the two FMUs' units unless ``convert_units`` is False (module
+    docstring)."""
 
     source: str
     target: str
+    convert_units: bool = True
 
 
 def parse_connection(spec: Connection | tuple[str, str] | str) -> Connection:
@@ -137,6 +157,9 @@ class System:
     gs_order: tuple[int, ...]
     #: unit index -> True if a connected output depends directly on a connected input
     feedthrough: tuple[bool, ...]
+    #: connected input "unit.var" -> the conversion of its source's value into its unit
+    #: (only the inputs whose source has another unit of the same dimension)
+    conversions: Mapping[str, Conversion] = field(default_factory=dict)
 
     def resolve(self, key: str) -> VarRef:
         """The variable ``"unit.variable"``.
@@ -227,6 +250,73 @@ def _check_start_value(unit: Unit, var: VarRef, value: object) -> None:
         )
 
 
+def variable_unit(var: Any) -> str | None:
+    """The unit of an fmpy ScalarVariable: its own, else its declared type's (FMI 2.0, 2.2.3).
+
+    Parameters
+    ----------
+    var : fmpy ScalarVariable
+        A variable of a model description.
+
+    Returns
+    -------
+    str or None
+        The unit name, None when neither declares one.
+    """
+    if var.unit is not None:
+        return var.unit
+    declared = getattr(var, "declaredType", None)
+    return getattr(declared, "unit", None)
+
+
+def unit_definitions(model_description: Any) -> dict[str, UnitDef]:
+    """The ``UnitDefinitions`` of a model description (FMI 2.0, section 2.2.2) as UnitDefs.
+
+    Parameters
+    ----------
+    model_description : fmpy ModelDescription
+        As returned by ``fmpy.read_model_description``.
+
+    Returns
+    -------
+    dict
+        Unit name -> :class:`~drillstring.model.units.UnitDef` (base-unit exponents, factor,
+        offset; a unit without ``BaseUnit`` is dimensionless with factor 1).
+    """
+    out = {}
+    for u in model_description.unitDefinitions:
+        b = u.baseUnit
+        if b is None:
+            out[u.name] = UnitDef(u.name)
+            continue
+        exps = {k: int(getattr(b, k)) for k in BASE_UNITS if int(getattr(b, k))}
+        out[u.name] = UnitDef(u.name, exps, factor=float(b.factor), offset=float(b.offset))
+    return out
+
+
+def _conversion(
+    label: str,
+    src: Any,
+    dst: Any,
+    src_units: Mapping[str, UnitDef],
+    dst_units: Mapping[str, UnitDef],
+) -> Conversion | None:
+    """The conversion of a connection from the FMUs' units (module docstring), None for none
+    (fmpy's reader has checked that every unit a variable names is defined)."""
+    a, b = variable_unit(src), variable_unit(dst)
+    if a is None or b is None or a == b:
+        return None
+    ua, ub = src_units[a], dst_units[b]
+    try:
+        conv = unit_conversion(ua, ub)
+    except UnitMismatch:
+        raise ValueError(
+            f"{label}: the source's unit {a!r} (dimension {ua.dimension}) and the target's unit "
+            f"{b!r} (dimension {ub.dimension}) are of different dimensions: not convertible"
+        ) from None
+    return None if conv.identity else conv
+
+
 def build_system(
     units: Sequence[Unit] | Mapping[str, Unit | str | Path | tuple[str | Path, Mapping]],
     connections: Iterable[Connection | tuple[str, str] | str],
@@ -254,7 +344,8 @@ def build_system(
         Naming the offending unit, variable or connection for: duplicate unit names,
         unknown units or variables, a source that is not an output, a target that is not
         an input, non-Real connections, an input connected twice, unsettable or ill-typed
-        start values, an algebraic loop, a bad ``gs_order``.
+        start values, an algebraic loop, a bad ``gs_order``, connected units of different
+        dimensions (module docstring).
     """
     if isinstance(units, Mapping):
         units = [_unit_from_mapping(name, spec) for name, spec in units.items()]
@@ -266,9 +357,11 @@ def build_system(
         if names.count(name) > 1:
             raise ValueError(f"unit name {name!r} is used more than once")
 
-    mds, variables = [], []
+    mds, variables, mvars_of, unit_defs = [], [], [], []
     for i, unit in enumerate(units):
         md, mvars = _load(unit)
+        mvars_of.append(mvars)
+        unit_defs.append(unit_definitions(md))
         refs = {
             n: VarRef(i, n, v.valueReference, v.type, v.causality, v.variability, v.initial)
             for n, v in mvars.items()
@@ -282,6 +375,7 @@ def build_system(
 
     conns = tuple(parse_connection(c) for c in connections)
     input_source: dict[str, str] = {}
+    conversions: dict[str, Conversion] = {}
     for c in conns:
         label = f"connection '{c.source} -> {c.target}'"
         src, dst = _resolve(units, variables, c.source), _resolve(units, variables, c.target)
@@ -304,6 +398,16 @@ def build_system(
                 f"and from {c.source!r}"
             )
         input_source[c.target] = c.source
+        if c.convert_units:
+            conv = _conversion(
+                label,
+                mvars_of[src.unit][src.name],
+                mvars_of[dst.unit][dst.name],
+                unit_defs[src.unit],
+                unit_defs[dst.unit],
+            )
+            if conv is not None:
+                conversions[c.target] = conv
 
     # connected outputs, in unit and declaration order
     used = set(input_source.values())
@@ -344,6 +448,7 @@ def build_system(
         schedule=schedule,
         gs_order=order,
         feedthrough=feedthrough,
+        conversions=conversions,
     )
 
 

@@ -13,6 +13,10 @@ Two exchanges after a macro step (the initialization always uses the schedule):
   ``fixed_step_algorithm``). A feedthrough output read this way was computed from the inputs
   its unit had during the step, so a signal through a feedthrough unit arrives one macro step
   late.
+
+``y`` holds every output in its own FMU's unit; an input whose source has another unit of the
+same dimension (:attr:`~.connections.System.conversions`) is given the converted value
+(:class:`~drillstring.model.units.Conversion`), on every path that sets inputs.
 """
 
 from __future__ import annotations
@@ -29,7 +33,13 @@ __all__ = ["Exchange"]
 
 def _flat(op: RealBatch, idx: np.ndarray | None) -> tuple:
     """A batch as a flat tuple for the exchange loop (idx None: a get into y)."""
-    return (op.fn, op.inst.comp, op.vr, op.n, op.buf, idx, op.view, op.inst, op.fname)
+    return (op.fn, op.inst.comp, op.vr, op.n, op.buf, idx, op.view, op.inst, op.fname, op.conv)
+
+
+def _convert(view: np.ndarray, conv: tuple) -> None:
+    """Apply a set batch's unit conversions to its gathered source values, in place."""
+    for j, c in conv:
+        view[j] = c(view[j])
 
 
 class Exchange:
@@ -51,11 +61,14 @@ class Exchange:
         Connected output key -> position in ``y``.
     input_ops, output_ops : list of RealBatch or None
         Per unit, all its connected inputs (a set) and all its connected outputs (a get).
+    converts : bool
+        Some input is given a converted value (module docstring).
     """
 
     def __init__(self, instances: Instances, simple: bool) -> None:
         sysm = instances.system
         self.instances = instances
+        self.converts = bool(sysm.conversions)
         src_of = sysm.input_source
         layout = [k for rnd in sysm.schedule for _, keys in rnd.gets for k in keys]
         self.yidx = yidx = {k: j for j, k in enumerate(layout)}
@@ -89,8 +102,11 @@ class Exchange:
             )
 
     def _batch(self, inst: Instance, get: bool, keys: Sequence[str], idx, buf=None) -> RealBatch:
-        vrs = [self.instances.system.resolve(k).vr for k in keys]
-        return RealBatch(inst, get, vrs, idx, buf)
+        sysm = self.instances.system
+        vrs = [sysm.resolve(k).vr for k in keys]
+        conv = () if get else [(j, sysm.conversions[k]) for j, k in enumerate(keys)
+                               if k in sysm.conversions]  # fmt: skip
+        return RealBatch(inst, get, vrs, idx, buf, conv)
 
     def exchange(self, t: float, ops: list | None = None) -> None:
         """Read outputs into ``y`` and write inputs from it at communication point ``t``.
@@ -104,9 +120,11 @@ class Exchange:
             :attr:`step_xops` is the exchange after a step.
         """
         take = self.y.take
-        for fn, comp, vr, n, buf, idx, view, inst, fname in self.xops if ops is None else ops:
+        for fn, comp, vr, n, buf, idx, view, inst, fname, conv in self.xops if ops is None else ops:
             if idx is not None:  # a set: gather its source values from y
                 take(idx, out=view)
+                if conv:
+                    _convert(view, conv)
             st = fn(comp, vr, n, buf)
             if st > 1:
                 self.instances.fail(inst, fname, st, t, None)
@@ -124,6 +142,8 @@ class Exchange:
             Communication point (for failure reports).
         """
         values.take(op.idx, out=op.view)
+        if op.conv:
+            _convert(op.view, op.conv)
         st = op.fn(op.inst.comp, op.vr, op.n, op.buf)
         if st > 1:
             self.instances.fail(op.inst, op.fname, st, t, None)

@@ -7,7 +7,10 @@ The project's master runs an SSP package with :meth:`Master.from_ssp
   this process (``EcosSimulation(ssp_path=...)``, ``init(parameter_set=...)``, fixed steps;
   Ecos accumulates its time, ``t_{k+1} = t_k + h``), :func:`ecos_command` is its ``ecos``
   command line (``ecos simulate --path PKG --parameterSet NAME``). Its library needs
-  ``libtbb.so.12``, which the ``tbb`` wheel installs into the environment's ``lib`` folder;
+  ``libtbb.so.12``, which the ``tbb`` wheel installs into the environment's ``lib`` folder.
+  Ecos (0.7.2) reads only ``SystemStructure.ssd`` of the archive or folder it is given (the
+  path of an ``.ssd`` file makes it crash, segmentation fault, exit code 139);
+  :func:`variant_folder` lays a variant out as a folder whose ``SystemStructure.ssd`` it is;
 * **fmpy** (``fmpy.ssp.simulation.simulate_ssp``): :func:`run_fmpy_ssp`. fmpy reads the
   package's parameter bindings but does not apply them: it applies only the parameter set it is
   given, with names ``component.variable``, which :func:`fmpy_parameter_set` makes from the
@@ -21,7 +24,10 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
+import shutil
 import sys
+import tempfile
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
@@ -30,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from drillstring.orchestration.closed_loop import kept_sys_path
-from drillstring.orchestration.ssp import SspError, SspPackage, read_ssp
+from drillstring.orchestration.ssp import SSD_FILE, SspError, SspPackage, read_ssp
 
 __all__ = [
     "ecos_command",
@@ -39,6 +45,7 @@ __all__ = [
     "run_ecos",
     "run_fmpy_ssp",
     "tbb_library_dir",
+    "variant_folder",
 ]
 
 
@@ -120,12 +127,65 @@ def _structured(columns: Sequence[str], rows: list[list[float]]) -> np.ndarray:
     return out
 
 
+def variant_folder(
+    ssp: str | os.PathLike[str], variant: str, folder: str | os.PathLike[str]
+) -> Path:
+    """A variant of a package as an SSP folder of its own: ``SystemStructure.ssd`` is the
+    variant's SSD, with the package's ``resources/`` and ``documentation/`` (and no other SSD).
+
+    For a tool that reads only ``SystemStructure.ssd`` (Ecos; the module docstring).
+
+    Parameters
+    ----------
+    ssp : path
+        The package (archive or folder).
+    variant : str
+        The SSD, by name or file name (:func:`~drillstring.orchestration.ssp.read_ssp`).
+    folder : path
+        The folder to make (it must not exist).
+
+    Returns
+    -------
+    Path
+        ``folder``, a valid SSP 1.0 package folder.
+
+    Raises
+    ------
+    SspError
+        An unknown variant (naming the package's), or ``folder`` exists.
+    """
+    file = read_ssp(ssp, unpack=False, variant=variant).file
+    out = Path(folder)
+    if out.exists():
+        raise SspError(f"{out} exists; variant_folder makes a new folder")
+    src = Path(ssp)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        if src.is_dir():
+            shutil.copytree(src, tmp, dirs_exist_ok=True)
+        else:
+            with zipfile.ZipFile(src) as z:
+                z.extractall(tmp)
+        for f in tmp.iterdir():
+            if f.is_file() and f.suffix == ".ssd" and f.name not in (file, SSD_FILE):
+                f.unlink()
+        if file != SSD_FILE:
+            (tmp / file).replace(tmp / SSD_FILE)
+        tmp.replace(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
 def run_ecos(
     ssp: str | os.PathLike[str],
     parameter_set: str | None,
     stop_time: float,
     step: float,
     variables: Sequence[str],
+    *,
+    variant: str | None = None,
 ) -> np.ndarray:
     """Run an SSP package in Ecos (its Python API, in this process) with a fixed step.
 
@@ -134,13 +194,17 @@ def run_ecos(
     ssp : path
         The package.
     parameter_set : str or None
-        The set Ecos applies (``init(parameter_set=...)``); None: none.
+        The set Ecos applies (``init(parameter_set=...)``); None: none (Ecos then applies no
+        binding at all: the FMUs' start values run).
     stop_time : float
         End of the run; Ecos takes ``round(stop_time / step)`` steps from 0.
     step : float
         The fixed step.
     variables : sequence of str
         ``"component.variable"`` to record after every step (Real or Integer).
+    variant : str, optional
+        Run this SSD of the package (laid out by :func:`variant_folder` in a temporary folder)
+        instead of ``SystemStructure.ssd``.
 
     Returns
     -------
@@ -148,23 +212,25 @@ def run_ecos(
         Structured array: ``time`` (Ecos's, accumulated), then the variables; one row per step.
     """
     ecospy = load_ecospy()
-    package = read_ssp(ssp, unpack=False)
+    package = read_ssp(ssp, unpack=False, variant=variant)
     kinds = {f"{c.name}.{k.name}": k.type for c in package.components for k in c.connectors}
     for v in variables:
         if v not in kinds:
             raise SspError(f"{v!r} is not a connector of {Path(ssp).name}")
     n = int(round(stop_time / step))
     rows: list[list[float]] = []
-    with kept_sys_path(), ecospy.EcosSimulation(ssp_path=str(ssp), step_size=step) as sim:
-        sim.init(parameter_set=parameter_set)
-        getters = [
-            (sim.get_real if kinds[v] == "Real" else sim.get_integer, v.replace(".", "::", 1))
-            for v in variables
-        ]
-        for _ in range(n):
-            sim.step()
-            rows.append([sim.get_time()] + [float(get(name)) for get, name in getters])
-        sim.terminate()
+    with tempfile.TemporaryDirectory(prefix="ecos_variant_") as tmp:
+        path = Path(ssp) if variant is None else variant_folder(ssp, variant, Path(tmp) / "ssp")
+        with kept_sys_path(), ecospy.EcosSimulation(ssp_path=str(path), step_size=step) as sim:
+            sim.init(parameter_set=parameter_set)
+            getters = [
+                (sim.get_real if kinds[v] == "Real" else sim.get_integer, v.replace(".", "::", 1))
+                for v in variables
+            ]
+            for _ in range(n):
+                sim.step()
+                rows.append([sim.get_time()] + [float(get(name)) for get, name in getters])
+            sim.terminate()
     return _structured(("time", *variables), rows)
 
 

@@ -136,10 +136,12 @@ class RealBatch:
     ``buf`` is a ctypes double array (given, e.g. aliasing a slice of the master's value
     vector, or allocated here); ``view`` is ``buf`` as a numpy array. ``idx`` maps the
     batch to positions in the master's value vector (sources for sets, destinations for
-    gets).
+    gets). ``conv`` (sets only): (position in the batch, unit conversion) of the inputs whose
+    source has another unit (:attr:`~.connections.System.conversions`), applied to the
+    gathered values before the call.
     """
 
-    __slots__ = ("inst", "fn", "vr", "n", "buf", "view", "idx", "fname")
+    __slots__ = ("inst", "fn", "vr", "n", "buf", "view", "idx", "fname", "conv")
 
     def __init__(
         self,
@@ -148,6 +150,7 @@ class RealBatch:
         vrs: Sequence[int],
         idx: Sequence[int] | np.ndarray,
         buf: ctypes.Array[ctypes.c_double] | None = None,
+        conv: Sequence[tuple[int, Any]] = (),
     ) -> None:
         self.inst = inst
         self.fn = inst.get_real if get else inst.set_real
@@ -157,6 +160,7 @@ class RealBatch:
         self.buf = (ctypes.c_double * self.n)() if buf is None else buf
         self.view = np.ctypeslib.as_array(self.buf)
         self.idx = np.asarray(idx, dtype=np.intp)
+        self.conv = tuple(conv)
 
 
 def make_callbacks(

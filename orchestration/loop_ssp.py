@@ -1,43 +1,44 @@
 """The closed loop of Section V as an SSP 1.0 package, in either unit system.
 
 ``build_fmus.py`` writes ``DrillStringClosedLoop.ssp`` (the scaled FMUs) and
-``DrillStringClosedLoopSI.ssp`` (the SI FMUs) with :func:`write_loop_package`: both FMUs, the
-connections of :class:`~drillstring.orchestration.closed_loop.LoopVariant`, every connector with
-its unit, four named parameter sets and the default experiment of Fig. 5 with a fixed step:
+``DrillStringClosedLoopSI.ssp`` (the SI FMUs) with :func:`write_loop_package`, and
+``DrillStringTopDrive.ssp``, ``DrillStringTopDriveSI.ssp``, the same loops closed by the
+industrial top-drive controller (variants
+:data:`~drillstring.orchestration.closed_loop.TOPDRIVE`, ``TOPDRIVE_SI``). Each holds both
+FMUs, the connections of :class:`~drillstring.orchestration.closed_loop.LoopVariant`, every
+connector with its unit, and one SSD per experiment (:data:`LMI_EXPERIMENTS`,
+:data:`TOPDRIVE_EXPERIMENTS`; :func:`loop_experiments`):
 
-* ``fig5``, ``fig6``: the experiments of Figs. 5 and 6 (``docs/model.md``, "Experiments of Figs.
-  5 and 6"; :data:`~drillstring.model.experiments.FIG5`, ``FIG6``): the plant's whole initial
-  state, its RK4 step and torsional-stick model, the controller's switch-on time, latch and
-  enabled flag (in SI units in the SI package, converted on the reference rig);
-* ``reference``: the plant's parameter set (the scaled reference set, or the reference rig);
-* ``gains``: the controller's gains as built (the synthesis's gains file, in SI units in the SI
-  package).
-
-The packages of the loop closed by the industrial top-drive controller,
-``DrillStringTopDrive.ssp`` and ``DrillStringTopDriveSI.ssp`` (variants
-:data:`~drillstring.orchestration.closed_loop.TOPDRIVE`, ``TOPDRIVE_SI``), have the same
-connections and plant sets; the controller binds ``fig5``, ``fig6`` (switch-on time and enabled
-flag: the PI laws have no latch) and one set per tuning of the reference set,
-``stiff-pi``, ``soft-speed`` and ``z-torque`` (:func:`topdrive_tunings`; ``soft-speed`` is the
-FMU's start values).
-
-Each component binds, in this order, ``fig5``, ``fig6`` and its own nominal set(s), so libcosim
-(which applies the first binding of each component) runs Fig. 5, and Ecos runs the set named by
-``--parameterSet``. The values are the FMUs' start values where the set is theirs (``reference``,
-``gains``), so the package describes exactly the FMUs it holds.
+* ``SystemStructure.ssd`` is ``fig5``, the loop of Fig. 5 (``docs/model.md``, "Experiments of
+  Figs. 5 and 6"); ``fig6.ssd`` is Fig. 6 (LMI packages); ``fig6-stiff-pi.ssd``,
+  ``fig6-soft-speed.ssd``, ``fig6-z-torque.ssd`` each run an industrial law
+  (:func:`topdrive_tunings`) from Fig. 6's state, switched on at Fig. 6's t_on (top-drive
+  packages; their ``fig5`` is SoftSpeed, the FMU's start values, from t = 0);
+* each SSD binds exactly one parameter set per component, named after the SSD
+  (``resources/<variant>.<component>.ssv``), and complete: every parameter of the FMU, its
+  start value unless the experiment (:func:`~drillstring.orchestration.closed_loop.
+  experiment_start_values`, the whole initial state) or the tuning sets it (in SI converted on
+  the reference rig). SSP 1.0's every-binding-in-order, libcosim's first binding, Ecos's
+  ``--parameterSet <variant>`` and the project's master then apply the same values;
+* each SSD has its default experiment (:func:`loop_default_experiment`) with the fixed-step
+  annotation;
+* ``documentation/index.html`` (:func:`package_documentation`) says what each variant is,
+  which tool honours what, and Ecos's pitfalls.
 """
 
 from __future__ import annotations
 
+import html
 import math
 import os
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 from fmpy import read_model_description
 
 from drillstring.controller.lineup import INDUSTRIAL, industrial_lineup
-from drillstring.model.experiments import FIG5, FIG6
+from drillstring.model.experiments import FIG5, FIG6, Experiment
 from drillstring.model.laws import ZTorque
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.units import UNITS, SIScaling
@@ -48,39 +49,118 @@ from drillstring.orchestration.closed_loop import (
     experiment_start_values,
     fmu_paths,
 )
-from drillstring.orchestration.connections import declared_start_values
+from drillstring.orchestration.connections import declared_start_values, variable_unit
 from drillstring.orchestration.ssp import (
+    SSD_FILE,
     SspComponent,
     SspConnection,
     SspConnector,
     SspParameter,
+    SspVariant,
     write_ssp,
 )
 
 __all__ = [
     "DEFAULT_STEP",
+    "LMI_EXPERIMENTS",
+    "LoopExperiment",
     "PACKAGE_SETS",
     "TOPDRIVE_DEFAULT",
+    "TOPDRIVE_EXPERIMENTS",
     "TOPDRIVE_PARAMETERS",
     "TOPDRIVE_SETS",
     "loop_default_experiment",
+    "loop_experiments",
+    "package_documentation",
     "topdrive_tunings",
     "write_loop_package",
 ]
 
-#: The fixed macro step of the packages' default experiment (scaled time; 1 ms in SI).
+#: The fixed macro step of the packages' default experiments (scaled time; 1 ms in SI).
 DEFAULT_STEP = {SCALED.name: 1e-3, SI.name: 1e-3}
-#: The parameter sets of a package, in binding order (module docstring).
-PACKAGE_SETS = ("fig5", "fig6", "reference", "gains")
-_NOMINAL = {"plant": "reference", "controller": "gains"}
-_EXPERIMENTS = {"fig5": FIG5, "fig6": FIG6}
-_GAINS = ("F[1]", "F[2]", "F[3]", "F[4]", "K0", "R_ff")
 #: The top-drive controller FMU's parameters a tuning sets.
 TOPDRIVE_PARAMETERS = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
 #: The tuning that is the top-drive controller FMU's start values.
 TOPDRIVE_DEFAULT = "soft-speed"
-#: The parameter sets of a top-drive package, in binding order.
-TOPDRIVE_SETS = ("fig5", "fig6", "reference", *INDUSTRIAL)
+
+
+@dataclass(frozen=True)
+class LoopExperiment:
+    """One SSD of a loop package: an experiment, and for the top-drive controller its tuning.
+
+    Attributes
+    ----------
+    name : str
+        The SSD's name and file stem, and the name of the parameter sets it binds.
+    experiment : Experiment
+        Initial state, RK4 step, torsional-stick model, switch-on time, latch, enabled flag and
+        length of the run (scaled time).
+    tuning : str or None
+        Top-drive packages: the industrial tuning (:func:`topdrive_tunings`); None for the LMI
+        controller (its gains are the FMU's).
+    summary : str
+        One line on what the run is (the SSD's description, the documentation).
+    """
+
+    name: str
+    experiment: Experiment
+    tuning: str | None = None
+    summary: str = ""
+
+
+_LAWS = {"stiff-pi": "stiff speed PI", "soft-speed": "SoftSpeed", "z-torque": "Z-Torque"}
+#: The SSDs of the packages of the loop closed by the LMI controller; the first is
+#: ``SystemStructure.ssd``.
+LMI_EXPERIMENTS: tuple[LoopExperiment, ...] = (
+    LoopExperiment(
+        "fig5", FIG5, None, "Fig. 5: the LMI controller on from t = 0, dphi/dtau(0) = -2.5"
+    ),
+    LoopExperiment(
+        "fig6",
+        FIG6,
+        None,
+        "Fig. 6: torsional stick-slip from dphi/dtau(0) = -4.9 (torsional-stick model on), the "
+        "LMI controller switched on at tau = 25 with the bumpless latch 'angle'",
+    ),
+)
+#: The SSDs of the top-drive packages; the first is ``SystemStructure.ssd``.
+TOPDRIVE_EXPERIMENTS: tuple[LoopExperiment, ...] = (
+    LoopExperiment(
+        "fig5",
+        FIG5,
+        TOPDRIVE_DEFAULT,
+        "Fig. 5's initial state, SoftSpeed (the FMU's start values) on from t = 0",
+    ),
+    *(
+        LoopExperiment(
+            f"fig6-{t}",
+            FIG6,
+            t,
+            f"Fig. 6's torsional stick-slip, {_LAWS.get(t, t)} switched on at tau = 25",
+        )
+        for t in INDUSTRIAL
+    ),
+)
+#: The parameter sets (= SSDs) of an LMI package, in binding order.
+PACKAGE_SETS = tuple(e.name for e in LMI_EXPERIMENTS)
+#: The parameter sets (= SSDs) of a top-drive package.
+TOPDRIVE_SETS = tuple(e.name for e in TOPDRIVE_EXPERIMENTS)
+
+
+def loop_experiments(variant: LoopVariant) -> tuple[LoopExperiment, ...]:
+    """The SSDs of the package of ``variant`` (its controller's list), default first.
+
+    Parameters
+    ----------
+    variant : LoopVariant
+        The loop (``variant.controller``: ``"lmi"`` or ``"topdrive"``).
+
+    Returns
+    -------
+    tuple of LoopExperiment
+        :data:`TOPDRIVE_EXPERIMENTS` or :data:`LMI_EXPERIMENTS`.
+    """
+    return TOPDRIVE_EXPERIMENTS if variant.controller == "topdrive" else LMI_EXPERIMENTS
 
 
 def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float]]:
@@ -112,22 +192,28 @@ def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float
     return out
 
 
-def loop_default_experiment(variant: LoopVariant) -> tuple[float, float, float]:
-    """The default experiment (start, stop, step) of a loop package: Fig. 5's run.
+def loop_default_experiment(
+    variant: LoopVariant, experiment: Experiment = FIG5
+) -> tuple[float, float, float]:
+    """The default experiment (start, stop, step) of an SSD of a loop package.
 
     See ``docs/model.md``, "Experiments of Figs. 5 and 6".
 
     Parameters
     ----------
     variant : LoopVariant
-        :data:`~drillstring.orchestration.closed_loop.SCALED` or ``SI``.
+        :data:`~drillstring.orchestration.closed_loop.SCALED` or ``SI`` (or their top-drive
+        forms).
+    experiment : Experiment
+        The run (its ``tau_end``); default Fig. 5.
 
     Returns
     -------
     tuple of 3 float
         ``(0, stop, step)`` with the fixed step :data:`DEFAULT_STEP` of the variant. Scaled:
-        stop = tau_end = 60. SI: 60 t* on the reference rig rounded up to a whole number of
-        steps, 55.352 s, so that every host takes the same equal steps.
+        stop = tau_end (60 for Figs. 5 and 6). SI: tau_end t* on the reference rig rounded up
+        to a whole number of steps (55.352 s for tau_end = 60), so that every host takes the
+        same equal steps.
 
     Raises
     ------
@@ -135,7 +221,7 @@ def loop_default_experiment(variant: LoopVariant) -> tuple[float, float, float]:
         ``variant.name`` is not in :data:`DEFAULT_STEP`.
     """
     step = DEFAULT_STEP[variant.name]
-    stop = FIG5.tau_end
+    stop = experiment.tau_end
     if variant.name == SI.name:
         stop = round(math.ceil(SIScaling(REFERENCE_RIG).time(stop) / step) * step, 12)
     return 0.0, float(stop), step
@@ -146,9 +232,21 @@ def _parameters(md, values: Mapping[str, object]) -> tuple[SspParameter, ...]:
     out = []
     for name, value in values.items():
         var = variables[name]
-        unit = var.unit if var.type == "Real" and var.unit not in (None, "1") else None
+        unit = variable_unit(var)
+        unit = unit if var.type == "Real" and unit not in (None, "1") else None
         out.append(SspParameter(name, var.type, value, unit))
     return tuple(out)
+
+
+def _complete_set(md, given: Mapping[str, object]) -> tuple[SspParameter, ...]:
+    """Every parameter of the FMU, in its declaration order: ``given`` where it sets one, else
+    the FMU's start value (an unknown name in ``given`` is an error)."""
+    starts = declared_start_values(md)
+    names = [v.name for v in md.modelVariables if v.causality == "parameter"]
+    unknown = sorted(set(given) - set(names))
+    if unknown:
+        raise ValueError(f"{md.modelName}: no parameter(s) {unknown} to set")
+    return _parameters(md, {n: given.get(n, starts[n]) for n in names})
 
 
 def write_loop_package(
@@ -178,65 +276,206 @@ def write_loop_package(
     """
     paths = dict(zip(("plant", "controller"), fmu_paths(fmus_dir, variant), strict=True))
     target = Path(out) if out is not None else Path(fmus_dir) / variant.ssp
-    components = []
-    for name, fmu in paths.items():
-        md = read_model_description(str(fmu))
-        starts = declared_start_values(md)
-        connectors = tuple(
+    mds = {name: read_model_description(str(fmu)) for name, fmu in paths.items()}
+    connectors = {
+        name: tuple(
             SspConnector(
-                v.name,
-                v.causality,
-                v.type,
-                v.unit if v.type == "Real" else None,
+                v.name, v.causality, v.type, variable_unit(v) if v.type == "Real" else None
             )
             for v in md.modelVariables
             if v.causality in ("input", "output")
         )
-        sets = {}
-        for set_name, experiment in _EXPERIMENTS.items():
-            values = experiment_start_values(experiment, variant, full_initial=True)[name]
-            sets[set_name] = _parameters(md, values)
-        if name == "plant":
-            nominal = {
-                v.name: starts[v.name]
-                for v in md.modelVariables
-                if v.causality == "parameter" and v.name in _plant_parameter_names(variant)
-            }
-            sets[_NOMINAL[name]] = _parameters(md, nominal)
-        elif variant.controller == "topdrive":
-            for tuning, values in topdrive_tunings(variant).items():
-                sets[tuning] = _parameters(md, values)
-        else:
-            gains = _GAINS + (("Omega0",) if variant.name == SI.name else ())
-            sets[_NOMINAL[name]] = _parameters(md, {g: starts[g] for g in gains})
-        components.append(SspComponent(name, f"resources/{fmu.name}", connectors, sets))
+        for name, md in mds.items()
+    }
     connections = []
     for spec in variant.connections:
         src, dst = (part.strip().split(".", 1) for part in spec.split("->"))
         connections.append(SspConnection(src[0], src[1], dst[0], dst[1]))
-    kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
-    if variant.controller == "topdrive":
-        system, law = "DrillStringTopDrive", "industrial top-drive controller"
-    else:
-        system, law = "DrillStringClosedLoop", "torsional controller (29)-(31)"
+    tunings = topdrive_tunings(variant) if variant.controller == "topdrive" else {}
+    ssds = []
+    for e in loop_experiments(variant):
+        given = experiment_start_values(e.experiment, variant, full_initial=True)
+        if e.tuning is not None:
+            given["controller"] = {**given["controller"], **tunings[e.tuning]}
+        comps = tuple(
+            SspComponent(
+                name,
+                f"resources/{paths[name].name}",
+                connectors[name],
+                {e.name: _complete_set(mds[name], given[name])},
+            )
+            for name in paths
+        )
+        ssds.append((e, comps))
+    system = _system_name(variant)
+    (first, first_comps), rest = ssds[0], ssds[1:]
     return write_ssp(
         target,
-        name=system + ("SI" if variant.name == SI.name else ""),
-        components=components,
+        name=first.name,
+        system=system,
+        components=first_comps,
         fmus=paths,
         connections=connections,
         units=UNITS,
-        default_experiment=loop_default_experiment(variant),
-        description=(
-            f"Drill-string plant (11)-(14), (17) of Besselink, van de Wouw and Nijmeijer (IEEE "
-            f"CCA 2011) and {law} in closed loop, in {kind}"
-        ),
+        default_experiment=loop_default_experiment(variant, first.experiment),
+        description=_description(variant, first),
+        variants=[
+            SspVariant(
+                f"{e.name}.ssd",
+                e.name,
+                comps,
+                tuple(connections),
+                loop_default_experiment(variant, e.experiment),
+                _description(variant, e),
+            )
+            for e, comps in rest
+        ],
+        documentation={"index.html": package_documentation(variant)},
         source_date_epoch=source_date_epoch,
     )
 
 
-def _plant_parameter_names(variant: LoopVariant) -> tuple[str, ...]:
-    """The plant parameters of the parameter set itself (not the initial state or engine)."""
-    if variant.name == SI.name:
-        return tuple(REFERENCE_RIG.to_dict())
-    return ("n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0")
+def _system_name(variant: LoopVariant) -> str:
+    base = "DrillStringTopDrive" if variant.controller == "topdrive" else "DrillStringClosedLoop"
+    return base + ("SI" if variant.name == SI.name else "")
+
+
+def _description(variant: LoopVariant, e: LoopExperiment) -> str:
+    kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
+    if variant.controller == "topdrive":
+        law = "industrial top-drive controller"
+    else:
+        law = "torsional controller (29)-(31)"
+    return (
+        f"Drill-string plant (11)-(14), (17) of Besselink, van de Wouw and Nijmeijer (IEEE "
+        f"CCA 2011) and {law} in closed loop, in {kind}. {e.summary}"
+    )
+
+
+def package_documentation(variant: LoopVariant) -> str:
+    """``documentation/index.html`` of a loop package: its variants, what each tool honours,
+    Ecos's pitfalls, units and the time base (module docstring).
+
+    Parameters
+    ----------
+    variant : LoopVariant
+        The loop of the package.
+
+    Returns
+    -------
+    str
+        The HTML page.
+    """
+    esc = html.escape
+    si = variant.name == SI.name
+    experiments = loop_experiments(variant)
+    rows = []
+    for i, e in enumerate(experiments):
+        start, stop, step = loop_default_experiment(variant, e.experiment)
+        file = SSD_FILE if i == 0 else f"{e.name}.ssd"
+        unit = " s" if si else ""
+        t_on = SIScaling(REFERENCE_RIG).time(e.experiment.t_on) if si else e.experiment.t_on
+        rows.append(
+            f"<tr><td><code>{esc(file)}</code></td><td><code>{esc(e.name)}</code></td>"
+            f"<td>{esc(e.summary)}</td><td>{t_on:.6g}{unit}</td><td>{start:g} to "
+            f"{stop:g}{unit}, step {step:g}{unit}</td></tr>"
+        )
+    first = experiments[0]
+    other = experiments[1].name
+    _, stop, step = loop_default_experiment(variant, first.experiment)
+    system = _system_name(variant)
+    if si:
+        time = (
+            "<p>The FMUs are in SI units and seconds: every variable declares its unit (with its "
+            "SI base-unit exponents in the FMUs' <code>UnitDefinitions</code> and the SSD's "
+            "<code>Units</code>), and the time of <code>fmi2DoStep</code> and of the default "
+            "experiments is in seconds.</p>"
+        )
+    else:
+        ts = REFERENCE_RIG.t_star
+        time = (
+            "<p>The FMUs speak the paper's scaled, dimensionless quantities (unit "
+            '<code>"1"</code>). Their time is the scaled time tau = t/t*, t* = sqrt(I1/C), '
+            "which FMI 2.0 gives no unit a tool can read: an FMU that declares no independent "
+            "variable has one named <code>time</code> in <code>s</code> (FMI 2.0, section "
+            f"2.2.7), so every tool shows tau as seconds. One unit of time is t* seconds of the "
+            f"rig ({ts:.6g} s for the reference rig), and so are the default experiments' "
+            "times, the step and the parameters <code>h</code> and <code>t_on</code>. To "
+            "couple the loop with models in seconds use the SI package "
+            f"<code>{esc(system)}SI.ssp</code>.</p>"
+        )
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{esc(system)}</title></head>
+<body>
+<h1>{esc(system)}</h1>
+<p>{esc(_description(variant, first).rsplit(". ", 1)[0])}. SSP 1.0 package written by the
+drillstring project (<code>build_fmus.py</code>), validated against the SSP 1.0 schemas.</p>
+
+<h2>One experiment per SSD</h2>
+<p>Each SSD at the root of the package is one experiment (an SSP variant). Each binds exactly
+one parameter set per component, named like the SSD
+(<code>resources/&lt;name&gt;.&lt;component&gt;.ssv</code>), with every parameter of the FMU;
+each has its own default experiment (start and stop time, and the Open Simulation Platform's
+fixed-step annotation). <code>{SSD_FILE}</code> is the default, what a tool that knows no
+variants runs.</p>
+<table border="1" cellspacing="0" cellpadding="3">
+<tr><th>SSD</th><th>name and parameter set</th><th>experiment (scaled time tau)</th>
+<th>switch-on</th><th>default experiment</th></tr>
+{chr(10).join(rows)}
+</table>
+
+<h2>What each tool does with it</h2>
+<ul>
+<li><b>The drillstring master</b>: <code>Master.from_ssp(PACKAGE, variant="{esc(other)}")</code>
+or <code>drillstring cosim PACKAGE --variant {esc(other)} --out DIR</code> applies the SSD's
+bindings as SSP 1.0 does (every binding of a component in order, later ones winning), runs its
+default experiment, converts parameter values given in another unit of the same dimension into
+the FMU variable's unit and refuses incompatible ones, and converts (or refuses) values on
+connections between FMUs of different units. <code>parameter_set=</code> names sets
+explicitly instead.</li>
+<li><b>libcosim</b> (<code>CosimExecution.from_ssp_file</code>) applies the first binding of
+each component (here the only one) and takes its step from the fixed-step annotation. Given the
+archive it reads <code>{SSD_FILE}</code>; for another variant unpack the package and give the
+path of its <code>.ssd</code>. It sets values as given, without units, and ignores
+Enumeration variables.</li>
+<li><b>Ecos</b> (<code>ecos simulate</code>, ecospy 0.7.2) applies only the parameter set named
+by <code>--parameterSet</code> and reads only <code>{SSD_FILE}</code> of the archive or folder
+given. Run the default as <code>ecos simulate --path {esc(system)}.ssp --stepSize {step:g}
+--stopTime {stop:g} --parameterSet {esc(first.name)}</code>; for another variant unpack the
+package into a folder, copy its <code>.ssd</code> over <code>{SSD_FILE}</code>, and run
+<code>ecos simulate --path FOLDER --stepSize {step:g} --stopTime ... --parameterSet
+NAME</code> (a path to an <code>.ssd</code> file crashes it: segmentation fault, exit code
+139). See the pitfalls below.</li>
+<li><b>fmpy</b> (<code>fmpy.ssp.simulation.simulate_ssp</code>) reads only <code>{SSD_FILE}</code>
+and applies none of its bindings: pass the set as its <code>parameter_set</code> argument, with
+names <code>component.variable</code>. Its connectors start at 0 without an initialization
+exchange, so its runs begin with a transient.</li>
+</ul>
+
+<h2>Ecos: what it does not tell you</h2>
+<ul>
+<li>A misspelt <code>--parameterSet</code> (or none) is ignored without a word: the FMUs' start
+values run (for these FMUs: Fig. 5's initial state and the controller on from t = 0).</li>
+<li>The default experiment is ignored: without <code>--stopTime</code> the run stops at 1 s.
+Give <code>--stopTime</code> and <code>--stepSize</code> from the table above.</li>
+<li>A set that binds only one component leaves the other at its start values: a
+controller-only set runs the plant from its own initial state (a stiff PI set alone ran the
+plant from Fig. 5's state with the torsional-stick model off, which leaves the model at 54.017 s
+in SI). Every set of this package binds both components for that reason.</li>
+<li>When the plant leaves the validity of its model (bit bouncing, torsional stick without the
+torsional-stick model: <code>fmi2Discard</code>), Ecos prints nothing at its default log level,
+goes on stepping with the bit frozen and exits with code 0: check that the plant's outputs still
+change at the end of the run.</li>
+<li>A run of fewer than 10 steps ends in a floating-point exception (exit code 136).</li>
+<li>Enumeration parameters (<code>latch</code>, <code>on_invalid</code>) are not set (Ecos warns
+that no int variable of that name is registered): they keep the FMUs' start values, which are
+the values the sets give.</li>
+</ul>
+
+<h2>Units and time</h2>
+<p>Every connector carries the unit of its FMU variable; the SSD's <code>Units</code> and each
+<code>.ssv</code>'s define them by their SI base-unit exponents.</p>
+{time}
+</body>
+</html>
+"""

@@ -25,9 +25,11 @@ A run, in FMI 2.0 terms (standard section 4.2.4, state machine of a co-simulatio
    controlled by the coupling-error estimate with rollback (:mod:`.adaptive`,
    :mod:`.step_control`).
 
-:meth:`Master.from_ssp` builds the same master from an SSP 1.0 package (:mod:`.ssp`): its
-components, connections and a named parameter set, so that a plant or controller is swapped by
-naming another FMU, not by writing Python wiring.
+:meth:`Master.from_ssp` builds the same master from an SSD of an SSP 1.0 package (:mod:`.ssp`):
+its components, connections and parameter bindings (or named parameter sets), parameter values
+converted into the FMUs' units, so that a plant or controller is swapped by naming another FMU,
+not by writing Python wiring. Connections between FMU variables of different units of one
+dimension convert the value (:mod:`.connections`).
 
 FMU failures (a call returning fmi2Discard, fmi2Error or fmi2Fatal, or failing to instantiate)
 stop the run cleanly: the returned :class:`CosimResult` holds the trajectories up to the last
@@ -59,14 +61,22 @@ import numpy as np
 from fmpy import extract, read_model_description
 from tqdm import tqdm
 
+from drillstring.model.units import UnitDef, UnitMismatch, unit_conversion
 from drillstring.orchestration.adaptive import run_adaptive
-from drillstring.orchestration.connections import Connection, System, Unit, build_system
+from drillstring.orchestration.connections import (
+    Connection,
+    System,
+    Unit,
+    build_system,
+    unit_definitions,
+    variable_unit,
+)
 from drillstring.orchestration.exchange import Exchange
 from drillstring.orchestration.fixed import n_steps, run_fixed
 from drillstring.orchestration.instances import Instances, UnitFailure
 from drillstring.orchestration.recorder import Recorder
 from drillstring.orchestration.results import CosimResult, FmuFailure, StepStats
-from drillstring.orchestration.ssp import SspError, SspPackage, read_ssp
+from drillstring.orchestration.ssp import SspError, SspPackage, SspParameter, read_ssp
 from drillstring.orchestration.step import macro_step
 from drillstring.orchestration.step_control import StepControl
 from drillstring.validation import check_choice, check_real
@@ -169,27 +179,36 @@ class Master:
         path: str | Path,
         parameter_set: str | Sequence[str] | None = None,
         *,
+        variant: str | None = None,
         fmus: Mapping[str, str | Path] | None = None,
         record: Sequence[str] | None = None,
         gs_order: Sequence[str] | None = None,
         log_categories: Sequence[str] | None = None,
     ) -> Master:
-        """A master of the system an SSP 1.0 package describes (:mod:`.ssp`).
+        """A master of the system an SSD of an SSP 1.0 package describes (:mod:`.ssp`).
 
-        The components become units, the connections the master's connections; the start
-        values are the FMUs' own, replaced by the named parameter set(s) of the package, in the
-        order given (SSP's named sets as Ecos's ``--parameterSet`` applies them; see
-        :mod:`.ssp`). The package's default experiment is :attr:`ssp` (``stop_time``, ``step``).
+        The SSD's components become units, its connections the master's connections; the
+        start values are the FMUs' own, replaced by the SSD's parameter bindings as SSP 1.0
+        applies them (every binding of a component, in order, later ones winning) or by the
+        named parameter set(s). A value given in another unit than its FMU variable's is
+        converted into it (units defined in the ``.ssv`` or the ``.ssd``: ``Omega0 = 51.756``
+        in rpm is set as 5.42 rad/s); a connection between FMU variables of different units of
+        one dimension converts the value on the way (:mod:`.connections`). The SSD's default
+        experiment is :attr:`ssp` (``stop_time``, ``step``).
 
         Parameters
         ----------
         path : path
-            The ``.ssp`` archive or an SSP folder.
+            The ``.ssp`` archive, an SSP folder, or an ``.ssd`` file in such a folder.
         parameter_set : str or sequence of str, optional
-            Parameter set(s) of the package to apply; None: none (the FMUs' start values).
+            None: the SSD's bindings. Names: those parameter sets of the package, applied in
+            the order given, instead of the bindings (SSP's named sets as Ecos's
+            ``--parameterSet`` applies them). ``()``: none (the FMUs' start values).
+        variant : str, optional
+            The SSD of the package (its name or file name; default ``SystemStructure.ssd``).
         fmus : mapping, optional
             Component name -> another FMU file to use in its place (it must have the
-            component's connectors and the parameters of the applied sets).
+            component's connectors and the parameters the applied sets give).
         record : sequence of str, optional
             Extra ``"unit.var"`` to record (default: every output connector).
         gs_order, log_categories
@@ -198,19 +217,24 @@ class Master:
         Returns
         -------
         Master
-            The master; :attr:`ssp` is the package. Close it (or use it as a context manager)
+            The master; :attr:`ssp` is the SSD read. Close it (or use it as a context manager)
             to remove the extracted files.
 
         Raises
         ------
         SspError
-            For an invalid package, an unknown parameter set or component, connected connectors
-            with different units, or a parameter the FMU does not have.
+            For an invalid package, an unknown variant, parameter set or component, connected
+            connectors of different dimensions, a parameter the FMU does not have, or one
+            given in a unit that is not defined or not of the dimension of the FMU variable's
+            (the message names the parameter, the unit and the dimension expected).
+        ValueError
+            For connected FMU variables of different dimensions (naming the connection, both
+            units and their dimensions), and the errors of :class:`Master`.
         """
         tmp = tempfile.mkdtemp(prefix="cosim_ssp_")
         try:
-            package = read_ssp(path, unpack_to=Path(tmp) / "package")
-            values = package.start_values(parameter_set)
+            package = read_ssp(path, unpack_to=Path(tmp) / "package", variant=variant)
+            values = package.parameters(parameter_set)
             replaced = dict(fmus or {})
             for name in replaced:
                 package.component(name)  # an unknown component is an error
@@ -226,9 +250,17 @@ class Master:
                     for k in c.connectors
                     if k.kind == "output"
                 ]
+            connections = [
+                Connection(
+                    f"{c.start_element}.{c.start_connector}",
+                    f"{c.end_element}.{c.end_connector}",
+                    convert_units=not c.suppress_unit_conversion,
+                )
+                for c in package.connections
+            ]
             master = cls(
                 units,
-                [str(c) for c in package.connections],
+                connections,
                 record=record,
                 gs_order=gs_order,
                 log_categories=log_categories,
@@ -467,41 +499,74 @@ class Master:
         )
 
 
-def _typed_values(component: str, fmu: Path, values: Mapping[str, tuple[str, object]]) -> dict:
-    """Start values of a parameter set for the FMU's variables: an ``ssv:Enumeration`` item name
-    becomes its value; a parameter the FMU does not have is an error (not silently ignored)."""
+def _typed_values(component: str, fmu: Path, values: Mapping[str, SspParameter]) -> dict:
+    """Start values of a component's parameters for its FMU's variables: an ``ssv:Enumeration``
+    item name becomes its value, a Real given in another unit is converted into the
+    variable's; a parameter the FMU does not have is an error (not silently ignored)."""
     md = read_model_description(str(fmu))
     variables = {v.name: v for v in md.modelVariables}
+    defs = unit_definitions(md)
     out = {}
-    for name, (kind, value) in values.items():
+    for name, p in values.items():
         var = variables.get(name)
         if var is None:
             raise SspError(
                 f"component {component!r}: {fmu.name} has no variable {name!r} (parameter set)"
             )
-        if kind == "Enumeration":
+        value = p.value
+        if p.type == "Enumeration":
             items = {item.name: int(item.value) for item in var.declaredType.items}
             if value not in items:
                 raise SspError(
                     f"component {component!r}: {value!r} is not an item of {name} ({list(items)})"
                 )
             value = items[value]
-        elif kind == "Real" and var.type == "Real":
-            value = float(value)
+        elif p.type == "Real" and var.type == "Real":
+            value = _in_variable_unit(component, fmu.name, p, variable_unit(var), defs)
         out[name] = value
     return out
 
 
+def _in_variable_unit(
+    component: str, fmu: str, p: SspParameter, unit: str | None, defs: Mapping[str, UnitDef]
+) -> float:
+    """A Real parameter's value in its FMU variable's unit (see :meth:`Master.from_ssp`; fmpy's
+    reader has checked that ``unit`` is among the FMU's ``defs``)."""
+    value = float(p.value)
+    if p.unit is None or p.unit == unit:
+        return value
+    what = f"component {component!r}: parameter {p.name!r} = {value!r} given in {p.unit!r}"
+    if unit is None:
+        raise SspError(f"{what}, but {fmu} declares no unit for {p.name}: cannot convert it")
+    if p.unit_def is None:
+        raise SspError(f"{what}: unit {p.unit!r} is defined neither in its .ssv nor in the .ssd")
+    target = defs[unit]
+    try:
+        conv = unit_conversion(p.unit_def, target)
+    except UnitMismatch:
+        raise SspError(
+            f"{what} (dimension {p.unit_def.dimension}): {p.name} of {fmu} is in {unit!r}, a unit "
+            f"of dimension {target.dimension}; not convertible"
+        ) from None
+    if conv.identity:
+        return value
+    log.info("%s: set as %r %s", what, conv(value), unit)
+    return conv(value)
+
+
 def _check_connected_units(package: SspPackage) -> None:
-    """Connected connectors must have the same unit: the master converts no units."""
+    """Connected connectors must have units of one dimension (the values are converted between
+    the FMUs' own units by the master, :mod:`.connections`)."""
     unit = {(c.name, k.name): k.unit for c in package.components for k in c.connectors}
     for con in package.connections:
         a = unit.get((con.start_element, con.start_connector))
         b = unit.get((con.end_element, con.end_connector))
-        if a != b:
+        ua, ub = package.units.get(a), package.units.get(b)
+        if a != b and ua is not None and ub is not None and not ua.same_dimension(ub):
             raise SspError(
-                f"connection {con}: units {a!r} and {b!r} differ; the master does not convert "
-                "units (connect connectors of the same unit)"
+                f"{package.file}: connection {con}: the connectors' units {a!r} (dimension "
+                f"{ua.dimension}) and {b!r} (dimension {ub.dimension}) are of different "
+                "dimensions"
             )
 
 

@@ -16,8 +16,9 @@ the failure is then reported through :meth:`.Instances.fail` with the function, 
 step the Python loop would name, after the same rows and step count.
 
 The Python loop runs instead (:func:`supported` is False) for Gauss-Seidel, step-size control
-(:mod:`.adaptive` never calls this module), without a C compiler, when the compilation fails, or
-with ``DRILLSTRING_MASTER_NATIVE=0``. (Connections are Real -> Real by construction:
+(:mod:`.adaptive` never calls this module), a system whose connections convert units (the C loop
+only copies values; :attr:`.Exchange.converts`), without a C compiler, when the compilation
+fails, or with ``DRILLSTRING_MASTER_NATIVE=0``. (Connections are Real -> Real by construction:
 :func:`~.connections.build_system` refuses others.)
 
 When it is compiled: at its first use, into a per-user cache (``$XDG_CACHE_HOME/drillstring`` or
@@ -122,11 +123,12 @@ def supported(step: JacobiStep) -> bool:
     Returns
     -------
     bool
-        True for a Jacobi step, the switch not off and the C loop loaded.
+        True for a Jacobi step without unit conversions, the switch not off and the C loop
+        loaded.
     """
     if os.environ.get(ENV, "1").strip() == "0":
         return False
-    return type(step) is JacobiStep and library() is not None
+    return type(step) is JacobiStep and not step.converts and library() is not None
 
 
 def _address(fn: ctypes._CFuncPtr) -> int:
@@ -183,7 +185,7 @@ def run_native(
             0 if idx is None else idx.ctypes.data,
             _GET_REAL if idx is None else _SET_REAL,
         )
-        for fn, comp, vr, n, buf, idx, _, _, _ in xops
+        for fn, comp, vr, n, buf, idx, _, _, _, _ in xops
     ]
     cols_kept = []
     r = []

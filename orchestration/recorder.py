@@ -103,8 +103,8 @@ class Recorder:
         -------
         numpy.ndarray
             One row per communication point, float64 fields ``time``, the connected outputs
-            (``"unit.var"``), the connected inputs (the value of their source) and the recorded
-            variables.
+            (``"unit.var"``), the connected inputs (the value of their source, converted to the
+            input's unit where the units differ) and the recorded variables.
         """
         sysm = self.instances.system
         names = ("time", *sysm.outputs, *sysm.input_source, *self.record_keys)
@@ -118,7 +118,8 @@ class Recorder:
         for k in sysm.outputs:
             out[k] = rows[:, 1 + yidx[k]]
         for k, s in sysm.input_source.items():
-            out[k] = rows[:, 1 + yidx[s]]
+            conv = sysm.conversions.get(k)
+            out[k] = rows[:, 1 + yidx[s]] if conv is None else conv(rows[:, 1 + yidx[s]])
         for j, k in enumerate(self.record_keys):
             out[k] = rows[:, 1 + ny + j]
         return out

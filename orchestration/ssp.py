@@ -2,20 +2,29 @@
 
 An SSP package is a zip archive (``.ssp``) or a folder holding ``SystemStructure.ssd`` (the
 system: components, their connectors and parameter bindings, the connections, the units, the
-default experiment), the FMUs it references and its parameter sets (``.ssv`` files). This module
-writes packages with lxml (:func:`write_ssp`), checks them against the SSP 1.0 schemas that fmpy
-ships (:func:`validate_ssp`) and reads them back for the master (:func:`read_ssp`; see
-:meth:`drillstring.orchestration.master.Master.from_ssp`).
+default experiment), optionally further ``.ssd`` files at its root (variants, each with a name
+of its own; SSP 1.0, "System Structure Package": ``SystemStructure.ssd`` is the default
+variant, a tool that knows no variants uses only it), the FMUs it references and its parameter
+sets (``.ssv`` files) under ``resources/``, and documentation under ``documentation/`` (entry
+``documentation/index.html``). This module writes packages with lxml (:func:`write_ssp`), checks
+them against the SSP 1.0 schemas that fmpy ships (:func:`validate_ssp`: every root SSD, every
+``.ssv``, the references, distinct variant names) and reads one SSD of a package back for the
+master (:func:`read_ssp`; see :meth:`drillstring.orchestration.master.Master.from_ssp`).
 
-Parameter sets. SSP 1.0 binds parameter sources to a component (``ssd:ParameterBinding``); its
-text applies every binding of a component in document order, later ones taking priority. The
-co-simulation tools that select a named set instead read each binding as one named alternative:
-Ecos applies the set whose ``ssv:ParameterSet`` has the name given by ``--parameterSet`` to every
-component that binds it, libcosim applies the first binding of each component. The packages
-written here follow the tools: every binding of a component is its own ``.ssv`` file with the
-set's name, and :meth:`SspPackage.start_values` applies the named sets asked for, in the order
-asked. Enumeration parameters are written as ``ssv:Integer`` (FMI 2.0 sets an Enumeration with
-``fmi2SetInteger``; libcosim and Ecos read no ``ssv:Enumeration``).
+Parameter bindings. SSP 1.0 applies every ParameterBinding of a component, in document order,
+later ones taking priority; :meth:`SspPackage.parameters` with ``parameter_set=None`` does that.
+The co-simulation tools read bindings otherwise: Ecos applies only the set whose
+``ssv:ParameterSet`` has the name given by ``--parameterSet`` (none without it), libcosim the
+first binding of each component, fmpy's ``simulate_ssp`` none. A package whose every SSD binds
+one set per component, named after the SSD, means the same experiment in all of them (given
+the set's name in Ecos); naming sets explicitly (``parameter_set=["fig6"]``) applies those sets
+of the package, in the order asked, as Ecos's ``--parameterSet`` does. Enumeration parameters
+are written as ``ssv:Integer`` (FMI 2.0 sets an Enumeration with ``fmi2SetInteger``; libcosim
+and Ecos read no ``ssv:Enumeration``).
+
+Units. A parameter's unit is resolved to its definition (``ssc:Unit`` with ``ssc:BaseUnit``
+exponents, factor and offset) in its ``.ssv``'s ``ssv:Units``, else the SSD's ``ssd:Units``
+(:attr:`SspParameter.unit_def`); the master converts the value into the FMU variable's unit.
 
 The fixed-step annotation of the default experiment is the Open Simulation Platform's
 (``com.opensimulationplatform``: ``osp:Algorithm/osp:FixedStepAlgorithm baseStepSize``), which
@@ -48,12 +57,14 @@ __all__ = [
     "SspError",
     "SspPackage",
     "SspParameter",
+    "SspVariant",
     "read_ssp",
     "validate_ssp",
     "write_ssp",
 ]
 
 SSD_FILE = "SystemStructure.ssd"
+DOC_INDEX = "documentation/index.html"
 #: The namespaces, with the prefixes the tools expect (libcosim and Ecos match element names
 #: with their prefixes, ``ssd:Component``, ``osp:Algorithm``).
 NS = {
@@ -101,12 +112,16 @@ class SspConnector:
 
 @dataclass(frozen=True)
 class SspParameter:
-    """One parameter of a parameter set: FMU variable name, SSV type, value, unit."""
+    """One parameter of a parameter set: FMU variable name, SSV type, value, unit (name and,
+    when read, definition)."""
 
     name: str
     type: str
     value: Any
     unit: str | None = None
+    #: the definition of ``unit`` that the ``.ssv`` or the ``.ssd`` gives (set by
+    #: :func:`read_ssp`; None when the unit is not defined there, or for a parameter written)
+    unit_def: UnitDef | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if self.type not in _TYPES:
@@ -143,18 +158,56 @@ class SspComponent:
 
 @dataclass(frozen=True)
 class SspConnection:
-    """``start_element.start_connector`` feeds ``end_element.end_connector``."""
+    """``start_element.start_connector`` feeds ``end_element.end_connector``; with
+    ``suppress_unit_conversion`` (SSP's ``suppressUnitConversion``) the value passes unconverted
+    even where the two ends have different units."""
 
     start_element: str
     start_connector: str
     end_element: str
     end_connector: str
+    suppress_unit_conversion: bool = False
 
     def __str__(self) -> str:
         return (
             f"{self.start_element}.{self.start_connector} -> "
             f"{self.end_element}.{self.end_connector}"
         )
+
+
+@dataclass(frozen=True)
+class SspVariant:
+    """A further SSD of a package, at its root: a variant of the system (module docstring).
+
+    Attributes
+    ----------
+    file : str
+        Its file name in the package root (``"<name>.ssd"``; not ``SystemStructure.ssd``).
+    name : str
+        The ``name`` of its ``SystemStructureDescription``, distinct from every other SSD's.
+    components : tuple of SspComponent
+        Its components with their bindings (the FMUs are the package's).
+    connections : tuple of SspConnection
+        Its connections.
+    default_experiment : (start, stop, step) or None
+        Its default experiment.
+    description : str
+        Description of its system.
+    """
+
+    file: str
+    name: str
+    components: tuple[SspComponent, ...]
+    connections: tuple[SspConnection, ...]
+    default_experiment: tuple[float, float, float] | None = None
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if "/" in self.file or not self.file.endswith(".ssd") or self.file == SSD_FILE:
+            raise SspError(
+                f"variant {self.name!r}: file {self.file!r} must be a .ssd at the package root "
+                f"other than {SSD_FILE}"
+            )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -167,9 +220,33 @@ def _units_element(parent_tag: str, units: Mapping[str, UnitDef]) -> etree._Elem
     for name in sorted(units):
         unit = units[name]
         u = etree.SubElement(node, _q("ssc", "Unit"), name=name)
-        exps = {k: str(unit.exponents[k]) for k in BASE_UNITS if unit.exponents.get(k)}
-        etree.SubElement(u, _q("ssc", "BaseUnit"), exps)
+        attrib = {k: str(unit.exponents[k]) for k in BASE_UNITS if unit.exponents.get(k)}
+        if unit.factor != 1.0:
+            attrib["factor"] = repr(float(unit.factor))
+        if unit.offset != 0.0:
+            attrib["offset"] = repr(float(unit.offset))
+        etree.SubElement(u, _q("ssc", "BaseUnit"), attrib)
     return node
+
+
+def _read_units(node: etree._Element | None) -> dict[str, UnitDef]:
+    """``ssc:Unit`` children of an ``ssd:Units`` or ``ssv:Units`` element as UnitDefs."""
+    out: dict[str, UnitDef] = {}
+    if node is None:
+        return out
+    for u in node.iterfind("ssc:Unit", NS):
+        base = u.find("ssc:BaseUnit", NS)
+        attrib = base.attrib if base is not None else {}
+        try:
+            out[u.get("name")] = UnitDef(
+                u.get("name"),
+                {k: int(attrib[k]) for k in BASE_UNITS if int(attrib.get(k, 0))},
+                factor=float(attrib.get("factor", 1.0)),
+                offset=float(attrib.get("offset", 0.0)),
+            )
+        except ValueError as exc:
+            raise SspError(f"unit {u.get('name')!r}: {exc}") from None
+    return out
 
 
 def ssv_document(
@@ -227,13 +304,14 @@ def ssd_document(
     sources: Mapping[tuple[str, str], str],
     default_experiment: tuple[float, float, float] | None,
     description: str = "",
+    system: str | None = None,
 ) -> bytes:
-    """The ``SystemStructure.ssd`` document of a package.
+    """An SSD document of a package (``SystemStructure.ssd`` or a variant).
 
     Parameters
     ----------
     name : str
-        Name of the system structure and of its system.
+        Name of the system structure (and of its system, unless ``system`` is given).
     components : sequence of SspComponent
         The components, their connectors (Enumerations as ``ssc:Integer``) and parameter
         bindings in the order of ``parameter_sets``.
@@ -247,6 +325,8 @@ def ssd_document(
         ``ssd:DefaultExperiment`` with the OSP fixed-step annotation (module docstring).
     description : str
         Description of the system (omitted when empty).
+    system : str, optional
+        Name of the system (default ``name``).
 
     Returns
     -------
@@ -266,10 +346,10 @@ def ssd_document(
         name=name,
         generationTool="drillstring build_fmus.py",
     )
-    system = etree.SubElement(root, _q("ssd", "System"), name=name)
+    sys_node = etree.SubElement(root, _q("ssd", "System"), name=system or name)
     if description:
-        system.set("description", description)
-    elements = etree.SubElement(system, _q("ssd", "Elements"))
+        sys_node.set("description", description)
+    elements = etree.SubElement(sys_node, _q("ssd", "Elements"))
     used: set[str] = set()
     for comp in components:
         c = etree.SubElement(
@@ -294,9 +374,9 @@ def ssd_document(
                     _q("ssd", "ParameterBinding"),
                     source=sources[(comp.name, set_name)],
                 )
-    links = etree.SubElement(system, _q("ssd", "Connections"))
+    links = etree.SubElement(sys_node, _q("ssd", "Connections"))
     for con in connections:
-        etree.SubElement(
+        link = etree.SubElement(
             links,
             _q("ssd", "Connection"),
             startElement=con.start_element,
@@ -304,6 +384,8 @@ def ssd_document(
             endElement=con.end_element,
             endConnector=con.end_connector,
         )
+        if con.suppress_unit_conversion:
+            link.set("suppressUnitConversion", "true")
     if used:
         root.append(_units_element(_q("ssd", "Units"), {u: units[u] for u in used}))
     if default_experiment is not None:
@@ -338,6 +420,9 @@ def write_ssp(
     units: Mapping[str, UnitDef],
     default_experiment: tuple[float, float, float] | None = None,
     description: str = "",
+    system: str | None = None,
+    variants: Sequence[SspVariant] = (),
+    documentation: Mapping[str, str | bytes] | None = None,
     source_date_epoch: int | None = None,
 ) -> Path:
     """Write an SSP 1.0 archive, validated against the schemas, atomically.
@@ -347,9 +432,9 @@ def write_ssp(
     path : path
         The ``.ssp`` file to write.
     name : str
-        Name of the system structure and of its system.
+        Name of the system structure ``SystemStructure.ssd`` (the default variant).
     components : sequence of SspComponent
-        The components; each ``source`` is the path of its FMU in the archive
+        Its components; each ``source`` is the path of its FMU in the archive
         (``resources/<file>.fmu``), each parameter set becomes ``resources/<set>.<component>.ssv``
         bound to the component, in the order of ``parameter_sets``.
     fmus : mapping
@@ -362,6 +447,15 @@ def write_ssp(
         ``ssd:DefaultExperiment`` with the fixed-step annotation (module docstring).
     description : str
         Description of the system.
+    system : str, optional
+        Name of the system in every SSD (default ``name``).
+    variants : sequence of SspVariant
+        Further SSDs at the root; their components' sources must be among ``components``'
+        and a set of one name bound to one component must be the same in every SSD (it is
+        one ``.ssv`` file).
+    documentation : mapping, optional
+        Path under ``documentation/`` -> content (text is written as UTF-8); must hold
+        ``index.html`` (SSP 1.0: the documentation's entry point).
     source_date_epoch : int, optional
         Timestamp of the archive's entries (default: the earliest a zip file holds), so that
         the archive is reproducible.
@@ -374,20 +468,56 @@ def write_ssp(
     Raises
     ------
     SspError
-        If the documents do not validate, naming the file and the schema's messages.
+        If the documents do not validate, naming the file and the schema's messages; a set
+        bound with different values in two SSDs; documentation without ``index.html``.
     """
     path = Path(path)
     entries: dict[str, bytes] = {}
     sources: dict[tuple[str, str], str] = {}
+    written: dict[str, tuple[SspParameter, ...]] = {}
     for comp in components:
         entries[comp.source] = Path(fmus[comp.name]).read_bytes()
-        for set_name, params in comp.parameter_sets.items():
-            src = _ssv_path(comp.name, set_name)
-            sources[(comp.name, set_name)] = src
-            entries[src] = ssv_document(set_name, params, units)
+    for ssd in (None, *variants):
+        comps = components if ssd is None else ssd.components
+        label = SSD_FILE if ssd is None else ssd.file
+        for comp in comps:
+            if comp.source not in entries:
+                raise SspError(
+                    f"{path.name}: {label}: component {comp.name!r} has source "
+                    f"{comp.source!r}, which is no FMU of the package"
+                )
+            for set_name, params in comp.parameter_sets.items():
+                src = _ssv_path(comp.name, set_name)
+                if src in written and written[src] != tuple(params):
+                    raise SspError(
+                        f"{path.name}: parameter set {set_name!r} of component {comp.name!r} is "
+                        "bound with different values in two SSDs (one .ssv file per set)"
+                    )
+                written[src] = tuple(params)
+                sources[(comp.name, set_name)] = src
+                entries[src] = ssv_document(set_name, params, units)
     entries[SSD_FILE] = ssd_document(
-        name, components, connections, units, sources, default_experiment, description
+        name, components, connections, units, sources, default_experiment, description, system
     )
+    for v in variants:
+        if v.file in entries:
+            raise SspError(f"{path.name}: two SSDs named {v.file}")
+        entries[v.file] = ssd_document(
+            v.name,
+            v.components,
+            v.connections,
+            units,
+            sources,
+            v.default_experiment,
+            v.description,
+            system or name,
+        )
+    if documentation:
+        if "index.html" not in documentation:
+            raise SspError(f"{path.name}: documentation without index.html (SSP 1.0)")
+        for rel, content in documentation.items():
+            data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
+            entries[f"documentation/{rel}"] = data
     problems = _validate_entries(entries)
     if problems:
         raise SspError(f"{path.name}: " + "; ".join(problems))
@@ -432,24 +562,45 @@ def _schema_problems(label: str, data: bytes, schema: str) -> list[str]:
     return [f"{label} (line {e.line}): {e.message}" for e in s.error_log]
 
 
+def _root_ssds(entries: Mapping[str, bytes]) -> list[str]:
+    """The SSD files at the root of a package, ``SystemStructure.ssd`` first."""
+    others = sorted(n for n in entries if "/" not in n and n.endswith(".ssd") and n != SSD_FILE)
+    return ([SSD_FILE] if SSD_FILE in entries else []) + others
+
+
 def _validate_entries(entries: Mapping[str, bytes]) -> list[str]:
     if SSD_FILE not in entries:
         return [f"no {SSD_FILE}"]
-    problems = _schema_problems(SSD_FILE, entries[SSD_FILE], "SystemStructureDescription.xsd")
+    ssds = _root_ssds(entries)
+    problems = []
+    for name in ssds:
+        problems += _schema_problems(name, entries[name], "SystemStructureDescription.xsd")
     for name in sorted(entries):
         if name.endswith(".ssv"):
             problems += _schema_problems(name, entries[name], "SystemStructureParameterValues.xsd")
     if problems:
         return problems
-    ssd = etree.fromstring(entries[SSD_FILE])
-    for comp in ssd.iterfind("ssd:System/ssd:Elements/ssd:Component", NS):
-        refs = [comp.get("source")]
-        refs += [b.get("source") for b in comp.iterfind("ssd:ParameterBindings/*", NS)]
-        problems += [
-            f"component {comp.get('name')!r}: {ref} is not in the package"
-            for ref in refs
-            if ref is not None and ref not in entries
-        ]
+    seen: dict[str, str] = {}
+    for file in ssds:
+        ssd = etree.fromstring(entries[file])
+        label = "" if file == SSD_FILE else f"{file}: "
+        other = seen.setdefault(ssd.get("name"), file)
+        if other != file:
+            problems.append(
+                f"{file} and {other} have the same name {ssd.get('name')!r} (SSP 1.0: every "
+                "root SSD of a package has its own)"
+            )
+        for comp in ssd.iterfind("ssd:System/ssd:Elements/ssd:Component", NS):
+            refs = [comp.get("source")]
+            refs += [b.get("source") for b in comp.iterfind("ssd:ParameterBindings/*", NS)]
+            problems += [
+                f"{label}component {comp.get('name')!r}: {ref} is not in the package"
+                for ref in refs
+                if ref is not None and ref not in entries
+            ]
+    docs = [n for n in entries if n.startswith("documentation/")]
+    if docs and DOC_INDEX not in entries:
+        problems.append(f"documentation/ without its entry point {DOC_INDEX} (SSP 1.0)")
     return problems
 
 
@@ -471,13 +622,14 @@ def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
     """The problems of an SSP package against the SSP 1.0 schemas and its own references.
 
     The schemas are those fmpy ships (``SystemStructureDescription.xsd``,
-    ``SystemStructureParameterValues.xsd``); the references: every FMU and ``.ssv`` the
-    ``.ssd`` names is in the package.
+    ``SystemStructureParameterValues.xsd``), for every SSD at the root and every ``.ssv``; the
+    references: every FMU and ``.ssv`` an SSD names is in the package; the SSDs' names are
+    distinct; ``documentation/`` has its ``index.html``.
 
     Parameters
     ----------
     path : path
-        An ``.ssp`` archive or a folder.
+        An ``.ssp`` archive, a folder, or an ``.ssd`` in a folder (the folder's package).
 
     Returns
     -------
@@ -493,6 +645,8 @@ def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
     path = Path(path)
     if not path.exists():
         return [f"{path} does not exist"]
+    if path.is_file() and path.suffix == ".ssd":
+        path = path.parent
     return _validate_entries(_package_entries(path))
 
 
@@ -513,8 +667,12 @@ def _parameter_value(kind: str, text: str) -> Any:
     return text
 
 
-def _read_ssv(data: bytes, label: str) -> tuple[str, tuple[SspParameter, ...]]:
-    root = etree.fromstring(data)
+def _read_ssv(
+    root: etree._Element, label: str, outer_units: Mapping[str, UnitDef]
+) -> tuple[str, tuple[SspParameter, ...]]:
+    """An ``ssv:ParameterSet``: its name and parameters, units resolved in its own
+    ``ssv:Units``, else ``outer_units`` (the SSD's)."""
+    units = {**outer_units, **_read_units(root.find("ssv:Units", NS))}
     params = []
     for p in root.iterfind("ssv:Parameters/ssv:Parameter", NS):
         value = next(iter(p), None)
@@ -523,9 +681,14 @@ def _read_ssv(data: bytes, label: str) -> tuple[str, tuple[SspParameter, ...]]:
         kind = etree.QName(value).localname
         if kind not in _TYPES:
             raise SspError(f"{label}: parameter {p.get('name')!r} of type {kind} is not supported")
+        unit = value.get("unit")
         params.append(
             SspParameter(
-                p.get("name"), kind, _parameter_value(kind, value.get("value")), value.get("unit")
+                p.get("name"),
+                kind,
+                _parameter_value(kind, value.get("value")),
+                unit,
+                units.get(unit) if unit is not None else None,
             )
         )
     return root.get("name"), tuple(params)
@@ -533,24 +696,37 @@ def _read_ssv(data: bytes, label: str) -> tuple[str, tuple[SspParameter, ...]]:
 
 @dataclass(frozen=True)
 class SspPackage:
-    """An SSP package read by :func:`read_ssp`.
+    """One SSD of an SSP package, read by :func:`read_ssp`.
 
     Attributes
     ----------
     path : Path
-        The archive or folder.
+        The archive, folder or ``.ssd`` file given.
     root : Path
         The folder its files are in (the folder itself, or where the archive was unpacked).
     name : str
-        The system structure's name.
+        The name of the SSD read (its ``SystemStructureDescription``).
     components : tuple of SspComponent
-        The FMU components.
+        Its FMU components, with their parameter bindings in document order.
     connections : tuple of SspConnection
-        The connections.
+        Its connections.
     units : dict
-        Unit name -> base-unit exponents (``ssd:Units``).
+        Unit name -> :class:`~drillstring.model.units.UnitDef` (its ``ssd:Units``).
     start_time, stop_time, step : float or None
-        The default experiment and its fixed step (OSP annotation), where given.
+        Its default experiment and fixed step (OSP annotation), where given.
+    file : str
+        The SSD's file name in the package (``SystemStructure.ssd`` or a variant's).
+    system : str
+        The name of its system.
+    description : str
+        The system's description.
+    variants : dict
+        Every SSD at the package's root: name -> file name, ``SystemStructure.ssd`` first.
+    sets : dict
+        Every parameter set any SSD of the package binds: set name -> component -> its
+        parameters (what :meth:`parameters` applies by name).
+    documentation : tuple of str
+        The package's files under ``documentation/``.
     """
 
     path: Path
@@ -558,14 +734,31 @@ class SspPackage:
     name: str
     components: tuple[SspComponent, ...]
     connections: tuple[SspConnection, ...]
-    units: Mapping[str, Mapping[str, int]]
+    units: Mapping[str, UnitDef]
     start_time: float | None = None
     stop_time: float | None = None
     step: float | None = None
+    file: str = SSD_FILE
+    system: str = ""
+    description: str = ""
+    variants: Mapping[str, str] = field(default_factory=dict)
+    sets: Mapping[str, Mapping[str, tuple[SspParameter, ...]]] = field(default_factory=dict)
+    documentation: tuple[str, ...] = ()
+
+    @property
+    def variant(self) -> str:
+        """The name of the SSD read (:attr:`name`)."""
+        return self.name
 
     @property
     def parameter_set_names(self) -> tuple[str, ...]:
-        """The names of the parameter sets, in the order they are first bound."""
+        """The names of the parameter sets of the package (every SSD's), in the order they are
+        first bound (``SystemStructure.ssd`` first)."""
+        return tuple(self.sets)
+
+    @property
+    def bound_sets(self) -> tuple[str, ...]:
+        """The names of the sets this SSD binds, in the order they are first bound."""
         names: dict[str, None] = {}
         for comp in self.components:
             names.update(dict.fromkeys(comp.parameter_sets))
@@ -615,46 +808,82 @@ class SspPackage:
         """
         return self.root / self.component(name).source
 
-    def start_values(
-        self, parameter_set: str | Sequence[str] | None
-    ) -> dict[str, dict[str, tuple[str, Any]]]:
-        """Component -> variable -> (SSV type, value) of the named set(s), applied in order.
+    def parameters(
+        self, parameter_set: str | Sequence[str] | None = None
+    ) -> dict[str, dict[str, SspParameter]]:
+        """Component -> variable -> the parameter that sets it (module docstring).
 
         Parameters
         ----------
         parameter_set : str, sequence of str or None
-            The set name(s); a later set overrides an earlier one's values. None: no set.
+            None: this SSD's bindings, every binding of a component in document order, a later
+            one overriding an earlier one's values (SSP 1.0). A name or names: those sets of
+            the package (:attr:`sets`, whichever SSD binds them), applied in the order given;
+            ``()``: none (the FMUs' start values).
 
         Returns
         -------
         dict
-            Every component's name -> {variable name: (SSV type, value)}; empty dicts for
-            components the sets do not bind.
+            Every component's name -> {variable name: SspParameter}; empty dicts for
+            components nothing binds.
 
         Raises
         ------
         SspError
-            A name that no component binds, or ``parameter_set`` is not a name or a sequence of
-            names.
+            A name that no SSD of the package binds (the message lists the sets and the
+            variants), a set that binds a component this SSD does not have, or
+            ``parameter_set`` is not a name or a sequence of names.
         """
-        names = _set_names(parameter_set)
-        known = self.parameter_set_names
-        for n in names:
-            if n not in known:
-                raise SspError(
-                    f"{self.path.name}: no parameter set {n!r} (sets: {', '.join(known) or 'none'})"
-                )
-        out: dict[str, dict[str, tuple[str, Any]]] = {c.name: {} for c in self.components}
-        for n in names:
+        out: dict[str, dict[str, SspParameter]] = {c.name: {} for c in self.components}
+        if parameter_set is None:
             for comp in self.components:
-                for p in comp.parameter_sets.get(n, ()):
-                    out[comp.name][p.name] = (p.type, p.value)
+                for params in comp.parameter_sets.values():
+                    out[comp.name].update((p.name, p) for p in params)
+            return out
+        names = _set_names(parameter_set)
+        for n in names:
+            if n not in self.sets:
+                raise SspError(
+                    f"{self.path.name}: no parameter set {n!r} (sets: "
+                    f"{', '.join(self.sets) or 'none'}; variants: {', '.join(self.variants)})"
+                )
+            for comp, params in self.sets[n].items():
+                if comp not in out:
+                    raise SspError(
+                        f"{self.path.name}: parameter set {n!r} binds component {comp!r}, which "
+                        f"{self.file} does not have"
+                    )
+                out[comp].update((p.name, p) for p in params)
         return out
 
+    def start_values(
+        self, parameter_set: str | Sequence[str] | None = None
+    ) -> dict[str, dict[str, tuple[str, Any]]]:
+        """Component -> variable -> (SSV type, value) of :meth:`parameters`, as given (in the
+        parameters' own units; the master converts them into the FMUs').
 
-def _set_names(parameter_set: str | Sequence[str] | None) -> tuple[str, ...]:
-    if parameter_set is None:
-        return ()
+        Parameters
+        ----------
+        parameter_set : str, sequence of str or None
+            As for :meth:`parameters`.
+
+        Returns
+        -------
+        dict
+            Every component's name -> {variable name: (SSV type, value)}.
+
+        Raises
+        ------
+        SspError
+            As :meth:`parameters`.
+        """
+        return {
+            c: {n: (p.type, p.value) for n, p in params.items()}
+            for c, params in self.parameters(parameter_set).items()
+        }
+
+
+def _set_names(parameter_set: str | Sequence[str]) -> tuple[str, ...]:
     if isinstance(parameter_set, str):
         return (parameter_set,)
     names = tuple(parameter_set)
@@ -665,44 +894,140 @@ def _set_names(parameter_set: str | Sequence[str] | None) -> tuple[str, ...]:
     return names
 
 
+def _parse_ssd(data: bytes, file: str, entries: Mapping[str, bytes], label: str) -> dict[str, Any]:
+    """One SSD of a package: what :class:`SspPackage` holds of it (see :func:`read_ssp`)."""
+    ssd = etree.fromstring(data)
+    system = ssd.find("ssd:System", NS)
+    if system.find("ssd:Elements/ssd:System", NS) is not None:
+        raise SspError(f"{label}: {file}: nested systems are not supported by the master")
+    units = _read_units(ssd.find("ssd:Units", NS))
+    components = []
+    for c in system.iterfind("ssd:Elements/ssd:Component", NS):
+        if c.get("type", FMU_TYPE) != FMU_TYPE:
+            raise SspError(f"{label}: component {c.get('name')!r} is not an FMU ({c.get('type')})")
+        connectors = []
+        for k in c.iterfind("ssd:Connectors/ssd:Connector", NS):
+            typ = next((e for e in k if etree.QName(e).namespace == NS["ssc"]), None)
+            kind = etree.QName(typ).localname if typ is not None else "Real"
+            unit = typ.get("unit") if typ is not None else None
+            connectors.append(SspConnector(k.get("name"), k.get("kind"), kind, unit))
+        sets: dict[str, tuple[SspParameter, ...]] = {}
+        for b in c.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
+            if b.get("source") is not None:
+                src = b.get("source")
+                set_name, params = _read_ssv(etree.fromstring(entries[src]), src, units)
+            else:
+                inline = b.find("ssd:ParameterValues/ssv:ParameterSet", NS)
+                if inline is None:
+                    continue
+                set_name, params = _read_ssv(inline, f"{file}: {c.get('name')} binding", units)
+            sets[set_name] = sets.get(set_name, ()) + params
+        components.append(SspComponent(c.get("name"), c.get("source"), tuple(connectors), sets))
+    connections = []
+    for e in system.iterfind("ssd:Connections/ssd:Connection", NS):
+        con = SspConnection(
+            e.get("startElement"),
+            e.get("startConnector"),
+            e.get("endElement"),
+            e.get("endConnector"),
+            e.get("suppressUnitConversion") in ("true", "1"),
+        )
+        if con.start_element is None or con.end_element is None:
+            raise SspError(f"{label}: connection {con} uses a connector of the system itself")
+        if any(etree.QName(x).localname.endswith("Transformation") for x in e):
+            raise SspError(f"{label}: connection {con} has a transformation; not supported")
+        connections.append(con)
+    start = stop = step = None
+    de = ssd.find("ssd:DefaultExperiment", NS)
+    if de is not None:
+        start = float(de.get("startTime")) if de.get("startTime") is not None else None
+        stop = float(de.get("stopTime")) if de.get("stopTime") is not None else None
+        for ann in de.iterfind("ssd:Annotations/ssc:Annotation", NS):
+            fixed = ann.find("osp:Algorithm/osp:FixedStepAlgorithm", NS)
+            if ann.get("type") == OSP_ANNOTATION and fixed is not None:
+                step = float(fixed.get("baseStepSize"))
+    return dict(
+        name=ssd.get("name"),
+        components=tuple(components),
+        connections=tuple(connections),
+        units=units,
+        start_time=start,
+        stop_time=stop,
+        step=step,
+        file=file,
+        system=system.get("name"),
+        description=system.get("description") or "",
+    )
+
+
 def read_ssp(
     path: str | os.PathLike[str],
     unpack_to: str | os.PathLike[str] | None = None,
     *,
     unpack: bool = True,
+    variant: str | None = None,
 ) -> SspPackage:
-    """Read an SSP 1.0 package (archive or folder), validated like :func:`validate_ssp`.
+    """Read one SSD of an SSP 1.0 package (archive or folder), validated like
+    :func:`validate_ssp`.
 
     Parameters
     ----------
     path : path
-        The ``.ssp`` archive or a folder with ``SystemStructure.ssd``.
+        The ``.ssp`` archive, a folder with ``SystemStructure.ssd``, or an ``.ssd`` file in
+        such a folder (that SSD is read, as a tool opening it does).
     unpack_to : path, optional
         Folder an archive is unpacked into (default: a new temporary folder, which the caller
         owns; :meth:`Master.from_ssp` removes it with the master).
     unpack : bool
         False: read the description only (an archive is not unpacked; :attr:`SspPackage.root`
         is then the archive and :meth:`SspPackage.fmu` names no file).
+    variant : str, optional
+        The SSD to read, by its name or its file name with or without ``.ssd`` (default:
+        ``SystemStructure.ssd``, or the ``.ssd`` given as ``path``).
 
     Returns
     -------
     SspPackage
-        The package.
+        The SSD, with the names of all the package's SSDs and sets.
 
     Raises
     ------
     SspError
-        An invalid package (naming the schema's messages), a hierarchy of systems, a
-        component that is not an FMU, or a connection with a transformation (which the master
-        does not apply).
+        An invalid package (naming the schema's messages), an unknown variant (naming the
+        package's), a hierarchy of systems, a component that is not an FMU, or a connection
+        with a transformation (which the master does not apply).
     """
     path = Path(path)
     if not path.exists():
         raise SspError(f"SSP package {str(path)!r} does not exist")
+    given = path
+    chosen = None
+    if path.is_file() and path.suffix == ".ssd":
+        chosen = path.name
+        path = path.parent
     entries = _package_entries(path)
     problems = _validate_entries(entries)
     if problems:
         raise SspError(f"{path.name} is not a valid SSP 1.0 package: " + "; ".join(problems))
+    names = {etree.fromstring(entries[f]).get("name"): f for f in _root_ssds(entries)}
+    if variant is not None:
+        files = set(names.values())
+        asked = names.get(variant) or next(
+            (f for f in (variant, f"{variant}.ssd") if f in files), None
+        )
+        if asked is None:
+            listing = ", ".join(f"{n} ({f})" for n, f in names.items())
+            raise SspError(f"{path.name}: no variant {variant!r} (variants: {listing})")
+        if chosen is not None and asked != chosen:
+            raise SspError(f"{given} is not the variant {variant!r} ({asked}) asked for")
+        chosen = asked
+    chosen = chosen or SSD_FILE
+    parsed = {f: _parse_ssd(entries[f], f, entries, f"{path.name}") for f in names.values()}
+    sets: dict[str, dict[str, tuple[SspParameter, ...]]] = {}
+    for f in names.values():
+        for comp in parsed[f]["components"]:
+            for set_name, params in comp.parameter_sets.items():
+                sets.setdefault(set_name, {}).setdefault(comp.name, params)
     if path.is_dir() or not unpack:
         root = path
     else:
@@ -715,68 +1040,11 @@ def read_ssp(
             if unpack_to is None:
                 shutil.rmtree(root, ignore_errors=True)
             raise
-    ssd = etree.fromstring(entries[SSD_FILE])
-    system = ssd.find("ssd:System", NS)
-    if system.find("ssd:Elements/ssd:System", NS) is not None:
-        raise SspError(f"{path.name}: nested systems are not supported by the master")
-    components = []
-    for c in system.iterfind("ssd:Elements/ssd:Component", NS):
-        if c.get("type", FMU_TYPE) != FMU_TYPE:
-            raise SspError(
-                f"{path.name}: component {c.get('name')!r} is not an FMU ({c.get('type')})"
-            )
-        connectors = []
-        for k in c.iterfind("ssd:Connectors/ssd:Connector", NS):
-            typ = next((e for e in k if etree.QName(e).namespace == NS["ssc"]), None)
-            kind = etree.QName(typ).localname if typ is not None else "Real"
-            unit = typ.get("unit") if typ is not None else None
-            connectors.append(SspConnector(k.get("name"), k.get("kind"), kind, unit))
-        sets: dict[str, tuple[SspParameter, ...]] = {}
-        for b in c.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
-            if b.get("source") is not None:
-                set_name, params = _read_ssv(entries[b.get("source")], b.get("source"))
-            else:
-                inline = b.find("ssd:ParameterValues/ssv:ParameterSet", NS)
-                if inline is None:
-                    continue
-                set_name, params = _read_ssv(etree.tostring(inline), f"{c.get('name')} binding")
-            sets[set_name] = sets.get(set_name, ()) + params
-        components.append(SspComponent(c.get("name"), c.get("source"), tuple(connectors), sets))
-    connections = []
-    for e in system.iterfind("ssd:Connections/ssd:Connection", NS):
-        con = SspConnection(
-            e.get("startElement"),
-            e.get("startConnector"),
-            e.get("endElement"),
-            e.get("endConnector"),
-        )
-        if con.start_element is None or con.end_element is None:
-            raise SspError(f"{path.name}: connection {con} uses a connector of the system itself")
-        if any(etree.QName(x).localname.endswith("Transformation") for x in e):
-            raise SspError(f"{path.name}: connection {con} has a transformation; not supported")
-        connections.append(con)
-    units = {}
-    for u in ssd.iterfind("ssd:Units/ssc:Unit", NS):
-        base = u.find("ssc:BaseUnit", NS)
-        attrib = base.attrib if base is not None else {}
-        units[u.get("name")] = {k: int(v) for k, v in attrib.items() if k in BASE_UNITS}
-    start = stop = step = None
-    de = ssd.find("ssd:DefaultExperiment", NS)
-    if de is not None:
-        start = float(de.get("startTime")) if de.get("startTime") is not None else None
-        stop = float(de.get("stopTime")) if de.get("stopTime") is not None else None
-        for ann in de.iterfind("ssd:Annotations/ssc:Annotation", NS):
-            fixed = ann.find("osp:Algorithm/osp:FixedStepAlgorithm", NS)
-            if ann.get("type") == OSP_ANNOTATION and fixed is not None:
-                step = float(fixed.get("baseStepSize"))
     return SspPackage(
-        path=path,
+        path=given,
         root=root,
-        name=ssd.get("name"),
-        components=tuple(components),
-        connections=tuple(connections),
-        units=units,
-        start_time=start,
-        stop_time=stop,
-        step=step,
+        variants=names,
+        sets=sets,
+        documentation=tuple(sorted(n for n in entries if n.startswith("documentation/"))),
+        **parsed[chosen],
     )

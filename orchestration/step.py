@@ -48,6 +48,7 @@ class JacobiStep:
         self._set_inputs = exchange.set_inputs
         self._input_ops = [op for op in exchange.input_ops if op is not None]
         self.y = exchange.y
+        self.converts = exchange.converts
 
     def _held(self, h: float, y_prev: np.ndarray, h_prev: float) -> np.ndarray:
         """Mean over [t, t+h] of the line through the values at t - h_prev and t."""

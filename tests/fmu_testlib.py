@@ -30,6 +30,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import zipfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -810,3 +811,39 @@ def call_sequence(steps: list[tuple[str, Callable[[], Any]]]) -> None:
             fn()
         except Exception as exc:
             raise AssertionError(f"{name} failed: {exc}") from exc
+
+
+def fmu_with_units(
+    src: Path, dst: Path, units: dict[str, str | None], defs: dict[str, str] | None = None
+) -> Path:
+    """A copy of an FMU whose model description declares other units for some Real variables.
+
+    ``units``: variable -> unit name (None: no unit); ``defs``: unit name -> the attributes of
+    its ``BaseUnit`` as XML text (``'kg="1" m="2" s="-2" factor="1000"'``), added to (or made
+    into) ``UnitDefinitions``. The FMU's code is unchanged: it computes with the numbers it is
+    given, so declaring a unit is honest only where every value it meets is given in it.
+    """
+    from xml.etree import ElementTree as ET
+
+    with zipfile.ZipFile(src) as z:
+        entries = {i.filename: z.read(i.filename) for i in z.infolist()}
+    root = ET.fromstring(entries["modelDescription.xml"])
+    unit_defs = root.find("UnitDefinitions")
+    if unit_defs is None and defs:
+        unit_defs = ET.Element("UnitDefinitions")
+        after = max(i for i, e in enumerate(root) if e.tag in ("CoSimulation", "ModelExchange"))
+        root.insert(after + 1, unit_defs)
+    for name, base in (defs or {}).items():
+        unit_defs.append(ET.fromstring(f'<Unit name="{name}"><BaseUnit {base}/></Unit>'))
+    for sv in root.iter("ScalarVariable"):
+        if sv.get("name") in units:
+            real = sv.find("Real")
+            real.attrib.pop("displayUnit", None)
+            real.attrib.pop("unit", None)
+            if units[sv.get("name")] is not None:
+                real.set("unit", units[sv.get("name")])
+    entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in entries.items():
+            z.writestr(name, data)
+    return dst

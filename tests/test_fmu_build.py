@@ -29,7 +29,7 @@ from fmpy.validation import validate_fmu
 
 from drillstring.model.digital.controller import OperatingPoint
 from drillstring.model.engine import Engine, EngineOptions
-from drillstring.model.params import REFERENCE, ScaledParams
+from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
 from drillstring.model.sensing import Sensing
 
 pytestmark = pytest.mark.fmu
@@ -137,6 +137,24 @@ def test_documentation_says_what_a_host_needs(built):
             assert f"<code>{v.name}</code>" in doc
     plant = (built.plant.unzipped / "documentation" / "index.html").read_text()
     assert "bit bouncing" in plant and "dphi0 &gt; -omega0" in plant
+
+
+def test_documentation_states_what_a_host_reads_as_time(built):
+    """No FMU declares an independent variable, so FMI 2.0 makes its time seconds: the scaled
+    FMUs' documentation states that their numbers are tau, in units of t* of the rig; the SI
+    FMUs' that their time is in seconds."""
+    t_star = f"{REFERENCE_RIG.t_star:.6g} s for the reference rig"
+    for b in (built, built.si):
+        for unit in (b.plant, b.controller, b.topdrive):
+            md = read_model_description(str(unit.fmu))
+            assert not any(v.causality == "independent" for v in md.modelVariables)
+            doc = (unit.unzipped / "documentation" / "index.html").read_text()
+            assert "time</code> with unit <code>s</code>" in doc, unit.model
+            if b is built:
+                assert "scaled time tau = t/t*" in doc and t_star in doc, unit.model
+                assert "<code>t_on</code>" in doc or "<code>h</code>" in doc
+            else:
+                assert "this FMU's time is in seconds" in doc, unit.model
 
 
 def test_every_variable_has_description_and_unit(built):

@@ -8,7 +8,8 @@
   engine times, so only the conversions of the outputs differ) -- to 1e-12 relative, every
   output; the torque on bit also against eqs. (4) and (7) of the rig at the SI depth of cut;
 * the SI closed loop of Fig. 5 equals the scaled closed loop, converted;
-* the SI controller's output is the scaled law converted (units.PhysicalFeedback).
+* the SI controller's output is the scaled law converted (its parameters by their dimensions,
+  drillstring.model.laws).
 
 "Relative" is max |a - b| over the run divided by max |b| of the scaled signal converted.
 """

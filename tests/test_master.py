@@ -10,13 +10,15 @@ from __future__ import annotations
 import csv
 import importlib.util
 import math
+import re
 from pathlib import Path
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
 from drillstring.orchestration import step_control as sc
-from drillstring.orchestration.master import Master, StepControl, Unit
+from drillstring.orchestration.master import Connection, Master, StepControl, Unit
 
 pytestmark = pytest.mark.fmu
 
@@ -420,3 +422,58 @@ def test_recorded_extra_variables_and_progress_bar(fmus, capsys):
     np.testing.assert_array_equal(res["A.k"], 1.0)
     np.testing.assert_array_equal(res["B.k"], -1.0)
     assert "co-simulation" in capsys.readouterr().err
+
+
+# -- units on connections -------------------------------------------------------------------
+
+KNM = {"kN.m": 'kg="1" m="2" s="-2" factor="1000"', "N.m": 'kg="1" m="2" s="-2"'}
+
+
+@pytest.mark.parametrize("scheme", ["jacobi", "gauss-seidel"])
+@pytest.mark.parametrize("extrapolation", ["zoh", "linear"])
+def test_connections_convert_between_units_of_one_dimension(fmus, tmp_path, scheme, extrapolation):
+    """Integrators whose state is declared in kN.m and input in N.m: every connection multiplies
+    by 1000, so the loop is the hand-written recurrence with both gains times 1000 (the fixed-step
+    Jacobi run is the Python loop: the C loop does not convert), and the recorded inputs are in
+    N.m."""
+    declared = {"x": "kN.m", "u": "N.m"}
+    knm = tl.fmu_with_units(fmus["integrator"], tmp_path / "knm.fmu", declared, KNM)
+    units = [Unit("A", knm, {"x0": 1.0, "k": 1e-3}), Unit("B", knm, {"x0": 0.0, "k": -1e-3})]
+    with Master(units, ["A.x -> B.u", "B.x -> A.u"]) as m:
+        conv = {
+            k: (c.source, c.target, c.factor, c.offset) for k, c in m.system.conversions.items()
+        }
+        res = m.run(2.0, 0.1, scheme=scheme, extrapolation=extrapolation, progress=False)
+    assert conv == dict.fromkeys(("B.u", "A.u"), ("kN.m", "N.m", 1000.0, 0.0))
+    a, b = recurrence(scheme, extrapolation, [0.1] * 20, ka=1.0, kb=-1.0)
+    assert np.allclose(res["A.x"], a, rtol=1e-13, atol=1e-15)
+    assert np.allclose(res["B.x"], b, rtol=1e-13, atol=1e-15)
+    assert np.array_equal(res["B.u"], res["A.x"] * 1000.0)
+    assert np.ptp(res["B.x"]) > 0.5
+    # without conversion (convert_units=False) the values pass as they are: gains 1e-3
+    plain_links = [
+        Connection(a, b, convert_units=False) for a, b in (("A.x", "B.u"), ("B.x", "A.u"))
+    ]
+    with Master(units, plain_links) as m:
+        plain = m.run(2.0, 0.1, scheme=scheme, extrapolation=extrapolation, progress=False)
+    a, b = recurrence(scheme, extrapolation, [0.1] * 20, ka=1e-3, kb=-1e-3)
+    assert np.allclose(plain["B.x"], b, rtol=1e-13, atol=1e-15)
+
+
+def test_connections_of_different_dimensions_are_refused(fmus, tmp_path):
+    defs = {"rad/s": 's="-1" rad="1"', "N.m": KNM["N.m"]}
+    bad = tl.fmu_with_units(
+        fmus["integrator"], tmp_path / "bad.fmu", {"x": "rad/s", "u": "N.m"}, defs
+    )
+    with pytest.raises(
+        ValueError,
+        match=re.escape(
+            "connection 'A.x -> B.u': the source's unit 'rad/s' (dimension s-1.rad) and the "
+            "target's unit 'N.m' (dimension kg.m2.s-2) are of different dimensions: not "
+            "convertible"
+        ),
+    ):
+        Master([Unit("A", bad), Unit("B", bad)], ["A.x -> B.u", "B.x -> A.u"])  # fmt: skip
+    # an end without a unit: nothing to check, nothing converted
+    with Master([Unit("A", bad), Unit("B", fmus["integrator"])], ["A.x -> B.u"]) as m:
+        assert m.system.conversions == {}

@@ -138,7 +138,7 @@ def test_fmus_on_their_python_path(built, monkeypatch, spy):
 def test_topdrive_package_bit_identical(built, system, monkeypatch, spy):
     b = built if system == "scaled" else built.si
     stop = 10.0 * (TS if system == "si" else 1.0)
-    with kept_sys_path(), Master.from_ssp(b.topdrive_ssp, ["fig6", "z-torque"]) as m:
+    with kept_sys_path(), Master.from_ssp(b.topdrive_ssp, variant="fig6-z-torque") as m:
         for kw in ({}, {"exchange": "simple", "grid": "sum"}):
             x, y = both(m, monkeypatch, spy, stop, m.ssp.step, **kw)
             assert x.completed

@@ -11,8 +11,8 @@
   SI parameters (``law_from_si``), compared in SI;
 * the top-drive FMU takes the LMI controller's place in the LMI loop's package
   (``Master.from_ssp(..., fmus={"controller": ...})``);
-* Ecos runs the SI package like the master with Ecos's coupling;
-* the package's tunings and the FMUs' start values, ranges and ModelStructure;
+* Ecos runs the SI package's ``fig6-z-torque`` SSD like the master with Ecos's coupling;
+* the packages' SSDs carry the tunings; the FMUs' start values, ranges and ModelStructure;
 * the FMU's law on hand-computed numbers, its FMU state across the switch-on.
 """
 
@@ -102,9 +102,9 @@ def test_controller_fmu_in_the_master_equals_its_sampled_law(built, name):
     the torque (the issue asks 1e-12): the plant FMU's engine and the sampled loop take the same
     steps, the FMU and the loop evaluate the same law functions on the same numbers."""
     if name == "lmi":
-        res = _master(built.ssp, ["fig6"], TAU_END, H)
+        res = _master(built.ssp, None, TAU_END, H, variant="fig6")
     else:
-        res = _master(built.topdrive_ssp, ["fig6", name], TAU_END, H)
+        res = _master(built.topdrive_ssp, None, TAU_END, H, variant=f"fig6-{name}")
     law = _laws(built)[name]
     n = round(TAU_END / H)
     mono = _sampled(law, SCALED, built, n, H)
@@ -163,10 +163,10 @@ def test_si_fmu_in_the_master_equals_its_law_converted_back(built, name):
     LMI loop in tests/test_fmu_si.py); measured at most 2.3e-13 (torsional, torque) and
     8.2e-12 (axial velocity)."""
     si = built.si
-    applied = read_ssp(si.topdrive_ssp, unpack=False).start_values(["fig6", name])
+    applied = read_ssp(si.topdrive_ssp, unpack=False, variant=f"fig6-{name}").start_values()
     values = {**_starts(si.topdrive), **{k: v for k, (_, v) in applied["controller"].items()}}
     n = math.ceil((FIG6.t_on + 8.0) * SC.t_star / H)
-    res = _master(si.topdrive_ssp, ["fig6", name], n * H, H)
+    res = _master(si.topdrive_ssp, None, n * H, H, variant=f"fig6-{name}")
     kind = "ZTorque" if values["z_gain"] > 0 else "SpeedPI"
     keys = ("kp", "ki") if kind == "SpeedPI" else TOPDRIVE_PARAMETERS
     law = law_from_si(
@@ -196,21 +196,22 @@ def test_si_fmu_in_the_master_equals_its_law_converted_back(built, name):
 
 
 def test_topdrive_fmu_takes_the_lmi_controllers_place_in_its_package(built):
-    """Same connectors: the top-drive FMU closes the LMI loop's package (the FMUs' own start
-    values: SoftSpeed from t_on = 0) exactly as its own package does. The package's Fig. 6 set
-    carries the paper's latch, which the top-drive FMU has not: a clear error."""
-    swapped = _master(built.ssp, None, 2.0, H, fmus={"controller": built.topdrive.fmu})
-    own = _master(built.topdrive_ssp, None, 2.0, H)
+    """Same connectors: the top-drive FMU closes the LMI loop's package (no parameter set: the
+    FMUs' own start values, SoftSpeed from t_on = 0) exactly as its own package does. The LMI
+    package's sets carry the paper's gains and latch, which the top-drive FMU has not: a clear
+    error."""
+    swapped = _master(built.ssp, (), 2.0, H, fmus={"controller": built.topdrive.fmu})
+    own = _master(built.topdrive_ssp, (), 2.0, H)
     assert swapped.data.dtype.names == own.data.dtype.names
     for col in swapped.data.dtype.names:
         assert np.array_equal(swapped[col], own[col]), col
     assert np.ptp(own["controller.R_minus_R0"]) > 0.01
-    with pytest.raises((SspError, ValueError), match="latch"):
-        Master.from_ssp(built.ssp, "fig6", fmus={"controller": built.topdrive.fmu})
-    # and in SI, with the Fig. 6 switch-on of the top-drive package
+    with pytest.raises((SspError, ValueError), match="has no variable 'F\\[1\\]'"):
+        Master.from_ssp(built.ssp, variant="fig6", fmus={"controller": built.topdrive.fmu})
+    # and in SI
     si = built.si
-    swapped = _master(si.ssp, None, 0.5, H, fmus={"controller": si.topdrive.fmu})
-    own = _master(si.topdrive_ssp, None, 0.5, H)
+    swapped = _master(si.ssp, (), 0.5, H, fmus={"controller": si.topdrive.fmu})
+    own = _master(si.topdrive_ssp, (), 0.5, H)
     assert np.array_equal(swapped.data, own.data)
 
 
@@ -218,19 +219,27 @@ def test_topdrive_fmu_takes_the_lmi_controllers_place_in_its_package(built):
 def test_packages_carry_the_tunings_and_the_default_is_the_fmus_start(built, variant):
     b = built.si if variant.name == "si" else built
     p = read_ssp(b.topdrive_ssp, unpack=False)
-    assert p.parameter_set_names == TOPDRIVE_SETS
+    assert set(p.parameter_set_names) == set(TOPDRIVE_SETS)
+    assert TOPDRIVE_SETS == ("fig5", *(f"fig6-{t}" for t in INDUSTRIAL))
     assert [c.name for c in p.components] == ["plant", "controller"]
     assert [str(c) for c in p.connections] == list(variant.connections)
-    assert p.start_values("fig6")["controller"] == {
-        "t_on": ("Real", pytest.approx(SC.time(FIG6.t_on) if variant.name == "si" else 25.0)),
-        "enabled": ("Boolean", True),
-    }
+    t_on = SC.time(FIG6.t_on) if variant.name == "si" else 25.0
     starts = _starts(b.topdrive)
     tunings = topdrive_tunings(variant)
     for name in INDUSTRIAL:
-        got = {k: v for k, (_, v) in p.start_values(name)["controller"].items()}
-        assert got == tunings[name]
+        six = read_ssp(b.topdrive_ssp, unpack=False, variant=f"fig6-{name}").start_values()
+        got = {k: v for k, (_, v) in six["controller"].items()}
+        assert {k: got[k] for k in TOPDRIVE_PARAMETERS} == tunings[name]
+        assert got["t_on"] == pytest.approx(t_on, rel=1e-15) and got["enabled"] is True
+        assert {k: got[k] for k in got if k not in (*TOPDRIVE_PARAMETERS, "t_on")} == {
+            k: starts[k] for k in got if k not in (*TOPDRIVE_PARAMETERS, "t_on")
+        }
     assert {k: starts[k] for k in TOPDRIVE_PARAMETERS} == tunings[TOPDRIVE_DEFAULT]
+    # SystemStructure.ssd (fig5): the FMU's start values, SoftSpeed from t = 0
+    five = {k: v for k, (_, v) in p.start_values()["controller"].items()}
+    md = read_model_description(str(b.topdrive.fmu))
+    assert set(five) == {v.name for v in md.modelVariables if v.causality == "parameter"}
+    assert five == {k: starts[k] for k in five}
 
 
 def test_start_values_are_the_soft_speed_rule_and_the_gains_file(built):
@@ -354,41 +363,42 @@ def test_disabled_or_z_gain_zero(built):
 
 
 def test_ecos_runs_the_si_topdrive_package_like_the_master(built):
-    """An independent host: Ecos (its Python API) applies the ``z-torque`` set to the
-    controller (the plant keeps its start values: Fig. 5's initial state, switch-on at 0) and
-    agrees with the master under Ecos's coupling (simple exchange, accumulated time) to 1e-9
-    relative, as the LMI package does (tests/test_ssp.py); measured 0.0."""
+    """An independent host: Ecos (its Python API, on the ``fig6-z-torque`` SSD laid out as a
+    folder, its set named) runs the SI package's Z-Torque experiment past the switch-on at
+    23.06 s and agrees with the master under Ecos's coupling (simple exchange, accumulated
+    time) to 1e-9 relative, as the LMI package does (tests/test_ssp.py); measured 0.0."""
     ssp = built.si.topdrive_ssp
-    stop = 3.0
-    with kept_sys_path(), Master.from_ssp(ssp, "z-torque") as m:
+    stop = 24.0
+    with kept_sys_path(), Master.from_ssp(ssp, variant="fig6-z-torque") as m:
         ref = m.run(stop, H, progress=False, exchange="simple", grid="sum")
     assert ref.completed
     # the plant's signals, which integrate the torque the plant was given, as tests/test_ssp.py
     # compares the LMI package: the controller output Ecos records is read at another point of
-    # its step than the master's (on this run it differs by up to 2.5 %, on the LMI package's
-    # fig5 by 20 kN m), while the plants and the controllers' inputs agree exactly
+    # its step than the master's, while the plants and the controllers' inputs agree exactly
     names = [f"plant.{q}" for q in (*tl.FEEDBACK_SI, *AXIAL)]
-    got = run_ecos(ssp, "z-torque", stop, H, names)
+    got = run_ecos(ssp, "fig6-z-torque", stop, H, names, variant="fig6-z-torque")
     assert len(got) == len(ref.time) - 1
     assert np.max(np.abs(got["time"] - ref.time[1:])) == 0.0
     worst = {
         n: float(np.max(np.abs(got[n] - ref[n][1:])) / np.max(np.abs(ref[n][1:]))) for n in names
     }
-    print("Ecos vs master, DrillStringTopDriveSI.ssp, z-torque:", max(worst.values()))
+    print("Ecos vs master, DrillStringTopDriveSI.ssp, fig6-z-torque:", max(worst.values()))
     assert max(worst.values()) <= 1e-9, worst
-    assert np.ptp(ref["controller.table_torque"]) > 10.0
+    after = ref.time > SC.time(FIG6.t_on)
+    assert np.ptp(ref["controller.table_torque"][after]) > 10.0
 
 
-def test_cosim_command_applies_several_sets_in_order(built, tmp_path, capsys):
-    """``drillstring cosim PKG --parameter-set fig6,z-torque``: the master of those two sets."""
+def test_cosim_command_runs_a_variant(built, tmp_path, capsys):
+    """``drillstring cosim PKG --variant fig6-z-torque``: the master of that SSD."""
     out = tmp_path / "zt"
     code = cosim_main(
-        [str(built.topdrive_ssp), "--out", str(out), "--parameter-set", "fig6,z-torque",
+        [str(built.topdrive_ssp), "--out", str(out), "--variant", "fig6-z-torque",
          "--stop-time", "1.0", "--no-progress"]
     )  # fmt: skip
     assert code == 0, capsys.readouterr().err
     data = np.genfromtxt(out / "cosim.csv", delimiter=",", names=True)
-    ref = _master(built.topdrive_ssp, ["fig6", "z-torque"], 1.0, H)
+    ref = _master(built.topdrive_ssp, None, 1.0, H, variant="fig6-z-torque")
     assert np.array_equal(data["plantdphi"], ref["plant.dphi"])
-    assert json.loads((out / "cosim.json").read_text())["parameter_set"] == ["fig6", "z-torque"]
+    summary = json.loads((out / "cosim.json").read_text())
+    assert (summary["variant"], summary["sets_applied"]) == ("fig6-z-torque", ["fig6-z-torque"])
     assert data["plantdphi"][0] == FIG6.dphi0  # Fig. 6's initial state, not the FMU's -2.5

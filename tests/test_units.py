@@ -23,7 +23,16 @@ from drillstring.model.digital.block import fmu_output, fmu_step
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
 from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG
-from drillstring.model.units import DIMENSIONS, UNITS, SIScaling, si_scale
+from drillstring.model.units import (
+    DIMENSIONS,
+    UNITS,
+    DisplayUnit,
+    SIScaling,
+    UnitDef,
+    UnitMismatch,
+    si_scale,
+    unit_conversion,
+)
 
 SC = SIScaling(REFERENCE_RIG)
 LAW = AffineFeedback(F=(-3448.5, -1574.7, 481.8, -89.0), K0=0.14, R_ff=-0.14, t_on=0.3)
@@ -195,3 +204,50 @@ def test_base_unit_exponents_by_dimensional_analysis():
     assert UNITS["N.m"].display_unit("kN.m").factor == 1e-3
     with pytest.raises(ValueError, match="no display unit 'rpm'"):
         UNITS["m"].display_unit("rpm")
+
+
+# ------------------------------------------------------------------------------------------------
+# conversions between units of the same dimension (FMI 2.0 / SSP 1.0 BaseUnit factor and offset)
+# ------------------------------------------------------------------------------------------------
+
+
+def test_conversions_by_hand():
+    rpm = UNITS["rad/s"].display_definition("rpm")
+    # 51.756 rpm = 51.756 * 2 pi / 60 rad/s (the reference rig's Omega0 = 5.41987 rad/s)
+    to_rad_s = unit_conversion(rpm, UNITS["rad/s"])
+    assert to_rad_s(51.756) == pytest.approx(51.756 * math.pi / 30.0, rel=1e-15)
+    assert to_rad_s(51.756) == pytest.approx(5.4198, abs=1e-4)
+    assert unit_conversion(UNITS["rad/s"], rpm)(math.pi) == pytest.approx(30.0, rel=1e-15)
+    knm = UNITS["N.m"].display_definition("kN.m")
+    assert (knm.factor, knm.offset) == (1000.0, 0.0)
+    c = unit_conversion(knm, UNITS["N.m"])
+    assert (c.factor, c.offset, c(2.5)) == (1000.0, 0.0, 2500.0)
+    assert unit_conversion(UNITS["N.m"], knm)(2500.0) == 2.5
+    # offsets: degF -> degC (212 degF = 100 degC, 32 degF = 0 degC, -40 = -40)
+    degc = UnitDef("degC", {"K": 1}, offset=273.15)
+    degf = UnitDef("degF", {"K": 1}, factor=5.0 / 9.0, offset=459.67 * 5.0 / 9.0)
+    f_to_c = unit_conversion(degf, degc)
+    assert f_to_c(212.0) == pytest.approx(100.0, abs=1e-12)
+    assert f_to_c(32.0) == pytest.approx(0.0, abs=1e-12)
+    assert f_to_c(-40.0) == pytest.approx(-40.0, abs=1e-12)
+    assert unit_conversion(degc, UnitDef("K", {"K": 1}))(20.0) == pytest.approx(293.15, rel=1e-15)
+    # a display unit with an offset becomes a unit with the inverse offset
+    shifted = UnitDef("K", {"K": 1}, (DisplayUnit("degC", 1.0, -273.15),)).display_definition(
+        "degC"
+    )
+    assert shifted.offset == 273.15
+    # the same unit under another name converts as the identity
+    assert unit_conversion(UnitDef("J", {"kg": 1, "m": 2, "s": -2}), UNITS["N.m"]).identity
+
+
+def test_incompatible_units_are_refused_naming_both():
+    with pytest.raises(UnitMismatch, match=r"'N\.m' \(dimension kg\.m2\.s-2\) cannot be converted"
+                       r" to 'rad/s' \(dimension s-1\.rad\)"):  # fmt: skip
+        unit_conversion(UNITS["N.m"], UNITS["rad/s"])
+    assert UNITS["1"].dimension == "1" and UNITS["N.m/rad"].dimension == "kg.m2.s-2.rad-1"
+    with pytest.raises(UnitMismatch):
+        unit_conversion(UNITS["1"], UNITS["rad"])  # rad is a base unit in FMI 2.0 and SSP 1.0
+    with pytest.raises(ValueError, match="factor must not be 0"):
+        UnitDef("zero", {"m": 1}, factor=0.0)
+    with pytest.raises(ValueError, match="exponent of m must be an int"):
+        UnitDef("half", {"m": 0.5})

@@ -3,13 +3,15 @@
 Examples::
 
     drillstring cosim build/DrillStringClosedLoopSI.ssp --out out/cosim            # Fig. 5, SI
-    drillstring cosim build/DrillStringClosedLoop.ssp --out out/fig6 --parameter-set fig6
-    drillstring cosim build/DrillStringTopDrive.ssp --out out/zt --parameter-set fig6,z-torque
+    drillstring cosim build/DrillStringClosedLoop.ssp --out out/fig6 --variant fig6
+    drillstring cosim build/DrillStringTopDrive.ssp --out out/zt --variant fig6-z-torque
     drillstring cosim my_loop.ssp --out out/mine --stop-time 10 --step 1e-3
 
-The package's components, connections and the named parameter set (default: the first one it
-binds) make the system (:meth:`~drillstring.orchestration.master.Master.from_ssp`); the stop
-time and step default to the package's default experiment. Writes ``cosim.csv`` (FMI
+The SSD of the package (``SystemStructure.ssd``, or the variant named) makes the system: its
+components, connections and parameter bindings as SSP 1.0 applies them, or the parameter sets
+named with ``--parameter-set``
+(:meth:`~drillstring.orchestration.master.Master.from_ssp`); the stop time and step default to
+the SSD's default experiment. Writes ``cosim.csv`` (FMI
 Cross-Check layout: ``"time"`` first, every connected variable and output connector),
 ``speeds.png`` (bit and table speeds, in rpm for the SI package) and ``cosim.json``. Either unit
 system: the variant is recognised by the connections.
@@ -43,7 +45,7 @@ from drillstring.orchestration.hosts import run_ecos
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.monolithic import run_monolithic
 from drillstring.orchestration.results import CosimResult
-from drillstring.orchestration.ssp import SspError, read_ssp
+from drillstring.orchestration.ssp import SspError
 from drillstring.plotting import new_figure
 
 __all__ = ["cosim_main", "plot_speeds", "run_si_demo", "si_demo_lines", "variant_of"]
@@ -59,10 +61,16 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("ssp", type=Path, help="the .ssp archive or an SSP folder")
     ap.add_argument("--out", type=Path, required=True, help="output folder")
     ap.add_argument(
+        "--variant",
+        default=None,
+        help="the SSD of the package to run, by name or file, e.g. fig6 (default: "
+        "SystemStructure.ssd)",
+    )
+    ap.add_argument(
         "--parameter-set",
         default=None,
-        help="parameter set(s) of the package to apply, comma-separated and applied in that "
-        "order, e.g. fig6,z-torque (default: the first it binds; 'none': none)",
+        help="parameter set(s) of the package to apply instead of the SSD's bindings, "
+        "comma-separated and applied in that order (default: the SSD's bindings; 'none': none)",
     )
     ap.add_argument("--stop-time", type=float, default=None, help="default: the package's")
     ap.add_argument("--step", type=float, default=None, help="macro step (default: the package's)")
@@ -161,17 +169,17 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
     """
     args = _parser().parse_args(argv)
     try:
-        names: str | list[str] | None = None
-        if args.parameter_set not in (None, "none"):
+        names: str | list[str] | tuple[()] | None = None
+        if args.parameter_set == "none":
+            names = ()
+        elif args.parameter_set is not None:
             given = [n.strip() for n in args.parameter_set.split(",")]
             names = given[0] if len(given) == 1 else given  # several: applied in this order
-        if args.parameter_set is None:
-            sets = read_ssp(args.ssp, unpack=False).parameter_set_names
-            names = sets[0] if sets else None
         with kept_sys_path():
-            master = Master.from_ssp(args.ssp, names)
+            master = Master.from_ssp(args.ssp, names, variant=args.variant)
         package = master.ssp
         assert package is not None
+        applied = package.bound_sets if names is None else _set_list(names)
         stop = args.stop_time if args.stop_time is not None else package.stop_time
         step = args.step if args.step is not None else package.step
         if stop is None or step is None:
@@ -199,11 +207,19 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
     files = {"csv": str(out / "cosim.csv")}
     if variant is not None and len(result.time) > 1:
         files["png"] = str(
-            plot_speeds(out / "speeds.png", [("master", result)], variant, title=package.name)
+            plot_speeds(
+                out / "speeds.png",
+                [("master", result)],
+                variant,
+                title=f"{package.system} {package.name}",
+            )
         )
     summary = {
         "ssp": str(args.ssp),
-        "parameter_set": names,
+        "variant": package.name,
+        "ssd": package.file,
+        "parameter_set": list(names) if isinstance(names, tuple) else names,
+        "sets_applied": list(applied),
         "start_time": start,
         "stop_time": stop,
         "step": step,
@@ -221,10 +237,15 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
     write_json(out / "cosim.json", summary)
     what = "completed" if result.completed else f"stopped: {result.failure}"
     print(
-        f"drillstring cosim: {package.name}, parameter set {names}, {result.stats.accepted} "
+        f"drillstring cosim: {package.system} {package.name} ({package.file}), parameter sets "
+        f"{', '.join(applied) or 'none'}, {result.stats.accepted} "
         f"steps of {step:g} to {summary['time_reached']:.6g}: {what}; wrote {out}"
     )
     return 0 if result.completed else 1
+
+
+def _set_list(names: str | Sequence[str]) -> tuple[str, ...]:
+    return (names,) if isinstance(names, str) else tuple(names)
 
 
 # ------------------------------------------------------------------------------------------------

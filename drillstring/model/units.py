@@ -50,9 +50,11 @@ from typing import Any
 
 from drillstring.model.engine import InitialState
 from drillstring.model.params import PhysicalParams, ScaledParams, weight_on_bit
+from drillstring.validation import check_real
 
 __all__ = [
     "BASE_UNITS",
+    "Conversion",
     "DisplayUnit",
     "DIMENSIONS",
     "Dimension",
@@ -60,10 +62,12 @@ __all__ = [
     "SIScaling",
     "UNITS",
     "UnitDef",
+    "UnitMismatch",
     "si_scale",
     "si_plant_values",
     "si_to_tau",
     "si_torque_deviation",
+    "unit_conversion",
 ]
 
 #: The SI base units of FMI 2.0 and SSP 1.0, in the order of their ``BaseUnit`` attributes.
@@ -81,16 +85,93 @@ class DisplayUnit:
 
 @dataclass(frozen=True)
 class UnitDef:
-    """A unit by the exponents of the SI base units (:data:`BASE_UNITS`) and its display units."""
+    """A unit by the exponents of the SI base units (:data:`BASE_UNITS`) and its display units.
+
+    ``factor`` and ``offset`` are those of FMI 2.0's and SSP 1.0's ``BaseUnit``: a value ``x``
+    in this unit is ``factor * x + offset`` in the SI base units (1 and 0 for every unit of
+    :data:`UNITS`; ``kN.m`` as a unit of its own has factor 1000, ``degC`` offset 273.15).
+    """
 
     name: str
     exponents: Mapping[str, int] = field(default_factory=dict)
     display: tuple[DisplayUnit, ...] = ()
+    factor: float = 1.0
+    offset: float = 0.0
 
     def __post_init__(self) -> None:
         unknown = set(self.exponents) - set(BASE_UNITS)
         if unknown:
             raise ValueError(f"unit {self.name!r}: unknown base units {sorted(unknown)}")
+        for k, e in self.exponents.items():
+            if isinstance(e, bool) or not isinstance(e, int):
+                raise ValueError(f"unit {self.name!r}: exponent of {k} must be an int, got {e!r}")
+        check_real(f"factor of unit {self.name!r}", self.factor)
+        check_real(f"offset of unit {self.name!r}", self.offset)
+        if self.factor == 0.0:
+            raise ValueError(f"unit {self.name!r}: factor must not be 0")
+
+    @property
+    def dimension(self) -> str:
+        """The base-unit exponents as text, in the order of :data:`BASE_UNITS`.
+
+        Returns
+        -------
+        str
+            E.g. ``"kg.m2.s-2"`` for N m, ``"s-1.rad"`` for rad/s, ``"1"`` for a
+            dimensionless unit.
+        """
+        parts = []
+        for k in BASE_UNITS:
+            e = self.exponents.get(k, 0)
+            if e:
+                parts.append(k if e == 1 else f"{k}{e}")
+        return ".".join(parts) or "1"
+
+    def same_dimension(self, other: UnitDef) -> bool:
+        """Whether ``other`` has the same base-unit exponents (absent counts as 0).
+
+        Parameters
+        ----------
+        other : UnitDef
+            Another unit.
+
+        Returns
+        -------
+        bool
+            True when every exponent of :data:`BASE_UNITS` agrees.
+        """
+        return all(self.exponents.get(k, 0) == other.exponents.get(k, 0) for k in BASE_UNITS)
+
+    def display_definition(self, name: str) -> UnitDef:
+        """The display unit ``name`` as a unit of its own (for a parameter or a connector).
+
+        FMI 2.0 displays ``x`` as ``factor_d * x + offset_d``; a value ``v`` in the display unit
+        is therefore ``x = (v - offset_d) / factor_d`` in this unit and
+        ``self.factor * x + self.offset`` in the base units.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`display`, e.g. ``"rpm"`` of ``rad/s``.
+
+        Returns
+        -------
+        UnitDef
+            Unit ``name`` with this unit's exponents, factor ``self.factor / factor_d`` and
+            offset ``self.offset - self.factor * offset_d / factor_d``.
+
+        Raises
+        ------
+        ValueError
+            This unit has no display unit ``name``.
+        """
+        d = self.display_unit(name)
+        return UnitDef(
+            name,
+            dict(self.exponents),
+            factor=self.factor / d.factor,
+            offset=self.offset - self.factor * d.offset / d.factor,
+        )
 
     def display_unit(self, name: str) -> DisplayUnit:
         """The display unit called ``name``.
@@ -141,6 +222,77 @@ UNITS: dict[str, UnitDef] = {
         UnitDef("N.m/s", {"kg": 1, "m": 2, "s": -3}, (DisplayUnit("kN.m/s", 1e-3),)),
     )
 }
+
+
+class UnitMismatch(ValueError):
+    """Two units of different dimensions: a value in one cannot be given in the other."""
+
+
+@dataclass(frozen=True)
+class Conversion:
+    """A value in unit ``source`` as a value in unit ``target``: ``factor * x + offset``."""
+
+    source: str
+    target: str
+    factor: float
+    offset: float = 0.0
+
+    @property
+    def identity(self) -> bool:
+        """True when the conversion changes no value (factor 1, offset 0)."""
+        return self.factor == 1.0 and self.offset == 0.0
+
+    def __call__(self, x: Any) -> Any:
+        """``x`` (float or array, in :attr:`source`) in :attr:`target`.
+
+        Parameters
+        ----------
+        x : float or numpy.ndarray
+            Value(s) in the source unit.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``x * factor + offset``.
+        """
+        return x * self.factor + self.offset
+
+
+def unit_conversion(source: UnitDef, target: UnitDef) -> Conversion:
+    """The conversion of values in ``source`` into ``target`` (same dimension).
+
+    With ``BaseUnit`` factors f and offsets o (:class:`UnitDef`), a value x in ``source`` is
+    f_s x + o_s in the base units, hence (f_s x + o_s - o_t) / f_t in ``target``: factor
+    f_s / f_t, offset (o_s - o_t) / f_t (rpm to rad/s: pi/30; kN.m to N.m: 1000; degF to degC:
+    5/9 and (459.67 * 5/9 - 273.15)).
+
+    Parameters
+    ----------
+    source, target : UnitDef
+        The units.
+
+    Returns
+    -------
+    Conversion
+        ``target = factor * source + offset``; the identity for units of the same factor and
+        offset (whatever their names).
+
+    Raises
+    ------
+    UnitMismatch
+        The base-unit exponents differ; the message names both units and their dimensions.
+    """
+    if not source.same_dimension(target):
+        raise UnitMismatch(
+            f"{source.name!r} (dimension {source.dimension}) cannot be converted to "
+            f"{target.name!r} (dimension {target.dimension})"
+        )
+    return Conversion(
+        source.name,
+        target.name,
+        source.factor / target.factor,
+        (source.offset - target.offset) / target.factor,
+    )
 
 
 @dataclass(frozen=True)
