@@ -644,9 +644,9 @@ def test_a_controller_in_kilonewton_metres_closes_the_newton_metre_loop(built, t
     """The SI top-drive controller declared in kN.m (torque output and every torque-valued
     parameter, :data:`KILO`): the master sets its parameters from the package's N.m values
     divided by 1000 (z_gain times 1000), so that it computes in kN.m, and multiplies its torque
-    by 1000 on the way to the plant. The run is the N.m package's to rounding (asserted 1e-12 relative; Jacobi in C
-    is not used when a connection converts, so the Python loop runs), also under Gauss-Seidel
-    with linear extrapolation."""
+    by 1000 on the way to the plant. The run is the N.m package's to rounding (asserted 1e-12
+    relative; Jacobi in C is not used when a connection converts, so the Python loop runs), also
+    under Gauss-Seidel with linear extrapolation."""
     knm = tl.fmu_with_units(built.si.topdrive.fmu, tmp_path / "TopDriveKNm.fmu", KILO, KNM)
     ssp = built.si.topdrive_ssp
     stop = 24.0 if variant == "fig6-z-torque" else STOP  # past the switch-on at 23.06 s
