@@ -6,14 +6,12 @@ Usage::
 
     python build_fmus.py [--gains out/design/gains.json] [--out build/]
 
-For each of ``fmu_src/drillstring_plant.py`` (``DrillStringPlant.fmu``),
-``fmu_src/torsional_controller.py`` (``TorsionalController.fmu``) and their SI variants
-``fmu_src/drillstring_plant_si.py`` (``DrillStringPlantSI.fmu``) and
-``fmu_src/torsional_controller_si.py`` (``TorsionalControllerSI.fmu``, thin subclasses: the scaled
-script they derive from is bundled beside them; ``docs/si_fmus.md``), and of
-``fmu_src/topdrive_controller.py`` (``TopDriveController.fmu``: the industrial laws, tunings of
-the reference set in its build configuration) with its SI variant
-``fmu_src/topdrive_controller_si.py`` (``TopDriveControllerSI.fmu``):
+For each FMU, generated from two scripts: ``fmu_src/drillstring_plant.py`` (class
+``PlantFmu``: ``DrillStringPlant.fmu`` and ``DrillStringPlantSI.fmu``) and
+``fmu_src/drillstring_controller.py`` (class ``ControllerFmu``: ``TorsionalController.fmu``,
+``TopDriveController.fmu`` with the industrial laws, tunings of the reference set in its build
+configuration, and their SI variants), the unit system and the controller family being class
+attributes of a generated module (:func:`class_module`; ``docs/si_fmus.md``):
 
 1. stage the files bundled into the FMU's ``resources/``: the ``drillstring`` package (the physics;
    no model code is in the FMU scripts), the shared lifecycle ``drillstring_fmu_support.py``, the
@@ -119,23 +117,22 @@ class BuildError(RuntimeError):
 class FmuSpec:
     """One FMU: its model identifier, the script it comes from and how.
 
-    ``base`` None: the script's class of the model identifier's name is the FMU (``bases``: the
-    scripts it derives from, bundled beside it). Otherwise the FMU's class is generated: a
-    module ``<model>.py`` that derives a class named ``model`` from the script's class ``base``
-    with the class ``attributes`` (the unit system, the controller family), so one script gives
-    every variant (:func:`class_module`).
+    The FMU's class is generated: a module ``<model>.py`` that derives a class named ``model``
+    from the script's class ``base`` with the class ``attributes`` (the unit system, the
+    controller family), so one script gives every variant (:func:`class_module`).
     """
 
     model: str
     script: Path
-    base: str | None = None
+    base: str
     attributes: tuple[tuple[str, str], ...] = ()
-    bases: tuple[Path, ...] = ()
 
 
-PLANT = FmuSpec("DrillStringPlant", FMU_SRC / "drillstring_plant.py")
-#: The plant in SI units (time in seconds, torque in N m): the unit system is the class.
-PLANT_SI = FmuSpec("DrillStringPlantSI", FMU_SRC / "drillstring_plant_si.py", bases=(PLANT.script,))
+PLANT_SCRIPT = FMU_SRC / "drillstring_plant.py"
+#: The plant in the paper's scaled quantities and in SI units (time in seconds, torque in N m),
+#: from one script: the unit system is a class attribute.
+PLANT = FmuSpec("DrillStringPlant", PLANT_SCRIPT, "PlantFmu", (("UNIT_SYSTEM", "scaled"),))
+PLANT_SI = FmuSpec("DrillStringPlantSI", PLANT_SCRIPT, "PlantFmu", (("UNIT_SYSTEM", "si"),))
 CONTROLLER_SCRIPT = FMU_SRC / "drillstring_controller.py"
 
 
@@ -159,7 +156,7 @@ _FMU_MODULES = (
     "drillstring_fmu_boot",
     "drillstring_fmu_units",
     *{spec.script.stem for spec in SPECS},
-    *(spec.model for spec in SPECS if spec.base is not None),
+    *(spec.model for spec in SPECS),
 )
 
 
@@ -289,19 +286,17 @@ def entry_module(spec: FmuSpec) -> tuple[str, str]:
     defines nothing new; the script itself is imported once per process.
     """
     name = f"{spec.model}_entry"
-    module = spec.model if spec.base is not None else spec.script.stem
     text = (
         f'"""Entry module of {spec.model}.fmu for pythonfmu\'s library, written by\n'
         "build_fmus.py: executed at every fmi2Instantiate, so it only imports the class (see\n"
         'build_fmus.py, `entry_module`)."""\n\n'
-        f"from {module} import {spec.model}  # noqa: F401\n"
+        f"from {spec.model} import {spec.model}  # noqa: F401\n"
     )
     return name, text
 
 
 def class_module(spec: FmuSpec) -> str:
-    """The text of the generated module ``<model>.py`` of a spec with a ``base`` class."""
-    assert spec.base is not None
+    """The text of the generated module ``<model>.py`` of a spec."""
     lines = [
         f'"""{spec.model}: the class {spec.base} of {spec.script.name} with',
         ", ".join(f"{k} = {v!r}" for k, v in spec.attributes) + " (written by build_fmus.py).",
@@ -321,16 +316,14 @@ def class_module(spec: FmuSpec) -> str:
 
 def _stage(spec: FmuSpec, staging: Path, config: dict[str, Any], record: dict[str, Any]) -> Path:
     """Write the files bundled into ``resources/``; returns the staged script pythonfmu builds
-    (the generated class module of a spec with a base class)."""
+    (the generated class module)."""
     shutil.copytree(PACKAGE, staging / "drillstring", ignore=_IGNORE)
-    for path in (SUPPORT, BOOT, UNITS_MODULE, *spec.bases, spec.script):
+    for path in (SUPPORT, BOOT, UNITS_MODULE, spec.script):
         shutil.copyfile(path, staging / path.name)
     name, text = entry_module(spec)
     (staging / f"{name}.py").write_text(text, encoding="utf-8")
-    script = staging / spec.script.name
-    if spec.base is not None:
-        script = staging / f"{spec.model}.py"
-        script.write_text(class_module(spec), encoding="utf-8")
+    script = staging / f"{spec.model}.py"
+    script.write_text(class_module(spec), encoding="utf-8")
     cfg = json.dumps(config, indent=2, sort_keys=True) + "\n"
     (staging / CONFIG_NAME).write_text(cfg, encoding="utf-8")
     (staging / RUNTIME_NAME).write_text(runtime_file(record), encoding="utf-8")

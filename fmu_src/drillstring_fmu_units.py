@@ -75,6 +75,9 @@ class Declared:
         if name is None:
             return None
         kw = dict(self.options)
+        si_check = kw.pop("si_check", None)
+        if system == SI and si_check is not None:
+            kw["check"] = si_check
         note = self.scaled_note if system == SCALED else self.si_note
         description = f"{self.description}{note}"
         start = self.start
@@ -137,7 +140,8 @@ def declare(
         Appended to the description in that unit system.
     **options
         Other fields of :class:`~drillstring_fmu_support.Variable` (``min``, ``max``,
-        ``check``, ``depends_on``, ``items``, ``type_name``).
+        ``check``, ``depends_on``, ``items``, ``type_name``); ``si_check``: the check in SI
+        where it is not ``check`` (a check in the terms of the scaled model's classes).
     """
     pair = (names, names) if isinstance(names, str) else names
     return Declared(

@@ -1,4 +1,5 @@
-"""FMI 2.0 co-simulation unit of the drill-string plant (pythonfmu script of ``DrillStringPlant``).
+"""FMI 2.0 co-simulation unit of the drill-string plant (pythonfmu script; ``build_fmus.py``
+generates ``DrillStringPlant`` and ``DrillStringPlantSI`` from the one class here).
 
 Wraps :class:`drillstring.model.engine.Engine`, the scaled axial-torsional model (11)-(14) of
 Besselink, van de Wouw and Nijmeijer (IEEE CCA 2011) with the Filippov contact law (17) and the
@@ -6,34 +7,35 @@ state-dependent delay (14); see ``docs/model.md``, "Wearflat contact as a Filipp
 "Validity". No model code lives here: the ``drillstring`` package is bundled into the FMU's
 ``resources/`` by ``build_fmus.py``, and the lifecycle (checks, phases, step wrapper, errors,
 FMU states) is :class:`drillstring_fmu_support.FmuModel`. ``fmi2DoStep(t, h)`` holds the input
-``R_minus_R0`` over the step and advances the engine to ``t + h``; the engine locates the events
-inside the step, so communication points never have to land on an event. The step is the compiled
-plant step :func:`drillstring.model.native.plant_io_step` on the plant's io block, whether the
-front layer runs it (the native fast path) or this script does; Python keeps what needs Python:
-the messages of a stop or a warning, growing the history buffer, the FMU states.
+over the step and advances the engine to ``t + h`` by the compiled plant step
+(:func:`drillstring.model.native.plant_io_step`, the same the front layer runs natively); the
+engine locates the events inside the step, so communication points never have to land on an
+event.
 
 The FMU state is the whole engine (history buffer, axial mode, counters, integrator state) plus
 the FMU's variables; restoring it is bit exact.
 
-The unit system is the class's: :class:`DrillStringPlant` speaks the paper's scaled quantities;
-``drillstring_plant_si.py`` derives ``DrillStringPlantSI`` from it, which only replaces the
-variables and the conversions between the FMU's quantities and the engine's
-(:meth:`DrillStringPlant.engine_setup`, :meth:`~DrillStringPlant.engine_input`,
-:meth:`~DrillStringPlant.engine_time` and :meth:`~DrillStringPlant.fmu_time`,
-:meth:`~DrillStringPlant.converted_outputs`, :meth:`~DrillStringPlant.stop_message`;
-``docs/si_fmus.md``) and the unit system of the compiled step (``FAST_SI``, ``FAST_KEYS``,
-:meth:`~DrillStringPlant.fast_constants`), which must agree with them; everything else is this
-class.
+The variables are declared once (:data:`DECLARED`, :mod:`drillstring_fmu_units`): in the scaled
+unit system (``UNIT_SYSTEM = "scaled"``) the paper's quantities, the scaled parameter set and the
+perturbations from the nominal motion; in SI (``"si"``) seconds, the physical parameter set of
+eqs. (1)-(8) (start values: the reference rig, ``docs/reference_rig.md``), the absolute table
+torque as input and total angles, speeds and positions, weight and torque on bit, depth of cut,
+delay and rate of penetration as outputs, converted by
+:class:`drillstring.model.units.SIScaling` (eqs. (15)-(16) of the FMU's own rig;
+``docs/si_fmus.md``). The unit system's conversions are the few methods under "the unit system"
+and the constants of the compiled step; everything else is shared.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import Any, ClassVar
 
 import drillstring_fmu_support as fmu
+import drillstring_fmu_units as units
 import numpy as np
 
 from drillstring.model import native
@@ -44,28 +46,36 @@ from drillstring.model.engine import (
     Engine,
     EngineOptions,
 )
-from drillstring.model.params import REFERENCE, ScaledParams
+from drillstring.model.experiments import FIG5
+from drillstring.model.params import REFERENCE, REFERENCE_RIG, PhysicalParams, ScaledParams
+from drillstring.model.units import PLANT_SI, SIScaling
 
+SCALED, SI = units.SCALED, units.SI
+declare = units.declare
 _ENGINE_DEFAULTS = EngineOptions()
+#: The engine's event tolerance in scaled time is at most this (EngineOptions.event_tol).
+_EVENT_TOL_MAX = 1e-10
 ON_INVALID = (
     ("stop", "fmi2Discard with a message naming time and cause; the outputs hold that state"),
     ("continue", "go on; every bit-bouncing episode is counted in bit_bounce and logged"),
 )
 
 
-def _scaled_field(field: str) -> Callable[[Any], Any]:
-    """Check of one field of ScaledParams on its own (the others at the reference set), so
-    that the order in which a host sets parameters never matters; the combination is checked
-    when the engine is built (fmi2ExitInitializationMode)."""
+def _field_check(base: Any, field: str) -> Callable[[Any], Any]:
+    """Check of one field of a parameter set on its own (the others at ``base``), so that the
+    order in which a host sets parameters never matters; the combination is checked when the
+    engine is built (fmi2ExitInitializationMode)."""
 
     def check(value: Any) -> Any:
-        dataclasses.replace(REFERENCE, **{field: value})
+        dataclasses.replace(base, **{field: value})
         return value
 
     return check
 
 
 def _option(name: str) -> Callable[[Any], Any]:
+    """Check of one engine option (:class:`~drillstring.model.engine.EngineOptions`)."""
+
     def check(value: Any) -> Any:
         EngineOptions(**{name: value})
         return value
@@ -73,9 +83,18 @@ def _option(name: str) -> Callable[[Any], Any]:
     return check
 
 
+def _positive(name: str) -> Callable[[Any], Any]:
+    def check(value: Any) -> Any:
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"{name} must be > 0, got {value!r}")
+        return value
+
+    return check
+
+
 P = fmu.POSITIVE
-#: FMU name, ScaledParams field, min, max, description. Start values: the reference set
-#: (``docs/model.md``, "Reference parameter set").
+#: The scaled set: FMU name, ScaledParams field, min, max, description (start: the reference
+#: set, ``docs/model.md``, "Reference parameter set").
 _SCALED = (
     ("psi", "psi", P, None, "Drill-string design parameter psi > 0 (eq. (15))"),
     ("gamma", "gamma", 0.0, None, "Scaled axial damping gamma >= 0 (eq. (15))"),
@@ -86,134 +105,191 @@ _SCALED = (
     ("v0", "v0", P, None, "Nominal scaled axial velocity v0 > 0 (eq. (14))"),
     ("omega0", "omega0", P, None, "Nominal scaled angular velocity omega0 > 0 (eq. (14))"),
 )
-#: FMU name, engine initial-state key, start, description (perturbation at tau = 0).
+#: The physical set: PhysicalParams field, min, unit, display unit, description (start: the
+#: reference rig).
+_PHYSICAL = (
+    ("M", P, "kg", None, "Mass of the bottom-hole assembly (eq. (1))"),
+    ("I1", P, "kg.m2", None, "Inertia of the bit end of the string (eq. (2))"),
+    ("I2", P, "kg.m2", None, "Inertia of the rotary table or top drive (eq. (3))"),
+    ("C", P, "N.m/rad", None, "Torsional stiffness of the drill string (eqs. (2)-(3))"),
+    ("K", P, "N/m", None, "Axial stiffness of the drill string (eq. (1))"),
+    ("D", 0.0, "N.s/m", None, "Axial damping (eq. (1))"),
+    ("a", P, "m", "mm", "Bit radius (eq. (4))"),
+    ("eps", P, "Pa", "MPa", "Intrinsic specific energy of the rock (eq. (4))"),
+    ("zeta", P, "1", None, "Cutting-face orientation constant zeta (eq. (4))"),
+    ("sigma_bar", 0.0, "Pa", "MPa", "Contact stress under the wearflats (eq. (7))"),
+    ("l", 0.0, "m", "mm", "Wearflat length (eq. (7))"),
+    ("mu", P, "1", None, "Bit-rock friction coefficient of the wearflats (eq. (7))"),
+    ("xi", P, "1", None, "Spatial distribution of the wearflat contact (eq. (7))"),
+    ("V0", P, "m/s", "m/h", "Nominal axial (hook) velocity = nominal rate of penetration"),
+    ("Omega0", P, "rad/s", "rpm", "Nominal rotary speed of table and bit"),
+)
+#: The initial state, a deviation from the nominal motion at t = 0: FMU name, engine key,
+#: dimension, description (start: Fig. 5's).
 _INITIAL = (
-    ("u0", "u", 0.0, "Initial axial position perturbation u(0)"),
-    ("du0", "du", 0.0, "Initial axial velocity perturbation du/dtau(0)"),
-    ("phi0", "phi", 0.0, "Initial bit angle perturbation phi(0)"),
-    ("dphi0", "dphi", -2.5, "Initial bit angular velocity perturbation dphi/dtau(0), > -omega0"),
-    ("theta0", "theta", 0.0, "Initial rotary-table angle perturbation theta(0)"),
-    ("dtheta0", "dtheta", 0.0, "Initial rotary-table angular velocity perturbation dtheta/dtau(0)"),
+    ("u0", "u", "length", "Initial axial bit position deviation u(0)"),
+    ("du0", "du", "velocity", "Initial axial bit velocity deviation du/dtau(0)"),
+    ("phi0", "phi", "angle", "Initial bit angle deviation phi(0)"),
+    ("dphi0", "dphi", "speed", "Initial bit speed deviation dphi/dtau(0), > -omega0"),
+    ("theta0", "theta", "angle", "Initial rotary-table angle deviation theta(0)"),
+    ("dtheta0", "dtheta", "speed", "Initial rotary-table speed deviation dtheta/dtau(0)"),
 )
 _MODES = ", ".join(f"{code} {name}" for code, name in sorted(MODE_NAMES.items()))
-#: Outputs (all perturbations from the nominal motion): name, type, description.
-_OUTPUTS = (
-    ("u", "Real", "Axial bit position perturbation u, U = v0*tau + u (eq. (11))"),
-    ("du", "Real", "Axial bit velocity perturbation du/dtau (eq. (11))"),
-    ("phi", "Real", "Bit angle perturbation phi, Phi = omega0*tau + phi (eq. (13))"),
-    ("dphi", "Real", "Bit angular velocity perturbation dphi/dtau (eq. (13))"),
-    ("theta", "Real", "Rotary-table angle perturbation theta (eq. (13))"),
-    ("dtheta", "Real", "Rotary-table angular velocity perturbation dtheta/dtau (eq. (13))"),
-    ("d", "Real", "Depth of cut d = U(tau) - U(tau - tau_n) (eq. (5)); d < 0 is bit bouncing"),
-    ("g", "Real", "Wearflat contact multiplier g in [0, 1] of the Filippov contact law (eq. (17))"),
-    (
-        "tau_n",
-        "Real",
-        "State-dependent delay tau_n: Phi(tau) - Phi(tau - tau_n) = 2*pi/n (eq. (14))",
-    ),
-    ("mode", "Integer", f"Axial contact mode of (17): {_MODES}"),
-    ("stick_events", "Integer", "Number of entries into axial stick (V = 0) so far"),
+#: The Real outputs: scaled name (an Engine.outputs() key), SI name (a PLANT_SI quantity),
+#: description, scaled note, SI note; the SI unit and display unit are the quantity's.
+_REALS = (
+    ("u", "bit_position", "Axial bit position", " perturbation u, U = v0*tau + u (eq. (11))",
+     " U, downwards (0 where the bit is at t = 0 of the nominal motion)"),
+    ("du", "bit_velocity", "Axial bit velocity", " perturbation du/dtau (eq. (11))",
+     " dU/dt, downwards"),
+    ("phi", "bit_angle", "Bit angle", " perturbation phi, Phi = omega0*tau + phi (eq. (13))",
+     " Phi (0 at t = 0 of the nominal motion)"),
+    ("dphi", "bit_speed", "Bit angular speed", " perturbation dphi/dtau (eq. (13))", " dPhi/dt"),
+    ("theta", "table_angle", "Rotary-table angle", " perturbation theta (eq. (13))",
+     " Theta = Phi + twist of the string"),
+    ("dtheta", "table_speed", "Rotary-table angular speed", " perturbation dtheta/dtau (eq. (13))",
+     " dTheta/dt"),
+    ("d", "depth_of_cut", "Depth of cut d = U(t) - U(t - t_n) per blade (eq. (5))",
+     "; d < 0 is bit bouncing", ""),
+    ("g", "contact", "Wearflat contact multiplier g in [0, 1] of the Filippov contact law "
+     "(eq. (17))", "", ""),
+    ("tau_n", "delay", "State-dependent delay: Phi(t) - Phi(t - t_n) = 2*pi/n (eqs. (6), (14))",
+     " (scaled, tau_n)", ""),
+    (None, "weight_on_bit", "Weight on bit W^c + W^f, eqs. (4) and (7)", "", ""),
+    (None, "torque_on_bit", "Torque on bit T^c + T^f, eqs. (4) and (7)", "", ""),
+    (None, "rate_of_penetration", "Rate of penetration: mean axial bit speed over the last "
+     "blade passage, d/t_n", "", ""),
+)  # fmt: skip
+_QUANTITY = {q.name: q for q in PLANT_SI}
+#: The Integer outputs (the same in both unit systems): name, description.
+_INTEGERS = (
+    ("mode", f"Axial contact mode of (17): {_MODES}"),
+    ("stick_events", "Number of entries into axial stick (V = 0) so far"),
     (
         "bit_bounce",
-        "Integer",
         "Validity flag: number of bit-bouncing episodes (d < 0, outside the model, Section II) "
         "so far; nonzero only with on_invalid = continue",
     ),
     (
         "torsional_stick",
-        "Integer",
         "Number of entries into torsional stick (dPhi/dtau = 0) so far; with "
         "torsional_stick_model = false the run stops there instead",
     ),
 )
+_START = FIG5.initial()
 
 
-def _variables() -> tuple[fmu.Variable, ...]:
-    out: list[fmu.Variable] = [
-        fmu.input_real(
-            "R_minus_R0",
-            0.0,
-            "Rotary-table torque deviation R - R0 (scaled, eq. (13)), held constant over each "
-            "communication step",
-        )
-    ]
-    out += [fmu.output(name, kind, desc) for name, kind, desc in _OUTPUTS]
+def _declarations() -> tuple[units.Declared, ...]:
+    out = [
+        declare(("R_minus_R0", "table_torque"), "Real", "input",
+                "Rotary-table (top-drive) torque, held constant over each communication step",
+                start=0.0, si_start=REFERENCE_RIG.R0, si_unit="N.m", si_display="kN.m",
+                scaled_note=": the deviation R - R0 (scaled, eq. (13))",
+                si_note=": R, absolute (start value: the nominal torque R0 of eq. (8))"),
+    ]  # fmt: skip
+    for scaled, si, desc, s_note, si_note in _REALS:
+        q = _QUANTITY[si]
+        out.append(
+            declare((scaled, si), "Real", "output", desc, si_unit=q.unit, si_display=q.display,
+                    scaled_note=s_note, si_note=si_note)
+        )  # fmt: skip
+    out += [declare(name, "Integer", "output", desc) for name, desc in _INTEGERS]
     out.append(
-        fmu.parameter(
-            "n",
-            "Integer",
-            REFERENCE.n,
-            "Number of blades of the drag bit (eq. (5))",
-            min=1,
-            check=_scaled_field("n"),
-        )
-    )
-    for name, field, lo, hi, desc in _SCALED:
-        start = getattr(REFERENCE, field)
-        check = _scaled_field(field)
-        out.append(fmu.parameter(name, "Real", start, desc, min=lo, max=hi, check=check))
-    for name, _, start, desc in _INITIAL:
-        out.append(fmu.parameter(name, "Real", start, desc))
+        declare("n", "Integer", "parameter", "Number of blades of the drag bit (eq. (5))",
+                start=REFERENCE.n, min=1, check=_field_check(REFERENCE, "n"),
+                si_check=_field_check(REFERENCE_RIG, "n"))
+    )  # fmt: skip
     out += [
-        fmu.parameter(
-            "h",
-            "Real",
-            _ENGINE_DEFAULTS.h,
-            "Nominal RK4 step of the engine (scaled time) > 0; each communication step is split "
-            "into equal steps no longer than h",
-            min=P,
-            check=_option("h"),
-        ),
-        fmu.parameter(
-            "event_tol",
-            "Real",
-            _ENGINE_DEFAULTS.event_tol,
-            "Time tolerance of the engine's event location, in (0, 1e-10]",
-            min=P,
-            max=1e-10,
-            check=_option("event_tol"),
-        ),
-        fmu.parameter(
-            "torsional_stick_model",
-            "Boolean",
-            _ENGINE_DEFAULTS.torsional_stick,
-            'Model torsional stick of the bit (docs/model.md, "Torsional stick", our '
-            "reconstruction); false: the run stops (fmi2Discard) when dPhi/dtau reaches 0",
-        ),
-        fmu.enumeration(
-            "on_invalid",
-            "OnInvalid",
-            ON_INVALID,
-            _ENGINE_DEFAULTS.on_invalid,
-            "What happens on bit bouncing (d < 0, outside the model's validity, docs/model.md, "
-            '"Validity"): 1 = stop, 2 = continue',
-        ),
+        declare((name, None), "Real", "parameter", desc, start=getattr(REFERENCE, field), min=lo,
+                max=hi, check=_field_check(REFERENCE, field))
+        for name, field, lo, hi, desc in _SCALED
+    ]  # fmt: skip
+    out += [
+        declare((None, name), "Real", "parameter", desc, si_start=getattr(REFERENCE_RIG, name),
+                si_unit=unit, si_display=display, min=lo,
+                check=_field_check(REFERENCE_RIG, name))
+        for name, lo, unit, display, desc in _PHYSICAL
+    ]  # fmt: skip
+    out += [
+        declare(name, "Real", "parameter", desc, dimension=dim, start=_START.get(key, 0.0))
+        for name, key, dim, desc in _INITIAL
     ]
+    out += [
+        declare("h", "Real", "parameter",
+                "Nominal RK4 step of the engine > 0; each communication step is split into "
+                "equal steps no longer than h", dimension="time", start=_ENGINE_DEFAULTS.h,
+                min=P, check=_option("h"), si_check=_positive("h")),
+        declare("event_tol", "Real", "parameter",
+                "Time tolerance of the engine's event location, in (0, 1e-10 t*]",
+                dimension="time", start=_ENGINE_DEFAULTS.event_tol, min=P, max=_EVENT_TOL_MAX,
+                check=_option("event_tol"), si_check=_positive("event_tol")),
+        declare("torsional_stick_model", "Boolean", "parameter",
+                'Model torsional stick of the bit (docs/model.md, "Torsional stick", our '
+                "reconstruction); false: the run stops (fmi2Discard) where the bit stops",
+                start=_ENGINE_DEFAULTS.torsional_stick),
+        declare("on_invalid", "Enumeration", "parameter",
+                "What happens on bit bouncing (d < 0, outside the model's validity, "
+                'docs/model.md, "Validity"): 1 = stop, 2 = continue',
+                start=_ENGINE_DEFAULTS.on_invalid, items=ON_INVALID, type_name="OnInvalid"),
+    ]  # fmt: skip
     return tuple(out)
 
 
-class DrillStringPlant(fmu.FmuModel):
-    """Drill-string plant (11)-(14), (17): input R - R0, outputs the perturbation states."""
+DECLARED = _declarations()
 
-    MODEL = "DrillStringPlant"
-    VARIABLES = _variables()
-    VALIDITY = (
+
+def _validity(si: bool) -> tuple[str, str]:
+    """The FMU documentation's section on the model's validity, in the unit system's terms."""
+    speed = (
+        "the initial bit speed Omega0 + dphi0 > 0 (checked at fmi2ExitInitializationMode), as "
+        "must the scaled parameter set of eqs. (15)-(16), beta = zeta mu xi <= 1 in particular"
+        if si
+        else "dPhi/dtau = omega0 + dphi > 0, so dphi0 > -omega0 (checked at "
+        "fmi2ExitInitializationMode)"
+    )
+    return (
         "The model holds while the bit cuts the rock: a depth of cut d < 0 (bit bouncing, "
         "Section II) is outside it. With on_invalid = stop (the default) fmi2DoStep returns "
         "fmi2Discard at the first such instant, located to within event_tol, and names it; with "
         "on_invalid = continue the run goes on, every episode is counted in the output "
         "bit_bounce and the step returns fmi2Warning with a message.",
-        "The bit must rotate forwards: dPhi/dtau = omega0 + dphi > 0, so dphi0 > -omega0 "
-        "(checked at fmi2ExitInitializationMode). Where dPhi/dtau reaches 0 the bit sticks "
+        f"The bit must rotate forwards: {speed}. Where the bit stops rotating it sticks "
         "torsionally: with torsional_stick_model = true that phase is modelled (docs/model.md, "
         '"Torsional stick"), otherwise fmi2DoStep returns fmi2Discard there. A reverse rotation '
-        "during torsional stick, a non-finite state and a delay tau_n that cannot be found in "
-        "the history also end the run with fmi2Discard and a message.",
+        "during torsional stick, a non-finite state and a delay that cannot be found in the "
+        "history also end the run with fmi2Discard and a message.",
     )
-    description = (
-        "Axial-torsional drill-string stick-slip model of Besselink, van de Wouw and Nijmeijer "
-        "(IEEE CCA 2011), scaled form (11)-(14) with Filippov wearflat contact (17)"
-    )
+
+
+class PlantFmu(fmu.FmuModel):
+    """Drill-string plant (11)-(14), (17) in the unit system ``UNIT_SYSTEM``: input the table
+    torque, outputs the bit's and the table's motion."""
+
+    UNIT_SYSTEM: ClassVar[str] = SCALED
+    VALIDITY = _validity(False)
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        si = cls.UNIT_SYSTEM == SI
+        cls.VARIABLES = units.variables(DECLARED, cls.UNIT_SYSTEM)
+        cls.FAST_KEYS = native.PLANT_SI_KEYS if si else native.PLANT_SCALED_KEYS
+        cls.FAST_SI = 1.0 if si else 0.0
+        cls.VALIDITY = _validity(si)
+        cls.description = (
+            "Axial-torsional drill-string stick-slip model of Besselink, van de Wouw and "
+            "Nijmeijer (IEEE CCA 2011), eqs. (11)-(14) with Filippov wearflat contact (17)"
+            + (", in SI units" if si else ", scaled form")
+        )
+        if si:
+            cls.TIME_AND_UNITS = (
+                "All quantities are in SI units (the unit of each variable is declared, with its "
+                "SI base units); time is in seconds, t = t* tau with t* = sqrt(I1/C), the time "
+                "scale of the paper's scaled model, which the FMU integrates. The input is the "
+                "absolute rotary-table torque R; the outputs are total angles, speeds and "
+                "positions (not deviations): the bit angle is 0 at t = 0 of the nominal motion "
+                "and the table angle is ahead of it by the twist of the string, nominally R0/C. "
+                "The initial state is the deviation from the nominal motion at t = 0."
+            )
 
     engine: Engine | None = None
     _out: Mapping[str, Any] = MappingProxyType({})
@@ -221,43 +297,82 @@ class DrillStringPlant(fmu.FmuModel):
     #: layer's native fast path steps on it too.
     _io: np.ndarray | None = None
     _input = ""  # the name of the FMU's input
-    #: The unit system of the step: the outputs in the io block (``_out``'s keys), SI or not.
-    FAST_KEYS: tuple[str, ...] = native.PLANT_SCALED_KEYS
-    FAST_SI = 0.0
+    #: The unit system of the step: the outputs in the io block (``_out``'s keys), SI or not
+    #: (set for each generated class by :meth:`__init_subclass__`).
+    FAST_KEYS: ClassVar[tuple[str, ...]] = native.PLANT_SCALED_KEYS
+    FAST_SI: ClassVar[float] = 0.0
     _fast_block: fmu.FastPath | None = None
     _fast_kernel: Any = None
 
     # ----------------------------------------------------------------- the unit system
+    scaling: SIScaling = SIScaling(REFERENCE_RIG)
+
     def engine_setup(
         self, v: Mapping[str, Any]
     ) -> tuple[ScaledParams, EngineOptions, Mapping[str, float]]:
         """The engine's parameters, options and initial perturbation from the FMU's values."""
-        params = ScaledParams(n=v["n"], **{f: v[name] for name, f, *_ in _SCALED})
-        options = EngineOptions(
-            h=v["h"],
-            torsional_stick=bool(v["torsional_stick_model"]),
-            on_invalid=ON_INVALID[v["on_invalid"] - 1][0],
-            event_tol=v["event_tol"],
-            keep_events=False,
-        )
+        on_invalid = ON_INVALID[v["on_invalid"] - 1][0]
         initial = {key: float(v[name]) for name, key, _, _ in _INITIAL}
-        return params, options, initial
+        if self.UNIT_SYSTEM != SI:
+            params = ScaledParams(n=v["n"], **{f: v[name] for name, f, *_ in _SCALED})
+            options = EngineOptions(
+                h=v["h"], torsional_stick=bool(v["torsional_stick_model"]),
+                on_invalid=on_invalid, event_tol=v["event_tol"], keep_events=False,
+            )  # fmt: skip
+            return params, options, initial
+        rig = PhysicalParams(n=v["n"], **{name: v[name] for name, *_ in _PHYSICAL})
+        scaling = SIScaling(rig)  # raises for a rig whose scaled set is invalid (beta > 1)
+        speed = rig.Omega0 + v["dphi0"]
+        if not speed > 0.0:
+            raise ValueError(
+                f"the initial bit speed Omega0 + dphi0 = {speed!r} rad/s is not > 0: the model "
+                "needs a rotating bit (torsional stick at t = 0)"
+            )
+        tol = scaling.tau(v["event_tol"])
+        if not tol <= _EVENT_TOL_MAX:
+            raise ValueError(
+                f"event_tol = {v['event_tol']!r} s is above 1e-10 t* = "
+                f"{_EVENT_TOL_MAX * scaling.t_star!r} s"
+            )
+        options = EngineOptions(
+            h=scaling.tau(v["h"]), torsional_stick=bool(v["torsional_stick_model"]),
+            on_invalid=on_invalid, event_tol=tol, keep_events=False,
+        )  # fmt: skip
+        self.scaling = scaling
+        return scaling.scaled, options, dataclasses.asdict(scaling.initial_to_scaled(initial))
 
     def engine_input(self) -> float:
         """The engine's input R - R0 (scaled) from the FMU's input."""
+        if self.UNIT_SYSTEM == SI:
+            return self.scaling.torque_deviation(self.values["table_torque"])
         return self.values["R_minus_R0"]
 
     def engine_time(self, t: float) -> float:
         """The engine's (scaled) time of the FMU's time ``t``."""
-        return t
+        return self.scaling.tau(t) if self.UNIT_SYSTEM == SI else t
+
+    def fmu_time(self, tau: float) -> float:
+        """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
+        return self.scaling.time(tau) if self.UNIT_SYSTEM == SI else tau
 
     def converted_outputs(self, eng: Engine) -> Mapping[str, Any]:
         """The FMU's outputs from the engine's state."""
-        return eng.outputs()
+        if self.UNIT_SYSTEM != SI:
+            return eng.outputs()
+        T = eng.diagnostics()["torque_on_bit"]
+        return self.scaling.plant_outputs(eng.outputs(), eng.tau, torque_on_bit=T)
 
     def stop_message(self, eng: Engine, message: str) -> str:
-        """The message of a validity stop (the engine's, which names the scaled time)."""
+        """The message of a validity stop (the engine's names the scaled time; SI adds t)."""
+        if self.UNIT_SYSTEM == SI:
+            return f"{message} (t = {self.scaling.time(eng.tau)!r} s)"
         return message
+
+    def fast_constants(self) -> tuple[float, ...]:
+        """The unit system's constants of the step (``native.PLANT.k``)."""
+        if self.UNIT_SYSTEM == SI:
+            return self.scaling.plant_constants
+        return (0.0,) * native.N_K
 
     # ----------------------------------------------------------------- physics
     def configure(self, values: Mapping[str, Any]) -> None:
@@ -336,15 +451,7 @@ class DrillStringPlant(fmu.FmuModel):
         stop = self.stop_message(eng, f"{status.code}: {status.message}")
         return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
 
-    def fmu_time(self, tau: float) -> float:
-        """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
-        return tau
-
     # ----------------------------------------------------------------- native fast path
-    def fast_constants(self) -> tuple[float, ...]:
-        """The unit system's constants of the step (``native.PLANT.k``)."""
-        return (0.0,) * native.N_K
-
     def fast_path(self) -> fmu.FastPath | None:
         eng = self.engine
         if not native.AVAILABLE or eng is None or eng.failed is not None or self._io is None:
@@ -404,6 +511,6 @@ class DrillStringPlant(fmu.FmuModel):
         self._use(eng)
 
 
-assert {name for name, _, _ in _OUTPUTS} <= set(OUTPUT_KEYS), "outputs the engine lacks"
+assert {d.scaled for d in DECLARED if d.causality == "output" and d.scaled} <= set(OUTPUT_KEYS)
 assert tuple(name for name, _ in ON_INVALID) == ON_INVALID_CHOICES
 assert native.PLANT_SCALED_KEYS == OUTPUT_KEYS, "the native step's outputs are the engine's"
