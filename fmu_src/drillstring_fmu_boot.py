@@ -1,7 +1,7 @@
 """Start-up of a drillstring FMU's Python side, run by the FMU's front layer in ``fmi2Instantiate``.
 
 Standard library only: this module runs before anything else of the FMU is imported. The front
-layer (``fmu_src/fmi_front/drillstring_fmi2.c``) has loaded and configured the interpreter; it
+layer (``fmu_src/fmi_front/runtime.c``) has loaded and configured the interpreter; it
 saves ``sys.path`` before calling :func:`prepare` and restores it after pythonfmu's library has
 instantiated the slave, so nothing here is left behind in the host's interpreter.
 

@@ -16,7 +16,7 @@ own validators), the phases (instantiated, initialization, stepping, terminated)
 errors are reported.
 
 **Division of labour with the front layer.** The FMU's binary ``binaries/linux64/<id>.so`` is the
-project's C layer ``drillstring_fmi2.c`` in front of pythonfmu's library; it checks the call
+project's C layer ``fmu_src/fmi_front/`` in front of pythonfmu's library; it checks the call
 sequence of FMI 2.0 (section 4.2.4), value references, types and which variables may be set in
 which state, before anything reaches Python. This module checks *values*. It never raises into
 pythonfmu (that would be ``fmi2Fatal`` and destroy the instance): a rejected call logs a message

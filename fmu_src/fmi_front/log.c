@@ -1,0 +1,91 @@
+/*
+ * log.c -- what reaches the host's logger (drillstring_fmi2.h).
+ *
+ * Warnings, discards and errors always reach the host, info only when logging is on for its
+ * category. The Python slave reports problems as log messages (it never raises into pythonfmu):
+ * each message's status counts into the status of the call in which it is logged
+ * (Component.call_status, see ds_finish in front.c). Records of the category RECORD_CATEGORY are
+ * meant for the layer only and never forwarded.
+ */
+#include "drillstring_fmi2.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int ds_category_index(const char *category)
+{
+    for (int i = 0; category && DS_LOG_CATEGORIES[i]; ++i)
+        if (strcmp(DS_LOG_CATEGORIES[i], category) == 0) return i;
+    return -1;
+}
+
+const char *ds_status_category(fmi2Status status)
+{
+    switch (status) {
+    case fmi2Warning: return "logStatusWarning";
+    case fmi2Discard: return "logStatusDiscard";
+    case fmi2Error: return "logStatusError";
+    case fmi2Fatal: return "logStatusFatal";
+    default: return "logInfo";
+    }
+}
+
+/* Forward one message to the host: always for warnings and worse, info only when logging is on
+   for its category. '%' is doubled: hosts format the message as a printf format. */
+void ds_emit(Component *c, fmi2Status status, const char *category, const char *message)
+{
+    if (!c->host.logger) return;
+    if (!category || ds_category_index(category) < 0) category = ds_status_category(status);
+    if (status == fmi2OK || status == fmi2Pending) {
+        const int i = ds_category_index(category), all = ds_category_index("logAll");
+        if (!c->logging_on || !(c->category_on[i] || (all >= 0 && c->category_on[all]))) return;
+    }
+    size_t n = 1;
+    for (const char *p = message; *p; ++p) n += (*p == '%') ? 2 : 1;
+    char *text = malloc(n);
+    if (!text) return;
+    char *q = text;
+    for (const char *p = message; *p; ++p) {
+        *q++ = *p;
+        if (*p == '%') *q++ = '%';
+    }
+    *q = '\0';
+    c->host.logger(c->host.componentEnvironment, c->name, status, category, text);
+    free(text);
+}
+
+void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
+{
+    char buf[8192];
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(buf, sizeof buf, fmt, args);
+    va_end(args);
+    if (status > c->call_status && status != fmi2Pending) c->call_status = status;
+    ds_emit(c, status, NULL, buf);
+}
+
+/* The logger pythonfmu calls (messages of the Python slave, passed without format arguments). */
+void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                     fmi2String category, fmi2String message, ...)
+{
+    Component *c = env;
+    (void)instance;
+    if (!c || c->magic != COMPONENT_MAGIC || !message) return;
+    if (category && strcmp(category, RECORD_CATEGORY) == 0) {
+        char *end = NULL;
+        if (strncmp(message, "time ", 5) == 0) {
+            const double t = strtod(message + 5, &end);
+            if (end && *end == '\0') {
+                c->record_time = t;
+                c->has_record = 1;
+            }
+        } else if (strncmp(message, "fast ", 5) == 0) {
+            ds_fast_record(c, message + 5);
+        }
+        return;
+    }
+    if (status > c->call_status && status != fmi2Pending) c->call_status = status;
+    ds_emit(c, status, category, message);
+}
