@@ -548,9 +548,11 @@ def front_layer_digest() -> bytes:
     return digest.digest()
 
 
-def compile_front_layer(header: str, out: Path, include: str, work: Path) -> None:
+def compile_front_layer(
+    header: str, out: Path, include: str, work: Path, extra_flags: Sequence[str] = ()
+) -> None:
     """Compile the front layer's C files in one call, with ``header`` as ``model_data.h``, into
-    ``out``."""
+    ``out`` (``extra_flags`` after the project's flags: for the tests' analyses)."""
     if not (Path(include) / "Python.h").is_file():
         raise BuildError(
             f"no Python.h in {include}: the front layer needs the headers of the Python that "
@@ -568,6 +570,7 @@ def compile_front_layer(header: str, out: Path, include: str, work: Path) -> Non
         *find_compiler(),
         *CFLAGS,
         *CFLAGS_STRICT,
+        *extra_flags,
         f"-ffile-prefix-map={gen}=.",
         "-I",
         str(gen),

@@ -32,6 +32,55 @@ def host(tmp_path_factory):
     return tl.compile_c_host(tmp_path_factory.mktemp("c_host"))
 
 
+@pytest.fixture(scope="module")
+def cycles(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cycles")
+    return tl.compile_c_program(tl.C_CYCLES, out, "-std=gnu11", "-ldl", "-lpthread")
+
+
+#: An output of each FMU, read after each step by tests/c_host/cycles.c.
+OUTPUT = {"plant": "u", "controller": "R_minus_R0"}
+
+
+def run_cycles(
+    exe, unit, which, home, n, *, warmup=1, logging=False, stack_kib=8192, state=True
+) -> tuple[subprocess.CompletedProcess, dict[int, int]]:
+    """tests/c_host/cycles.c on ``unit`` in a clean environment; (process, {cycles: RSS})."""
+    args = [unit.unzipped, unit.model, unit.guid, n, warmup, int(logging), stack_kib]
+    args += [unit.vr[OUTPUT[which]], int(state)]
+    proc = subprocess.run(
+        [str(exe), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(home),
+        timeout=600,
+    )
+    rss = {}
+    for line in proc.stdout.splitlines():
+        if line.startswith("rss "):
+            _, k, size = line.split()
+            rss[int(k)] = int(size)
+    return proc, rss
+
+
+#: The stack of the host's worker thread in the small-stack test: the front layer needed more
+#: than 128 KiB (its fmi2Instantiate alone 107 KB), the interpreter's start and imports need
+#: about 50 KiB.
+SMALL_STACK_KIB = 128
+
+
+@pytest.mark.parametrize("which", ["plant", "controller"])
+def test_a_worker_thread_with_a_small_stack_runs_the_fmu(built, cycles, clean_home, which):
+    """Every FMI call from a thread of SMALL_STACK_KIB KiB (the host's main thread only waits):
+    Python started there, instances made, initialized, stepped, read, an FMU state taken, freed.
+    A frame too large for the stack is a SIGSEGV (exit status -11), not a pass."""
+    unit = getattr(built, which)
+    proc, _ = run_cycles(cycles, unit, which, clean_home, 1)  # the package cache, numba's cache
+    assert proc.returncode == 0, proc.stderr
+    proc, _ = run_cycles(cycles, unit, which, clean_home, 3, stack_kib=SMALL_STACK_KIB)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+
+
 CYCLES = textwrap.dedent(
     """
     import gc, os, sys

@@ -90,7 +90,6 @@ extern const char *const DS_LOG_CATEGORIES[DS_N_LOG_CATEGORIES + 1]; /* NULL-ter
 #define RUNTIME_FILE "drillstring_fmu_python.cfg"
 #define RECORD_CATEGORY "drillstringRecord"
 #define COMPONENT_MAGIC 0x44534649324d4f43ULL /* "COM2IFSD" */
-#define PATH_LEN 4096
 
 /* ---- states of the co-simulation state machine (FMI 2.0, section 4.2.4) ---------------------- */
 enum {
@@ -169,6 +168,11 @@ typedef struct Component {
 } Component;
 
 /* ---- log.c ----------------------------------------------------------------------------------- */
+#define ERR_LEN 8192 /* the error buffers (on the heap) of fmi2Instantiate */
+/* snprintf into out[cap]: 0, or -1 if it did not fit (then the text ends in "..."). */
+__attribute__((format(printf, 3, 4))) int ds_format(char *out, size_t cap, const char *fmt, ...);
+/* A formatted string on the heap (free it), or NULL: out of memory. */
+__attribute__((format(printf, 1, 2))) char *ds_strf(const char *fmt, ...);
 int ds_category_index(const char *category);
 const char *ds_status_category(fmi2Status status);
 /* Forward one message to the host (filtered by status, category and logging state). */
@@ -192,8 +196,8 @@ fmi2Status ds_python_reset(Component *c);
 
 /* ---- uri.c ----------------------------------------------------------------------------------- */
 int ds_is_dir(const char *path);
-/* The local folder a resource URI names, into out[cap]; 0, or -1 with the reason in err. */
-int ds_uri_to_path(const char *uri, char *out, size_t cap, char *err, size_t errn);
+/* The local folder a resource URI names (on the heap: free it), or NULL with the reason in err. */
+char *ds_uri_to_path(const char *uri, char *err, size_t errn);
 /* The resources folder exists, is readable and holds the files of this FMU; 0 or -1 (err). */
 int ds_check_resources(const char *dir, char *err, size_t errn);
 

@@ -54,15 +54,19 @@ static Component *component(fmi2Component comp)
     return (c && c->magic == COMPONENT_MAGIC) ? c : NULL;
 }
 
+/* A list item appended to out[cap] (cut visibly with "..." if it does not fit). */
+static void append_item(char *out, size_t cap, const char *item)
+{
+    const size_t len = strlen(out);
+    if (len + 1 < cap) ds_format(out + len, cap - len, "%s%s", len ? ", " : "", item);
+}
+
 static void allowed_states(int mask, char *out, size_t n)
 {
     out[0] = '\0';
-    for (int s = ST_INSTANTIATED; s <= ST_FATAL; s <<= 1) {
-        if (!(mask & s)) continue;
-        if (out[0]) strncat(out, ", ", n - strlen(out) - 1);
-        strncat(out, ds_state_name(s), n - strlen(out) - 1);
-    }
-    if (!out[0]) snprintf(out, n, "StepInProgress, which this FMU never enters");
+    for (int s = ST_INSTANTIATED; s <= ST_FATAL; s <<= 1)
+        if (mask & s) append_item(out, n, ds_state_name(s));
+    if (!out[0]) ds_format(out, n, "StepInProgress, which this FMU never enters");
 }
 
 /* Start a call: known instance, allowed state (else "illegal call sequence"). */
@@ -180,7 +184,12 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         free(c);
         return NULL;
     }
-    char err[2048], resources[PATH_LEN];
+    char *err = malloc(ERR_LEN), *resources = NULL; /* on the heap: hosts' threads may have small
+                                                        stacks */
+    if (!err) {
+        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+        goto fail;
+    }
     if (!instanceName || !instanceName[0]) {
         ds_logf(c, fmi2Error, "fmi2Instantiate: instanceName must be a non-empty string");
         goto fail;
@@ -197,19 +206,22 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
                 DS_GUID, DS_MODEL_IDENTIFIER);
         goto fail;
     }
-    if (ds_uri_to_path(fmuResourceLocation, resources, sizeof resources, err, sizeof err) != 0) {
+    if (!(resources = ds_uri_to_path(fmuResourceLocation, err, ERR_LEN))) {
         ds_logf(c, fmi2Error, "fmi2Instantiate: %s", err);
         goto fail;
     }
-    if (ds_check_resources(resources, err, sizeof err) != 0) {
+    if (ds_check_resources(resources, err, ERR_LEN) != 0) {
         ds_logf(c, fmi2Error, "fmi2Instantiate: %s (fmuResourceLocation '%s')", err,
                 fmuResourceLocation);
         goto fail;
     }
-
     if (ds_python_instantiate(c, resources, fmuGUID, visible) != 0) goto fail;
+    free(resources);
+    free(err);
     return c;
 fail:
+    free(resources);
+    free(err);
     destroy(c);
     return NULL;
 }
@@ -238,10 +250,8 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn,
         const int k = ds_category_index(categories[i]);
         if (k < 0) {
             char known[512] = "";
-            for (int j = 0; DS_LOG_CATEGORIES[j]; ++j) {
-                if (j) strncat(known, ", ", sizeof known - strlen(known) - 1);
-                strncat(known, DS_LOG_CATEGORIES[j], sizeof known - strlen(known) - 1);
-            }
+            for (int j = 0; DS_LOG_CATEGORIES[j]; ++j)
+                append_item(known, sizeof known, DS_LOG_CATEGORIES[j]);
             ds_logf(c, fmi2Error, "fmi2SetDebugLogging: unknown log category '%s' (declared: %s); "
                     "nothing changed", categories[i] ? categories[i] : "(NULL)", known);
             return fmi2Error;

@@ -9,6 +9,7 @@
  */
 #include "drillstring_fmi2.h"
 
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -55,15 +56,56 @@ void ds_emit(Component *c, fmi2Status status, const char *category, const char *
     free(text);
 }
 
-void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
+/* ---- formatting ------------------------------------------------------------------------------ */
+static const char CUT[] = "...";
+
+/* A text cut to out[cap] ends in "...": a shortened message is visibly shortened. */
+static void mark_cut(char *out, size_t cap)
 {
-    char buf[8192];
+    if (cap >= sizeof CUT) memcpy(out + cap - sizeof CUT, CUT, sizeof CUT);
+}
+
+int ds_format(char *out, size_t cap, const char *fmt, ...)
+{
     va_list args;
     va_start(args, fmt);
-    vsnprintf(buf, sizeof buf, fmt, args);
+    const int n = vsnprintf(out, cap, fmt, args);
     va_end(args);
+    if (n >= 0 && (size_t)n < cap) return 0;
+    if (n < 0 && cap > 0) out[0] = '\0';
+    mark_cut(out, cap);
+    return -1;
+}
+
+char *ds_strf(const char *fmt, ...)
+{
+    char *out = NULL;
+    va_list args;
+    va_start(args, fmt);
+    const int n = vasprintf(&out, fmt, args);
+    va_end(args);
+    return n < 0 ? NULL : out;
+}
+
+void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
+{
+    char small[1024], *text = small, *big = NULL;
+    va_list args, again;
+    va_start(args, fmt);
+    va_copy(again, args);
+    const int n = vsnprintf(small, sizeof small, fmt, args);
+    va_end(args);
+    if (n < 0) {
+        ds_format(small, sizeof small, "(a message that cannot be formatted: %s)", fmt);
+    } else if ((size_t)n >= sizeof small) { /* longer: on the heap, or cut if there is none */
+        big = malloc((size_t)n + 1);
+        if (big && vsnprintf(big, (size_t)n + 1, fmt, again) == n) text = big;
+        else mark_cut(small, sizeof small);
+    }
+    va_end(again);
     if (status > c->call_status && status != fmi2Pending) c->call_status = status;
-    ds_emit(c, status, NULL, buf);
+    ds_emit(c, status, NULL, text);
+    free(big);
 }
 
 /* The logger pythonfmu calls (messages of the Python slave, passed without format arguments). */

@@ -79,67 +79,116 @@ static int g_python_ready, g_python_started_here;
 static char g_python_failure[2048];
 
 /* ---- the Python runtime ---------------------------------------------------------------------- */
-#define MAX_SITES 16
 typedef struct {
-    char version[32];
-    char libpython[PATH_LEN];
-    char home[PATH_LEN];
-    char sites[MAX_SITES][PATH_LEN];
+    char *version, *libpython, *home; /* on the heap, like the Runtime itself */
+    char **sites;
     int n_sites;
 } Runtime;
 
-/* The build's record (resources/drillstring_fmu_python.cfg), then the environment's overrides. */
-static int read_runtime(const char *resources, Runtime *rt, char *err, size_t errn)
+static void runtime_free(Runtime *rt)
 {
-    char path[PATH_LEN], line[PATH_LEN + 64];
-    memset(rt, 0, sizeof *rt);
-    snprintf(path, sizeof path, "%s/%s", resources, RUNTIME_FILE);
+    if (!rt) return;
+    free(rt->version);
+    free(rt->libpython);
+    free(rt->home);
+    for (int i = 0; i < rt->n_sites; ++i) free(rt->sites[i]);
+    free(rt->sites);
+    free(rt);
+}
+
+/* *field = value[0..len) on the heap; 0, or -1: out of memory. */
+static int set_text(char **field, const char *value, size_t len)
+{
+    char *copy = strndup(value, len);
+    if (!copy) return -1;
+    free(*field);
+    *field = copy;
+    return 0;
+}
+
+static int add_site(Runtime *rt, const char *value, size_t len)
+{
+    char **sites = realloc(rt->sites, (size_t)(rt->n_sites + 1) * sizeof *sites);
+    if (!sites) return -1;
+    rt->sites = sites;
+    rt->sites[rt->n_sites] = NULL;
+    if (set_text(&rt->sites[rt->n_sites], value, len) != 0) return -1;
+    ++rt->n_sites;
+    return 0;
+}
+
+static void clear_sites(Runtime *rt)
+{
+    for (int i = 0; i < rt->n_sites; ++i) free(rt->sites[i]);
+    rt->n_sites = 0;
+}
+
+/* The build's record (resources/drillstring_fmu_python.cfg), then the environment's overrides;
+   NULL with the reason in err. */
+static Runtime *read_runtime(const char *resources, char *err, size_t errn)
+{
+    Runtime *rt = calloc(1, sizeof *rt);
+    char *path = ds_strf("%s/%s", resources, RUNTIME_FILE), *line = NULL;
+    if (!rt || !path) {
+        ds_format(err, errn, "out of memory");
+        goto fail;
+    }
     FILE *fp = fopen(path, "r");
     if (!fp) {
-        snprintf(err, errn, "cannot read %s: %s", path, strerror(errno));
-        return -1;
+        ds_format(err, errn, "cannot read %s: %s", path, strerror(errno));
+        goto fail;
     }
-    while (fgets(line, sizeof line, fp)) {
+    size_t cap = 0;
+    int bad = 0;
+    while (!bad && getline(&line, &cap, fp) >= 0) {
         line[strcspn(line, "\r\n")] = '\0';
         if (!line[0] || line[0] == '#') continue;
         char *value = strchr(line, ' ');
         if (!value) continue;
         *value++ = '\0';
-        if (strcmp(line, "version") == 0) snprintf(rt->version, sizeof rt->version, "%s", value);
-        else if (strcmp(line, "libpython") == 0)
-            snprintf(rt->libpython, sizeof rt->libpython, "%s", value);
-        else if (strcmp(line, "home") == 0) snprintf(rt->home, sizeof rt->home, "%s", value);
-        else if (strcmp(line, "site") == 0 && rt->n_sites < MAX_SITES)
-            snprintf(rt->sites[rt->n_sites++], PATH_LEN, "%s", value);
+        const size_t n = strlen(value);
+        if (strcmp(line, "version") == 0) bad = set_text(&rt->version, value, n);
+        else if (strcmp(line, "libpython") == 0) bad = set_text(&rt->libpython, value, n);
+        else if (strcmp(line, "home") == 0) bad = set_text(&rt->home, value, n);
+        else if (strcmp(line, "site") == 0) bad = add_site(rt, value, n);
     }
     fclose(fp);
     const char *env;
-    if ((env = getenv("DRILLSTRING_FMU_LIBPYTHON")) && env[0])
-        snprintf(rt->libpython, sizeof rt->libpython, "%s", env);
-    if ((env = getenv("DRILLSTRING_FMU_PYTHONHOME")) && env[0])
-        snprintf(rt->home, sizeof rt->home, "%s", env);
-    if ((env = getenv("DRILLSTRING_FMU_SITE_PACKAGES")) && env[0]) {
-        rt->n_sites = 0;
-        const char *p = env;
-        while (*p && rt->n_sites < MAX_SITES) {
+    if (!bad && (env = getenv("DRILLSTRING_FMU_LIBPYTHON")) && env[0])
+        bad = set_text(&rt->libpython, env, strlen(env));
+    if (!bad && (env = getenv("DRILLSTRING_FMU_PYTHONHOME")) && env[0])
+        bad = set_text(&rt->home, env, strlen(env));
+    if (!bad && (env = getenv("DRILLSTRING_FMU_SITE_PACKAGES")) && env[0]) {
+        clear_sites(rt);
+        for (const char *p = env; *p && !bad; ) {
             const size_t len = strcspn(p, ":");
-            if (len > 0 && len < PATH_LEN) snprintf(rt->sites[rt->n_sites++], PATH_LEN, "%.*s",
-                                                    (int)len, p);
+            if (len > 0) bad = add_site(rt, p, len);
             p += len + (p[len] == ':');
         }
     }
-    if (!rt->version[0] || !rt->libpython[0] || !rt->home[0]) {
-        snprintf(err, errn, "%s lacks version, libpython or home", path);
-        return -1;
+    if (bad) {
+        ds_format(err, errn, "out of memory reading %s", path);
+        goto fail;
     }
-    return 0;
+    if (!rt->version || !rt->libpython || !rt->home) {
+        ds_format(err, errn, "%s lacks version, libpython or home", path);
+        goto fail;
+    }
+    free(line);
+    free(path);
+    return rt;
+fail:
+    free(line);
+    free(path);
+    runtime_free(rt);
+    return NULL;
 }
 
 static int resolve_python(void *where, char *err, size_t errn)
 {
 #define RESOLVE(name)                                                                              \
     if (!(py.name = (__typeof__(py.name))dlsym(where, #name))) {                                   \
-        snprintf(err, errn, "the Python library lacks %s", #name);                                 \
+        ds_format(err, errn, "the Python library lacks %s", #name);                                \
         return -1;                                                                                 \
     }
     PY_FUNCTIONS(RESOLVE)
@@ -165,19 +214,33 @@ static int start_python(const Runtime *rt, char *err, size_t errn)
     const size_t vlen = strlen(rt->version);
     if (strncmp(version, rt->version, vlen) != 0 ||
         (version[vlen] != '.' && version[vlen] != ' ')) {
-        snprintf(err, errn, "libpython %s is Python %.20s, but the FMU was built with Python %s "
-                 "(set DRILLSTRING_FMU_LIBPYTHON and DRILLSTRING_FMU_PYTHONHOME to a Python %s)",
-                 rt->libpython, version, rt->version, rt->version);
+        ds_format(err, errn, "libpython %s is Python %.20s, but the FMU was built with Python %s "
+                  "(set DRILLSTRING_FMU_LIBPYTHON and DRILLSTRING_FMU_PYTHONHOME to a Python %s)",
+                  rt->libpython, version, rt->version, rt->version);
         return -1;
     }
-    char stdlib[PATH_LEN], probe[PATH_LEN], buf[PATH_LEN];
-    snprintf(stdlib, sizeof stdlib, "%s/lib/python%s", rt->home, rt->version);
-    snprintf(probe, sizeof probe, "%s/encodings/__init__.py", stdlib);
+    int result = -1;
+    char *nodots = strdup(rt->version);
+    if (nodots) { /* "3.11" -> "311", for lib/python311.zip */
+        char *q = nodots;
+        for (const char *p = rt->version; *p; ++p)
+            if (*p != '.') *q++ = *p;
+        *q = '\0';
+    }
+    char *stdlib = ds_strf("%s/lib/python%s", rt->home, rt->version);
+    char *probe = ds_strf("%s/lib/python%s/encodings/__init__.py", rt->home, rt->version);
+    char *exe = ds_strf("%s/bin/python%s", rt->home, rt->version);
+    char *zip = nodots ? ds_strf("%s/lib/python%s.zip", rt->home, nodots) : NULL;
+    char *dynload = ds_strf("%s/lib/python%s/lib-dynload", rt->home, rt->version);
+    if (!nodots || !stdlib || !probe || !exe || !zip || !dynload) {
+        ds_format(err, errn, "out of memory");
+        goto done;
+    }
     if (access(probe, R_OK) != 0) {
-        snprintf(err, errn, "Python home '%s' has no standard library (%s is missing; set "
-                 "DRILLSTRING_FMU_PYTHONHOME to the prefix of a Python %s installation)", rt->home,
-                 probe, rt->version);
-        return -1;
+        ds_format(err, errn, "Python home '%s' has no standard library (%s is missing; set "
+                  "DRILLSTRING_FMU_PYTHONHOME to the prefix of a Python %s installation)",
+                  rt->home, probe, rt->version);
+        goto done;
     }
     /* UTF-8 mode: file names are UTF-8 whatever the host's locale (a host that never called
        setlocale is in the C locale); the host's locale is not touched */
@@ -186,9 +249,9 @@ static int start_python(const Runtime *rt, char *err, size_t errn)
     pre.utf8_mode = 1;
     const PyStatus pst = py.Py_PreInitialize(&pre);
     if (py.PyStatus_Exception(pst)) {
-        snprintf(err, errn, "Python %s did not pre-initialize: %s", rt->version,
-                 pst.err_msg ? pst.err_msg : "?");
-        return -1;
+        ds_format(err, errn, "Python %s did not pre-initialize: %s", rt->version,
+                  pst.err_msg ? pst.err_msg : "?");
+        goto done;
     }
     PyConfig config;
     py.PyConfig_InitIsolatedConfig(&config);
@@ -196,45 +259,54 @@ static int start_python(const Runtime *rt, char *err, size_t errn)
     config.install_signal_handlers = 0;
     config.module_search_paths_set = 1;
     int bad = py.PyStatus_Exception(py.PyConfig_SetBytesString(&config, &config.home, rt->home));
-    snprintf(buf, sizeof buf, "%s/bin/python%s", rt->home, rt->version);
-    if (!bad && access(buf, X_OK) == 0)
-        bad = py.PyStatus_Exception(py.PyConfig_SetBytesString(&config, &config.executable, buf));
-    const char *ver = rt->version;
-    char zip[64];
-    int z = 0;
-    for (const char *p = ver; *p && z < 60; ++p)
-        if (*p != '.') zip[z++] = *p;
-    zip[z] = '\0';
-    snprintf(buf, sizeof buf, "%s/lib/python%s.zip", rt->home, zip);
-    bad = bad || append_path(&config, buf) || append_path(&config, stdlib);
-    snprintf(buf, sizeof buf, "%s/lib-dynload", stdlib);
-    bad = bad || append_path(&config, buf);
+    if (!bad && access(exe, X_OK) == 0)
+        bad = py.PyStatus_Exception(py.PyConfig_SetBytesString(&config, &config.executable, exe));
+    bad = bad || append_path(&config, zip) || append_path(&config, stdlib) ||
+          append_path(&config, dynload);
     for (int i = 0; i < rt->n_sites && !bad; ++i) bad = append_path(&config, rt->sites[i]);
     if (bad) {
         py.PyConfig_Clear(&config);
-        snprintf(err, errn, "cannot configure the Python interpreter (out of memory?)");
-        return -1;
+        ds_format(err, errn, "cannot configure the Python interpreter (out of memory?)");
+        goto done;
     }
     const PyStatus st = py.Py_InitializeFromConfig(&config);
     py.PyConfig_Clear(&config);
     if (py.PyStatus_Exception(st)) {
-        snprintf(err, errn, "Python %s did not start: %s%s%s", rt->version,
-                 st.func ? st.func : "", st.func ? ": " : "", st.err_msg ? st.err_msg : "?");
-        return -1;
+        ds_format(err, errn, "Python %s did not start: %s%s%s", rt->version,
+                  st.func ? st.func : "", st.func ? ": " : "", st.err_msg ? st.err_msg : "?");
+        goto done;
     }
     py.PyEval_SaveThread(); /* the GIL is taken per call (PyGILState_Ensure), from any thread */
-    return 0;
+    result = 0;
+done:
+    free(nodots);
+    free(stdlib);
+    free(probe);
+    free(exe);
+    free(zip);
+    free(dynload);
+    return result;
+}
+
+/* The site-packages folders, ':'-separated (on the heap), or NULL: out of memory. */
+static char *joined_sites(const Runtime *rt)
+{
+    size_t n = 1;
+    for (int i = 0; i < rt->n_sites; ++i) n += strlen(rt->sites[i]) + 1;
+    char *out = malloc(n), *q = out;
+    if (!out) return NULL;
+    *q = '\0';
+    for (int i = 0; i < rt->n_sites; ++i) q += sprintf(q, "%s%s", i ? ":" : "", rt->sites[i]);
+    return out;
 }
 
 /* The interpreter the slaves run in: the host's if it has one, else ours (started once). */
 static int ensure_python(Component *c, const char *resources)
 {
-    char err[2048];
-    Runtime rt;
     if (g_python_ready) {
         ds_logf(c, fmi2OK, "using the Python %.*s %s", (int)strcspn(py.Py_GetVersion(), " "),
                 py.Py_GetVersion(), g_python_started_here ? "started by an FMU in this process"
-                                                        : "that runs in the host process");
+                                                          : "that runs in the host process");
         return 0;
     }
     if (g_python_failure[0]) {
@@ -242,44 +314,52 @@ static int ensure_python(Component *c, const char *resources)
                 "process: %s", g_python_failure);
         return -1;
     }
-    if (read_runtime(resources, &rt, err, sizeof err) != 0) goto fail;
+    char *err = malloc(ERR_LEN);
+    Runtime *rt = NULL;
+    int result = -1;
+    if (!err) {
+        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+        return -1; /* not remembered */
+    }
+    if (!(rt = read_runtime(resources, err, ERR_LEN))) goto fail;
     void *where = RTLD_DEFAULT;
     const int present = dlsym(RTLD_DEFAULT, "Py_IsInitialized") != NULL;
     if (!present) {
-        where = dlopen(rt.libpython, RTLD_NOW | RTLD_GLOBAL);
+        where = dlopen(rt->libpython, RTLD_NOW | RTLD_GLOBAL);
         if (!where) {
-            snprintf(err, sizeof err, "cannot load libpython '%s': %s (set "
-                     "DRILLSTRING_FMU_LIBPYTHON to the libpython%s.so of a Python %s with numpy)",
-                     rt.libpython, dlerror(), rt.version, rt.version);
-            ds_logf(c, fmi2Error, "fmi2Instantiate: %s", err);
-            return -1; /* not remembered: the environment may be fixed for the next attempt */
+            ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load libpython '%s': %s (set "
+                    "DRILLSTRING_FMU_LIBPYTHON to the libpython%s.so of a Python %s with numpy)",
+                    rt->libpython, dlerror(), rt->version, rt->version);
+            goto done; /* not remembered: the environment may be fixed for the next attempt */
         }
     }
-    if (resolve_python(where, err, sizeof err) != 0) goto fail;
+    if (resolve_python(where, err, ERR_LEN) != 0) goto fail;
     if (!py.Py_IsInitialized()) {
-        if (start_python(&rt, err, sizeof err) != 0) goto fail;
+        if (start_python(rt, err, ERR_LEN) != 0) goto fail;
         g_python_started_here = 1;
-        char sites[4 * PATH_LEN] = "";
-        for (int i = 0; i < rt.n_sites; ++i) {
-            if (i) strncat(sites, ":", sizeof sites - strlen(sites) - 1);
-            strncat(sites, rt.sites[i], sizeof sites - strlen(sites) - 1);
-            if (!ds_is_dir(rt.sites[i]))
+        for (int i = 0; i < rt->n_sites; ++i)
+            if (!ds_is_dir(rt->sites[i]))
                 ds_logf(c, fmi2Warning, "fmi2Instantiate: site-packages folder '%s' does not exist "
-                        "(set DRILLSTRING_FMU_SITE_PACKAGES)", rt.sites[i]);
-        }
+                        "(set DRILLSTRING_FMU_SITE_PACKAGES)", rt->sites[i]);
+        char *sites = joined_sites(rt);
         ds_logf(c, fmi2OK, "started Python %.*s from %s (home %s, site-packages %s)",
-                (int)strcspn(py.Py_GetVersion(), " "), py.Py_GetVersion(), rt.libpython, rt.home,
-                sites);
+                (int)strcspn(py.Py_GetVersion(), " "), py.Py_GetVersion(), rt->libpython,
+                rt->home, sites ? sites : "(out of memory)");
+        free(sites);
     } else {
         ds_logf(c, fmi2OK, "using the Python %.*s that runs in the host process",
                 (int)strcspn(py.Py_GetVersion(), " "), py.Py_GetVersion());
     }
     g_python_ready = 1;
-    return 0;
+    result = 0;
+    goto done;
 fail:
-    snprintf(g_python_failure, sizeof g_python_failure, "%s", err);
+    ds_format(g_python_failure, sizeof g_python_failure, "%s", err);
     ds_logf(c, fmi2Error, "fmi2Instantiate: %s", err);
-    return -1;
+done:
+    runtime_free(rt);
+    free(err);
+    return result;
 }
 
 /* ---- pythonfmu's library --------------------------------------------------------------------- */
@@ -290,22 +370,33 @@ static void exit_guard(void *unused)
 }
 
 extern int __cxa_atexit(void (*)(void *), void *, void *);
+static int load_library(Component *c, const char *path, const char *self);
 
 static int load_pythonfmu(Component *c)
 {
     if (ds_pf.lib) return 0;
     Dl_info info;
-    char path[PATH_LEN];
     if (!dladdr((void *)&load_pythonfmu, &info) || !info.dli_fname) {
         ds_logf(c, fmi2Error, "fmi2Instantiate: cannot locate the FMU's own library");
         return -1;
     }
-    snprintf(path, sizeof path, "%s", info.dli_fname);
-    char *slash = strrchr(path, '/');
-    const size_t dir = slash ? (size_t)(slash - path + 1) : 0;
-    snprintf(path + dir, sizeof path - dir, "%s_pythonfmu.so", DS_MODEL_IDENTIFIER);
+    const char *slash = strrchr(info.dli_fname, '/');
+    const int dir = slash ? (int)(slash - info.dli_fname + 1) : 0;
+    char *path = ds_strf("%.*s%s_pythonfmu.so", dir, info.dli_fname, DS_MODEL_IDENTIFIER);
+    if (!path) {
+        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+        return -1;
+    }
+    const int ok = load_library(c, path, info.dli_fname);
+    free(path);
+    return ok;
+}
+
+/* pythonfmu's library at `path`, and the guard of its exit; 0 or -1 (logged). */
+static int load_library(Component *c, const char *path, const char *self)
+{
     /* pinned: Python keeps pointers into it, and the exit guard below must stay valid */
-    dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    dlopen(self, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
     void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
     if (!lib) {
         ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load pythonfmu's library %s: %s", path,
@@ -366,29 +457,28 @@ static void log_python_error(Component *c, const char *what)
 }
 
 /* drillstring_fmu_boot.prepare(resources, entry module): forwards its records, returns the
-   resources path for pythonfmu (into `out`) or -1. */
-static int boot(Component *c, const char *resources, char *out, size_t cap)
+   resources path for pythonfmu (on the heap), or NULL. */
+static char *boot(Component *c, const char *resources)
 {
     PyObject *sys_path = py.PySys_GetObject("path"); /* borrowed */
     PyObject *dir = py.PyUnicode_DecodeFSDefault(resources);
     if (!sys_path || !dir || py.PyList_Insert(sys_path, 0, dir) != 0) {
         py.Py_DecRef(dir);
         log_python_error(c, "cannot put the resources folder on sys.path");
-        return -1;
+        return NULL;
     }
     py.Py_DecRef(dir);
     PyObject *module = py.PyImport_ImportModule(BOOT_MODULE);
     if (!module) {
         log_python_error(c, "cannot import " BOOT_MODULE);
-        return -1;
+        return NULL;
     }
     PyObject *result = py.PyObject_CallMethod(module, "prepare", "ss", resources, DS_ENTRY_MODULE);
     py.Py_DecRef(module);
     if (!result) {
         log_python_error(c, BOOT_MODULE ".prepare failed");
-        return -1;
+        return NULL;
     }
-    int ok = 0;
     PyObject *path = py.PyTuple_GetItem(result, 0), *records = py.PyTuple_GetItem(result, 1);
     const Py_ssize_t n = records ? py.PyList_Size(records) : 0;
     for (Py_ssize_t i = 0; i < n; ++i) {
@@ -404,13 +494,11 @@ static int boot(Component *c, const char *resources, char *out, size_t cap)
         ds_emit(c, (fmi2Status)status, category ? category : ds_status_category(status), message);
     }
     const char *p = path ? py.PyUnicode_AsUTF8(path) : NULL; /* None: failed */
-    if (p && strlen(p) < cap) {
-        strcpy(out, p);
-        ok = 1;
-    }
+    char *out = p ? strdup(p) : NULL;
+    if (p && !out) ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
     py.PyErr_Clear();
     py.Py_DecRef(result);
-    return ok ? 0 : -1;
+    return out;
 }
 
 /* The entry module's dictionary (borrowed) and its reference count. */
@@ -431,7 +519,7 @@ static PyObject *entry_dict(void)
 int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
                           fmi2Boolean visible)
 {
-    char for_pythonfmu[PATH_LEN], uri[PATH_LEN + 8];
+    char *for_pythonfmu = NULL, *uri = NULL;
     pthread_mutex_lock(&g_lock);
     if (ensure_python(c, resources) != 0 || load_pythonfmu(c) != 0) {
         pthread_mutex_unlock(&g_lock);
@@ -440,7 +528,8 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     PyGILState_STATE gil = py.PyGILState_Ensure();
     PyObject *sys_path = py.PySys_GetObject("path");
     PyObject *saved = sys_path ? py.PyList_GetSlice(sys_path, 0, PY_SSIZE_T_MAX) : NULL;
-    const int booted = saved && boot(c, resources, for_pythonfmu, sizeof for_pythonfmu) == 0;
+    if (saved) for_pythonfmu = boot(c, resources);
+    const int booted = for_pythonfmu != NULL;
     /* pythonfmu 0.7.0 releases a borrowed reference to the entry module's dictionary at each
        instantiation (findClass: Py_DECREF of PyModule_GetDict's result); that dictionary has one
        reference (its module), so it would be freed under the module: lend it one beforehand */
@@ -449,11 +538,14 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     if (dict) py.Py_IncRef(dict);
     py.PyGILState_Release(gil);
 
-    if (booted) {
-        snprintf(uri, sizeof uri, "file://%s", for_pythonfmu);
+    if (booted && !(uri = ds_strf("file://%s", for_pythonfmu)))
+        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+    const int called = uri != NULL;
+    if (called)
         c->inner = ds_pf.Instantiate(c->name, fmi2CoSimulation, guid, uri, &c->callbacks, visible,
                                      fmi2True);
-    }
+    free(uri);
+    free(for_pythonfmu);
 
     gil = py.PyGILState_Ensure();
     if (dict && Py_REFCNT(dict) > refs) py.Py_DecRef(dict); /* not taken: a pythonfmu without
@@ -468,7 +560,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     pthread_mutex_unlock(&g_lock);
 
     if (!c->inner) {
-        if (booted)
+        if (called)
             ds_logf(c, fmi2Error, "fmi2Instantiate: pythonfmu could not create the slave (see the "
                     "message before)");
         return -1;

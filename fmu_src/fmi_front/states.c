@@ -37,6 +37,10 @@ typedef struct {
     uint64_t checksum; /* FNV-1a 64 of the header (checksum 0) and the payload */
 } StateHeader;
 #define STATE_FORMAT 1
+_Static_assert(sizeof DS_MODEL_IDENTIFIER <= sizeof ((StateHeader *)0)->model,
+               "the model identifier does not fit into the FMU state's header");
+_Static_assert(sizeof DS_GUID <= sizeof ((StateHeader *)0)->guid,
+               "the GUID does not fit into the FMU state's header");
 static const char STATE_HEADER_MAGIC[8] = "DSFMI2S";
 
 static pthread_mutex_t g_state_lock = PTHREAD_MUTEX_INITIALIZER; /* the list of FMU states */
@@ -199,8 +203,8 @@ fmi2Status ds_state_serialize(Component *c, fmi2FMUstate FMUstate, fmi2Byte seri
     h.format = STATE_FORMAT;
     h.phase = (uint32_t)s->phase;
     h.last_time = s->last_time;
-    snprintf(h.model, sizeof h.model, "%s", DS_MODEL_IDENTIFIER);
-    snprintf(h.guid, sizeof h.guid, "%s", DS_GUID);
+    memcpy(h.model, DS_MODEL_IDENTIFIER, sizeof DS_MODEL_IDENTIFIER); /* both fit: see below */
+    memcpy(h.guid, DS_GUID, sizeof DS_GUID);
     h.payload_size = n;
     h.checksum = checksum(&h, serializedState + sizeof(StateHeader));
     memcpy(serializedState, &h, sizeof h);
