@@ -97,10 +97,9 @@ _IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc", ".*")
 _GUID_NAMESPACE = uuid.UUID("6f1c2a8e-1d5b-5d3e-9a7c-2b4f0e8d9c11")
 #: Fixed timestamp of the archive entries (the earliest a zip file can hold).
 _ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
-#: Flags of the front layer (plain C, no debug information: the binary is reproducible).
-#: (Messages cut to their buffers are intended: -Wno-format-truncation.)
+#: Flags of the front layer (plain C, no debug information: the binary is reproducible). No
+#: warning is silenced: every formatted text's length is checked (ds_format, ds_strf in log.c).
 CFLAGS = ("-std=gnu11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra")
-CFLAGS += ("-Wno-format-truncation",)
 CFLAGS_STRICT = ("-Werror", "-Wl,-z,defs")
 LDLIBS = ("-ldl", "-lpthread")
 #: The environment variables that override the recorded Python on another machine.
