@@ -5,6 +5,9 @@ layer (``fmu_src/fmi_front/runtime.c``) has loaded and configured the interprete
 saves ``sys.path`` before calling :func:`prepare` and restores it after pythonfmu's library has
 instantiated the slave, so nothing here is left behind in the host's interpreter.
 
+The layer then hands each instance the addresses of its typed calls (:func:`begin_instance`,
+:class:`Front`, see :meth:`drillstring_fmu_support.FmuModel.__init__`).
+
 :func:`prepare` does three things and reports each as a log record for the layer to forward:
 
 1. **The drillstring package from a per-user cache.** numba caches compiled code next to the
@@ -32,6 +35,7 @@ import sys
 import tempfile
 import traceback
 from pathlib import Path
+from typing import NamedTuple
 
 #: fmi2Status codes of the records returned to the front layer
 OK, WARNING, ERROR = 0, 1, 3
@@ -201,3 +205,41 @@ def prepare(resources: str, module: str) -> tuple[str | None, list[Record]]:
 def _printable(records: list[Record]) -> list[Record]:
     """Records whose text is valid UTF-8 (file names may carry undecodable bytes)."""
     return [(s, c, m.encode("utf-8", "backslashreplace").decode("utf-8")) for s, c, m in records]
+
+
+# ------------------------------------------------------------------------------------------------
+# the front layer's typed calls
+# ------------------------------------------------------------------------------------------------
+
+
+class Front(NamedTuple):
+    """What the front layer gives the slave of one instance: the instance (its ``Component``) and
+    the addresses of two C functions of the layer (``fmu_src/fmi_front``), to be called through
+    ctypes with the GIL held: ``fast(component, descriptor, length)`` (``ds_front_fast``: the
+    native fast path) and ``log(component, status, category, message)`` (``ds_front_log``)."""
+
+    component: int
+    fast: int
+    log: int
+
+
+_pending: Front | None = None
+
+
+def begin_instance(component: int, fast: int, log: int) -> None:
+    """Called by the front layer (under its process lock) before pythonfmu makes the slave of
+    ``component``, in ``fmi2Instantiate`` and ``fmi2Reset``."""
+    global _pending
+    _pending = Front(component, fast, log)
+
+
+def end_instance(component: int) -> None:
+    """Called by the front layer after pythonfmu made (or failed to make) the slave."""
+    global _pending
+    _pending = None
+
+
+def attach() -> Front | None:
+    """The :class:`Front` of the instance being made, None outside the layer's instantiation (a
+    slave made by the build or directly in Python)."""
+    return _pending

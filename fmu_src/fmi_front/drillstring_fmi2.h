@@ -137,7 +137,6 @@ typedef struct {
 extern PythonFmu ds_pf; /* loaded by ds_python_instantiate (runtime.c) */
 
 /* ---- the native fast path (fast.c) ----------------------------------------------------------- */
-#define FAST_MAX 32
 typedef int32_t (*ds_native_fn)(double *io, void **args, double t, double h);
 typedef struct {
     int on;
@@ -180,7 +179,13 @@ void ds_emit(Component *c, fmi2Status status, const char *category, const char *
 /* Format, count into the call's status, forward. */
 __attribute__((format(printf, 3, 4))) void ds_logf(Component *c, fmi2Status status,
                                                    const char *fmt, ...);
-/* The logger pythonfmu calls (messages and records of the Python slave). */
+/* Format and forward, not counted into the call's status (a note about the FMU itself). */
+__attribute__((format(printf, 4, 5))) void ds_note(Component *c, fmi2Status status,
+                                                   const char *category, const char *fmt, ...);
+/* The slave's messages and records (the typed call the Python side makes through ctypes, see
+   runtime.c; status an fmi2Status): 0, 1 (not a message), -1 (not an instance). */
+int32_t ds_front_log(void *component, int32_t status, const char *category, const char *message);
+/* The logger pythonfmu calls (its own messages; the slave's if it has no typed call). */
 void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                      fmi2String category, fmi2String message, ...);
 
@@ -212,8 +217,9 @@ fmi2Status ds_state_deserialize(Component *c, const fmi2Byte serializedState[], 
                                 fmi2FMUstate *FMUstate);
 
 /* ---- fast.c ---------------------------------------------------------------------------------- */
-/* A descriptor the slave announced in a record (its text after "fast "). */
-void ds_fast_record(Component *c, const char *text);
+/* The descriptor of the native fast path, `length` 64-bit words, handed over by the slave through
+   ctypes (see fast.c): 0 accepted, 1 refused (logged), -1 not an instance. */
+int32_t ds_front_fast(void *component, const uint64_t *descriptor, size_t length);
 /* Before any call into Python: the arrays may be replaced there; the slave announces anew. */
 void ds_fast_drop(Component *c);
 /* fmi2GetReal/fmi2GetInteger served natively: 1, or 0 (Python serves the call). */

@@ -87,14 +87,14 @@ char *ds_strf(const char *fmt, ...)
     return n < 0 ? NULL : out;
 }
 
-void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
+/* Format (on the heap if longer than 1 KiB) and forward; `count`: into the call's status. */
+static void vlog(Component *c, fmi2Status status, const char *category, int count,
+                 const char *fmt, va_list args)
 {
     char small[1024], *text = small, *big = NULL;
-    va_list args, again;
-    va_start(args, fmt);
+    va_list again;
     va_copy(again, args);
     const int n = vsnprintf(small, sizeof small, fmt, args);
-    va_end(args);
     if (n < 0) {
         ds_format(small, sizeof small, "(a message that cannot be formatted: %s)", fmt);
     } else if ((size_t)n >= sizeof small) { /* longer: on the heap, or cut if there is none */
@@ -103,18 +103,33 @@ void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
         else mark_cut(small, sizeof small);
     }
     va_end(again);
-    if (status > c->call_status && status != fmi2Pending) c->call_status = status;
-    ds_emit(c, status, NULL, text);
+    if (count && status > c->call_status && status != fmi2Pending) c->call_status = status;
+    ds_emit(c, status, category, text);
     free(big);
 }
 
-/* The logger pythonfmu calls (messages of the Python slave, passed without format arguments). */
-void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
-                     fmi2String category, fmi2String message, ...)
+void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
 {
-    Component *c = env;
-    (void)instance;
-    if (!c || c->magic != COMPONENT_MAGIC || !message) return;
+    va_list args;
+    va_start(args, fmt);
+    vlog(c, status, NULL, 1, fmt, args);
+    va_end(args);
+}
+
+void ds_note(Component *c, fmi2Status status, const char *category, const char *fmt, ...)
+{
+    va_list args;
+    va_start(args, fmt);
+    vlog(c, status, category, 0, fmt, args);
+    va_end(args);
+}
+
+int32_t ds_front_log(void *component, int32_t status, const char *category, const char *message)
+{
+    Component *c = component;
+    if (!c || c->magic != COMPONENT_MAGIC) return -1;
+    if (!message || status < (int32_t)fmi2OK || status > (int32_t)fmi2Pending) return 1;
+    const fmi2Status st = (fmi2Status)status;
     if (category && strcmp(category, RECORD_CATEGORY) == 0) {
         char *end = NULL;
         if (strncmp(message, "time ", 5) == 0) {
@@ -123,11 +138,19 @@ void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Stat
                 c->record_time = t;
                 c->has_record = 1;
             }
-        } else if (strncmp(message, "fast ", 5) == 0) {
-            ds_fast_record(c, message + 5);
         }
-        return;
+        return 0;
     }
-    if (status > c->call_status && status != fmi2Pending) c->call_status = status;
-    ds_emit(c, status, category, message);
+    if (st > c->call_status && st != fmi2Pending) c->call_status = st;
+    ds_emit(c, st, category, message);
+    return 0;
+}
+
+/* The logger pythonfmu calls (messages passed without format arguments: the slave's, when it
+   has no typed call, and pythonfmu's own). */
+void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                     fmi2String category, fmi2String message, ...)
+{
+    (void)instance;
+    ds_front_log(env, (int32_t)status, category, message);
 }

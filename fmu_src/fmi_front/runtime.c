@@ -442,13 +442,13 @@ static int load_library(Component *c, const char *path, const char *self)
 }
 
 /* ---- Python helpers (GIL held) --------------------------------------------------------------- */
-static void log_python_error(Component *c, const char *what)
+static void log_python_error(Component *c, const char *fn, const char *what)
 {
     PyObject *type = NULL, *value = NULL, *tb = NULL;
     py.PyErr_Fetch(&type, &value, &tb);
     PyObject *text = value ? py.PyObject_Str(value) : NULL;
     const char *s = text ? py.PyUnicode_AsUTF8(text) : NULL;
-    ds_logf(c, fmi2Error, "fmi2Instantiate: %s: %s", what, s ? s : "unknown Python error");
+    ds_logf(c, fmi2Error, "%s: %s: %s", fn, what, s ? s : "unknown Python error");
     if (!s) py.PyErr_Clear();
     py.Py_DecRef(text);
     py.Py_DecRef(type);
@@ -464,19 +464,19 @@ static char *boot(Component *c, const char *resources)
     PyObject *dir = py.PyUnicode_DecodeFSDefault(resources);
     if (!sys_path || !dir || py.PyList_Insert(sys_path, 0, dir) != 0) {
         py.Py_DecRef(dir);
-        log_python_error(c, "cannot put the resources folder on sys.path");
+        log_python_error(c, "fmi2Instantiate", "cannot put the resources folder on sys.path");
         return NULL;
     }
     py.Py_DecRef(dir);
     PyObject *module = py.PyImport_ImportModule(BOOT_MODULE);
     if (!module) {
-        log_python_error(c, "cannot import " BOOT_MODULE);
+        log_python_error(c, "fmi2Instantiate", "cannot import " BOOT_MODULE);
         return NULL;
     }
     PyObject *result = py.PyObject_CallMethod(module, "prepare", "ss", resources, DS_ENTRY_MODULE);
     py.Py_DecRef(module);
     if (!result) {
-        log_python_error(c, BOOT_MODULE ".prepare failed");
+        log_python_error(c, "fmi2Instantiate", BOOT_MODULE ".prepare failed");
         return NULL;
     }
     PyObject *path = py.PyTuple_GetItem(result, 0), *records = py.PyTuple_GetItem(result, 1);
@@ -515,6 +515,30 @@ static PyObject *entry_dict(void)
 }
 
 
+/* ---- the Python side of each instance (GIL held) --------------------------------------------- */
+/* drillstring_fmu_boot.<function>(component[, the layer's typed calls]): the slave being made
+   takes the addresses of ds_front_fast and ds_front_log (the typed calls through which it hands
+   over its fast path and its messages, never through pythonfmu's log queue); 0, or -1 (logged,
+   prefixed with `fn`). */
+static int boot_call(Component *c, const char *fn, const char *function)
+{
+    const unsigned long long self = (uintptr_t)c;
+    PyObject *module = py.PyImport_ImportModule(BOOT_MODULE), *result = NULL;
+    if (module && strcmp(function, "begin_instance") == 0)
+        result = py.PyObject_CallMethod(module, function, "KKK", self,
+                                        (unsigned long long)(uintptr_t)&ds_front_fast,
+                                        (unsigned long long)(uintptr_t)&ds_front_log);
+    else if (module)
+        result = py.PyObject_CallMethod(module, function, "K", self);
+    py.Py_DecRef(module);
+    if (!result) {
+        log_python_error(c, fn, BOOT_MODULE " failed");
+        return -1;
+    }
+    py.Py_DecRef(result);
+    return 0;
+}
+
 /* ---- instances ------------------------------------------------------------------------------- */
 int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
                           fmi2Boolean visible)
@@ -529,7 +553,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     PyObject *sys_path = py.PySys_GetObject("path");
     PyObject *saved = sys_path ? py.PyList_GetSlice(sys_path, 0, PY_SSIZE_T_MAX) : NULL;
     if (saved) for_pythonfmu = boot(c, resources);
-    const int booted = for_pythonfmu != NULL;
+    const int booted = for_pythonfmu && boot_call(c, "fmi2Instantiate", "begin_instance") == 0;
     /* pythonfmu 0.7.0 releases a borrowed reference to the entry module's dictionary at each
        instantiation (findClass: Py_DECREF of PyModule_GetDict's result); that dictionary has one
        reference (its module), so it would be freed under the module: lend it one beforehand */
@@ -545,9 +569,9 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
         c->inner = ds_pf.Instantiate(c->name, fmi2CoSimulation, guid, uri, &c->callbacks, visible,
                                      fmi2True);
     free(uri);
-    free(for_pythonfmu);
 
     gil = py.PyGILState_Ensure();
+    if (booted) boot_call(c, "fmi2Instantiate", "end_instance");
     if (dict && Py_REFCNT(dict) > refs) py.Py_DecRef(dict); /* not taken: a pythonfmu without
                                                                    that defect, or it failed */
     if (saved) { /* sys.path as it was: pythonfmu and the boot module added to it */
@@ -558,6 +582,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     py.PyErr_Clear();
     py.PyGILState_Release(gil);
     pthread_mutex_unlock(&g_lock);
+    free(for_pythonfmu);
 
     if (!c->inner) {
         if (called)
@@ -570,9 +595,11 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
 
 void ds_python_free(Component *c)
 {
+    if (!c->inner) return;
     pthread_mutex_lock(&g_lock);
     ds_fast_drop(c);
-    if (c->inner) ds_pf.FreeInstance(c->inner);
+    ds_pf.FreeInstance(c->inner);
+    c->inner = NULL;
     pthread_mutex_unlock(&g_lock);
 }
 
@@ -580,7 +607,16 @@ fmi2Status ds_python_reset(Component *c)
 {
     pthread_mutex_lock(&g_lock);
     ds_fast_drop(c);
+    /* pythonfmu's fmi2Reset replaces the slave: the new one is handed the typed calls */
+    PyGILState_STATE gil = py.PyGILState_Ensure();
+    const int handed = boot_call(c, "fmi2Reset", "begin_instance") == 0;
+    py.PyErr_Clear();
+    py.PyGILState_Release(gil);
     const fmi2Status s = ds_finish(c, ds_pf.Reset(c->inner));
+    gil = py.PyGILState_Ensure();
+    if (handed) boot_call(c, "fmi2Reset", "end_instance");
+    py.PyErr_Clear();
+    py.PyGILState_Release(gil);
     pthread_mutex_unlock(&g_lock);
     return s;
 }
