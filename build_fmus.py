@@ -264,16 +264,21 @@ def entry_module(spec: FmuSpec) -> tuple[str, str]:
     """Name and text of the entry module named in ``slavemodule.txt``.
 
     pythonfmu 0.7.0 compiles and executes the file of that module anew at every ``fmi2Instantiate``
-    and keeps a list referencing every class it defines (the class and its functions are never
-    freed: ~64 KB per instance). This module only imports the class, so each instantiation
-    defines nothing new; the script itself is imported once per process.
+    (with the module's namespace as globals and a fresh dictionary as locals) and keeps, for each
+    class bound in those locals, the list of its MRO and two strings per MRO entry (about 1 KB
+    per instance, never freed); were the class defined there, it would keep the class and its
+    functions too (~64 KB per instance). It takes the slave class from the module's attribute
+    named after the class it found there, the empty name when it found none. So this module
+    imports the script (once per process) and stores the class under the attribute ``""``:
+    executing it binds no class and defines nothing new.
     """
     name = f"{spec.script.stem}_entry"
     text = (
         f'"""Entry module of {spec.model}.fmu for pythonfmu\'s library, written by\n'
-        "build_fmus.py: executed at every fmi2Instantiate, so it only imports the class (see\n"
-        'build_fmus.py, `entry_module`)."""\n\n'
-        f"from {spec.script.stem} import {spec.model}  # noqa: F401\n"
+        "build_fmus.py: executed at every fmi2Instantiate, it binds no class and stores the\n"
+        'slave class as the attribute "" (see build_fmus.py, `entry_module`)."""\n\n'
+        f"import {spec.script.stem}\n\n"
+        f'globals()[""] = {spec.script.stem}.{spec.model}\n'
     )
     return name, text
 

@@ -31,7 +31,8 @@ addresses of two of its C functions (:class:`drillstring_fmu_boot.Front`); the s
 through ctypes: its log messages and records go to the layer directly (pythonfmu 0.7.0 keeps a
 reference to every message that passes its log queue, so each would live forever), and at the
 end of each call while stepping it hands over the descriptor of its native fast path
-(:class:`FastPath`) with its length, which the layer checks before using it.
+(:class:`FastPath`) with its length, which the layer checks before using it. At
+``fmi2FreeInstance`` the layer calls :meth:`FmuModel.release`.
 
 Both FMUs run in one interpreter when a host loads them together; the first imported copy of this
 module serves both, so it must stay backwards compatible within one build of the FMUs.
@@ -109,9 +110,12 @@ def read_config(resources: str | os.PathLike[str] | None) -> dict[str, Any]:
     """
     if resources is None:
         raise FileNotFoundError(f"no resources folder given; cannot read {CONFIG_FILE}")
-    path = Path(resources) / CONFIG_FILE
+    # a string, not a Path: pathlib (3.11) interns every part of a path it parses, and this runs
+    # at every instantiation (see drillstring_fmu_boot._cache_folder)
+    path = os.path.join(os.fspath(resources), CONFIG_FILE)
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
     except OSError as exc:
         raise FileNotFoundError(f"cannot read FMU build configuration {path}: {exc}") from exc
     try:
@@ -393,7 +397,7 @@ class FmuModel(Fmi2Slave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self._front = _boot.attach()
+        self._front = _boot.attach(self.release)
         if self._front is not None:
             self._log_call = _LOG_CALL(self._front.log)
             self._fast_call = _FAST_CALL(self._front.fast)
@@ -476,6 +480,16 @@ class FmuModel(Fmi2Slave):
         self._by_vr[pf_var.value_reference] = var
         self._vr_of[var.name] = pf_var.value_reference
         self._by_name[var.name] = var
+
+    def release(self) -> None:
+        """Drop the model and the reference cycles through the slave (its variables' getters and
+        setters close over it), so that pythonfmu frees it at once, with its model, rather than
+        some later run of the cyclic garbage collector; the front layer calls it at
+        ``fmi2FreeInstance`` and ``fmi2Reset``, after which the slave is never called again."""
+        for var in self.vars.values():
+            var.getter = var.setter = None
+        self.vars.clear()
+        self.__dict__.clear()
 
     # ----------------------------------------------------------------- reporting
     def log(

@@ -271,7 +271,8 @@ def _slave_of(s: tl.Slave) -> Any:
     interpreter), found by its instance name."""
     model = sys.modules["drillstring_fmu_support"].FmuModel
     name = s.fmu.instanceName
-    (slave,) = (o for o in gc.get_objects() if isinstance(o, model) and o.instance_name == name)
+    found = [o for o in gc.get_objects() if isinstance(o, model)]
+    (slave,) = (o for o in found if getattr(o, "instance_name", None) == name)  # not released
     return slave
 
 

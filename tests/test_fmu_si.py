@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import zipfile
 
 import fmu_testlib as tl
@@ -68,7 +69,7 @@ def test_si_fmus_are_valid_with_units_and_display_units(built, which):
                 assert v.displayUnit in {d.name for d in defined[v.unit].displayUnits}
     with zipfile.ZipFile(unit.fmu) as z:
         entry = z.read("resources/slavemodule.txt").decode().strip()
-        module = z.read(f"resources/{entry}.py").decode().split("from ")[-1].split()[0]
+        module = re.findall(r"^import (\w+)$", z.read(f"resources/{entry}.py").decode(), re.M)[0]
         # the thin SI script and the scaled script it derives from are both bundled
         files = set(z.namelist())
     assert module.endswith("_si") and f"resources/{module}.py" in files

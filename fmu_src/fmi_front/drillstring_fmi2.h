@@ -215,6 +215,8 @@ fmi2Status ds_state_serialize(Component *c, fmi2FMUstate FMUstate, fmi2Byte seri
                               size_t size);
 fmi2Status ds_state_deserialize(Component *c, const fmi2Byte serializedState[], size_t size,
                                 fmi2FMUstate *FMUstate);
+/* Every FMU state the instance still owns freed (fmi2FreeInstance, before pythonfmu's instance). */
+void ds_states_free_owned(Component *c);
 
 /* ---- fast.c ---------------------------------------------------------------------------------- */
 /* The descriptor of the native fast path, `length` 64-bit words, handed over by the slave through

@@ -518,8 +518,8 @@ static PyObject *entry_dict(void)
 /* ---- the Python side of each instance (GIL held) --------------------------------------------- */
 /* drillstring_fmu_boot.<function>(component[, the layer's typed calls]): the slave being made
    takes the addresses of ds_front_fast and ds_front_log (the typed calls through which it hands
-   over its fast path and its messages, never through pythonfmu's log queue); 0, or -1 (logged,
-   prefixed with `fn`). */
+   over its fast path and its messages, never through pythonfmu's log queue) and registers for
+   its release; 0, or -1 (logged, prefixed with `fn`). */
 static int boot_call(Component *c, const char *fn, const char *function)
 {
     const unsigned long long self = (uintptr_t)c;
@@ -537,6 +537,18 @@ static int boot_call(Component *c, const char *fn, const char *function)
     }
     py.Py_DecRef(result);
     return 0;
+}
+
+/* pythonfmu 0.7.0 puts its resources path at sys.path[0] with a reference it never releases (a
+   new string given to PyList_Insert, which does not steal it): once sys.path is restored, that
+   string would live on, ~200 bytes per instance. Its leaked reference is released if sys.path[0]
+   is that string and held by nothing else (two references: sys.path's and the leaked one). */
+static void release_leaked_path(PyObject *sys_path, const char *path)
+{
+    PyObject *first = py.PyList_Size(sys_path) > 0 ? py.PyList_GetItem(sys_path, 0) : NULL;
+    if (!first || !PyUnicode_Check(first) || Py_REFCNT(first) != 2) return;
+    const char *text = py.PyUnicode_AsUTF8(first);
+    if (text && strcmp(text, path) == 0) py.Py_DecRef(first);
 }
 
 /* ---- instances ------------------------------------------------------------------------------- */
@@ -576,6 +588,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
                                                                    that defect, or it failed */
     if (saved) { /* sys.path as it was: pythonfmu and the boot module added to it */
         sys_path = py.PySys_GetObject("path");
+        if (sys_path && called) release_leaked_path(sys_path, for_pythonfmu);
         if (sys_path) py.PyList_SetSlice(sys_path, 0, PY_SSIZE_T_MAX, saved);
         py.Py_DecRef(saved);
     }
@@ -598,6 +611,13 @@ void ds_python_free(Component *c)
     if (!c->inner) return;
     pthread_mutex_lock(&g_lock);
     ds_fast_drop(c);
+    ds_states_free_owned(c);
+    /* the slave drops its model and the cycles through itself: pythonfmu's fmi2FreeInstance
+       then frees it at once, not at some later run of Python's cyclic garbage collector */
+    PyGILState_STATE gil = py.PyGILState_Ensure();
+    boot_call(c, "fmi2FreeInstance", "release");
+    py.PyErr_Clear();
+    py.PyGILState_Release(gil);
     ds_pf.FreeInstance(c->inner);
     c->inner = NULL;
     pthread_mutex_unlock(&g_lock);
@@ -607,8 +627,9 @@ fmi2Status ds_python_reset(Component *c)
 {
     pthread_mutex_lock(&g_lock);
     ds_fast_drop(c);
-    /* pythonfmu's fmi2Reset replaces the slave: the new one is handed the typed calls */
+    /* pythonfmu's fmi2Reset replaces the slave: the old one released, the new one handed over */
     PyGILState_STATE gil = py.PyGILState_Ensure();
+    boot_call(c, "fmi2Reset", "release");
     const int handed = boot_call(c, "fmi2Reset", "begin_instance") == 0;
     py.PyErr_Clear();
     py.PyGILState_Release(gil);

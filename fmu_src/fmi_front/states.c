@@ -6,7 +6,8 @@
  * that is not one of them (a state of another FMU, or one freed already) is refused before Python
  * sees it. A serialized state is a header (model, GUID, format, state-machine state, time, length,
  * FNV-1a checksum) and pythonfmu's bytes: a state of another FMU or corrupted bytes are refused
- * with a message that says which.
+ * with a message that says which. A state belongs to the instance that made it (another instance
+ * of the same FMU may set it): fmi2FreeInstance frees the states the instance still owns.
  */
 #include "drillstring_fmi2.h"
 
@@ -19,6 +20,7 @@
 /* An FMU state: pythonfmu's state plus what the layer owns. */
 typedef struct State {
     uint64_t magic;
+    const Component *owner; /* the instance that made it: fmi2FreeInstance frees it */
     int phase;
     double last_time;
     fmi2FMUstate inner;
@@ -77,6 +79,26 @@ static void state_remove(State *s)
     free(s);
 }
 
+void ds_states_free_owned(Component *c)
+{
+    for (;;) {
+        State *s = NULL;
+        pthread_mutex_lock(&g_state_lock);
+        for (State **p = &g_states; *p; p = &(*p)->next) {
+            if ((*p)->owner == c) {
+                s = *p;
+                *p = s->next;
+                break;
+            }
+        }
+        pthread_mutex_unlock(&g_state_lock);
+        if (!s) return;
+        ds_pf.FreeFMUstate(c->inner, &s->inner);
+        s->magic = 0;
+        free(s);
+    }
+}
+
 static int check_state(Component *c, const char *fn, const void *s)
 {
     if (!s) {
@@ -116,6 +138,7 @@ fmi2Status ds_state_get(Component *c, fmi2FMUstate *FMUstate)
             return fmi2Error;
         }
         s->magic = STATE_MAGIC;
+        s->owner = c;
         state_add(s);
     }
     s->inner = inner;
@@ -268,6 +291,7 @@ fmi2Status ds_state_deserialize(Component *c, const fmi2Byte serializedState[], 
             return fmi2Error;
         }
         s->magic = STATE_MAGIC;
+        s->owner = c;
         state_add(s);
     }
     s->inner = inner;
