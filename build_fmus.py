@@ -31,7 +31,7 @@ attributes of a generated module (:func:`class_module`; ``docs/si_fmus.md``):
    the content and a pinned ``generationDateAndTime`` when ``SOURCE_DATE_EPOCH`` is set;
 4. replace pythonfmu's binaries by the project's front layer: pythonfmu's ``linux64`` library is
    kept as ``binaries/linux64/<id>_pythonfmu.so`` and ``binaries/linux64/<id>.so`` is
-   ``fmu_src/fmi_front/drillstring_fmi2.c`` compiled with the system's C compiler against a header
+   ``fmu_src/fmi_front/*.c`` compiled with the system's C compiler against a header
    generated from the final modelDescription.xml (:func:`model_header`); pythonfmu's untested
    ``win64`` DLL is dropped (only built and tested platforms are shipped);
 5. rewrite the archive deterministically (sorted entries, fixed timestamps) and run
@@ -82,7 +82,8 @@ PACKAGE = ROOT / "drillstring"
 SUPPORT = FMU_SRC / "drillstring_fmu_support.py"
 BOOT = FMU_SRC / "drillstring_fmu_boot.py"
 UNITS_MODULE = FMU_SRC / "drillstring_fmu_units.py"
-FRONT_LAYER = FMU_SRC / "fmi_front" / "drillstring_fmi2.c"
+#: The front layer's folder: its header and one C file per concern (see drillstring_fmi2.h).
+FRONT_LAYER = FMU_SRC / "fmi_front"
 CONFIG_NAME = "drillstring_fmu.json"
 RUNTIME_NAME = "drillstring_fmu_python.cfg"
 DEFAULT_OUT = ROOT / "build"
@@ -95,10 +96,9 @@ _IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc", ".*")
 _GUID_NAMESPACE = uuid.UUID("6f1c2a8e-1d5b-5d3e-9a7c-2b4f0e8d9c11")
 #: Fixed timestamp of the archive entries (the earliest a zip file can hold).
 _ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
-#: Flags of the front layer (plain C, no debug information: the binary is reproducible).
-#: (Messages cut to their buffers are intended: -Wno-format-truncation.)
+#: Flags of the front layer (plain C, no debug information: the binary is reproducible). No
+#: warning is silenced: every formatted text's length is checked (ds_format, ds_strf in log.c).
 CFLAGS = ("-std=gnu11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra")
-CFLAGS += ("-Wno-format-truncation",)
 CFLAGS_STRICT = ("-Werror", "-Wl,-z,defs")
 LDLIBS = ("-ldl", "-lpthread")
 #: The environment variables that override the recorded Python on another machine.
@@ -222,7 +222,7 @@ def find_compiler() -> list[str]:
             raise BuildError(str(exc)) from None
         raise BuildError(
             f"{exc}: build_fmus.py compiles the FMUs' front layer "
-            "(fmu_src/fmi_front/drillstring_fmi2.c) with the system's C compiler; install one "
+            "(fmu_src/fmi_front/*.c) with the system's C compiler; install one "
             "(Debian: apt-get install gcc) or set CC"
         ) from None
 
@@ -281,16 +281,21 @@ def entry_module(spec: FmuSpec) -> tuple[str, str]:
     """Name and text of the entry module named in ``slavemodule.txt``.
 
     pythonfmu 0.7.0 compiles and executes the file of that module anew at every ``fmi2Instantiate``
-    and keeps a list referencing every class it defines (the class and its functions are never
-    freed: ~64 KB per instance). This module only imports the class, so each instantiation
-    defines nothing new; the script itself is imported once per process.
+    (with the module's namespace as globals and a fresh dictionary as locals) and keeps, for each
+    class bound in those locals, the list of its MRO and two strings per MRO entry (about 1 KB
+    per instance, never freed); were the class defined there, it would keep the class and its
+    functions too (~64 KB per instance). It takes the slave class from the module's attribute
+    named after the class it found there, the empty name when it found none. So this module
+    imports the script (once per process) and stores the class under the attribute ``""``:
+    executing it binds no class and defines nothing new.
     """
     name = f"{spec.model}_entry"
     text = (
         f'"""Entry module of {spec.model}.fmu for pythonfmu\'s library, written by\n'
-        "build_fmus.py: executed at every fmi2Instantiate, so it only imports the class (see\n"
-        'build_fmus.py, `entry_module`)."""\n\n'
-        f"from {spec.model} import {spec.model}  # noqa: F401\n"
+        "build_fmus.py: executed at every fmi2Instantiate, it binds no class and stores the\n"
+        'slave class as the attribute "" (see build_fmus.py, `entry_module`)."""\n\n'
+        f"import {spec.model}\n\n"
+        f'globals()[""] = {spec.model}.{spec.model}\n'
     )
     return name, text
 
@@ -500,7 +505,7 @@ def _generation_time(source_date_epoch: int | None) -> str | None:
 
 def _set_guid(root: ET.Element, entries: dict[str, bytes], extra: bytes) -> None:
     """GUID from the model description (without GUID and date), the non-binary entries and
-    ``extra`` (the front layer's source and pythonfmu's library): the binaries are made from
+    ``extra`` (the front layer's sources and pythonfmu's library): the binaries are made from
     exactly these, and the front layer's binary contains the GUID, so it cannot be hashed."""
     generated = root.get("generationDateAndTime")
     root.set("guid", "")
@@ -551,24 +556,46 @@ def model_header(root: ET.Element, entry: str) -> str:
         f"#define DS_GUID {json.dumps(root.get('guid'))}",
         f"#define DS_ENTRY_MODULE {json.dumps(entry)}",
         f"#define DS_N_VR {max(rows) + 1}",
-        "static const ds_variable DS_VARIABLES[DS_N_VR] = {",
+        f"#define DS_N_LOG_CATEGORIES {len(categories)}",
+        "#ifdef DS_MODEL_TABLES /* defined in front.c only */",
+        "const ds_variable DS_VARIABLES[DS_N_VR] = {",
     ]
     for vr in sorted(rows):
         name, code, causality = rows[vr]
         lines.append(f"    [{vr}] = {{{json.dumps(name)}, '{code}', {causality}}},")
     lines += [
         "};",
-        f"#define DS_N_LOG_CATEGORIES {len(categories)}",
-        "static const char *const DS_LOG_CATEGORIES[DS_N_LOG_CATEGORIES + 1] = {",
+        "const char *const DS_LOG_CATEGORIES[DS_N_LOG_CATEGORIES + 1] = {",
         *[f"    {json.dumps(c)}," for c in categories],
         "    NULL,",
         "};",
+        "#endif",
     ]
     return "\n".join(lines) + "\n"
 
 
-def compile_front_layer(header: str, out: Path, include: str, work: Path) -> None:
-    """Compile ``drillstring_fmi2.c`` with ``header`` as ``model_data.h`` into ``out``."""
+def front_layer_files() -> list[Path]:
+    """The front layer's sources (``fmu_src/fmi_front/*.c`` and ``*.h``), sorted by name."""
+    files = sorted(p for p in FRONT_LAYER.iterdir() if p.suffix in (".c", ".h"))
+    if not any(p.suffix == ".c" for p in files):
+        raise BuildError(f"no C files of the front layer in {FRONT_LAYER}")
+    return files
+
+
+def front_layer_digest() -> bytes:
+    """SHA-256 over the names and contents of the front layer's sources (for the GUID)."""
+    digest = hashlib.sha256()
+    for path in front_layer_files():
+        content = hashlib.sha256(path.read_bytes()).digest()
+        digest.update(path.name.encode("utf-8") + b"\0" + content)
+    return digest.digest()
+
+
+def compile_front_layer(
+    header: str, out: Path, include: str, work: Path, extra_flags: Sequence[str] = ()
+) -> None:
+    """Compile the front layer's C files in one call, with ``header`` as ``model_data.h``, into
+    ``out`` (``extra_flags`` after the project's flags: for the tests' analyses)."""
     if not (Path(include) / "Python.h").is_file():
         raise BuildError(
             f"no Python.h in {include}: the front layer needs the headers of the Python that "
@@ -577,12 +604,16 @@ def compile_front_layer(header: str, out: Path, include: str, work: Path) -> Non
     gen = work / "gen"
     gen.mkdir(parents=True, exist_ok=True)
     (gen / "model_data.h").write_text(header, encoding="utf-8")
-    src = gen / FRONT_LAYER.name
-    shutil.copyfile(FRONT_LAYER, src)
+    sources = []
+    for path in front_layer_files():
+        shutil.copyfile(path, gen / path.name)
+        if path.suffix == ".c":
+            sources.append(str(gen / path.name))
     cmd = [
         *find_compiler(),
         *CFLAGS,
         *CFLAGS_STRICT,
+        *extra_flags,
         f"-ffile-prefix-map={gen}=.",
         "-I",
         str(gen),
@@ -590,7 +621,7 @@ def compile_front_layer(header: str, out: Path, include: str, work: Path) -> Non
         include,
         "-o",
         str(out),
-        str(src),
+        *sources,
         *LDLIBS,
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=gen)
@@ -765,7 +796,7 @@ def _postprocess(
         del entries[name]  # other platforms: not built and tested here
     entry, _ = entry_module(spec)
     entries["resources/slavemodule.txt"] = entry.encode("utf-8")
-    extra = hashlib.sha256(FRONT_LAYER.read_bytes()).digest()
+    extra = front_layer_digest()
     extra += hashlib.sha256(pythonfmu_lib).digest() + " ".join(CFLAGS).encode("utf-8")
     _set_guid(root, entries, extra)
 

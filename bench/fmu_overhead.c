@@ -8,7 +8,8 @@
  * library the layer forwards to). Blocks of STEPS fmi2DoStep calls alternate between A and B;
  * each block's mean time per call (ns) is printed as "layer NS" or "direct NS". B is created the
  * way the layer creates its instances (the Python side prepared by A, and the reference
- * pythonfmu 0.7.0 drops on the entry module's dictionary lent beforehand, see drillstring_fmi2.c).
+ * pythonfmu 0.7.0 drops on the entry module's dictionary lent beforehand, see
+ * fmu_src/fmi_front/runtime.c).
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>

@@ -1,9 +1,13 @@
 """Start-up of a drillstring FMU's Python side, run by the FMU's front layer in ``fmi2Instantiate``.
 
 Standard library only: this module runs before anything else of the FMU is imported. The front
-layer (``fmu_src/fmi_front/drillstring_fmi2.c``) has loaded and configured the interpreter; it
+layer (``fmu_src/fmi_front/runtime.c``) has loaded and configured the interpreter; it
 saves ``sys.path`` before calling :func:`prepare` and restores it after pythonfmu's library has
 instantiated the slave, so nothing here is left behind in the host's interpreter.
+
+The layer then hands each instance the addresses of its typed calls (:func:`begin_instance`,
+:class:`Front`, see :meth:`drillstring_fmu_support.FmuModel.__init__`) and releases the slave at
+``fmi2FreeInstance`` (:func:`release`).
 
 :func:`prepare` does three things and reports each as a log record for the layer to forward:
 
@@ -31,7 +35,10 @@ import os
 import sys
 import tempfile
 import traceback
+import weakref
+from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 #: fmi2Status codes of the records returned to the front layer
 OK, WARNING, ERROR = 0, 1, 3
@@ -45,12 +52,19 @@ Record = tuple[int, str, str]
 
 def cache_root() -> Path:
     """The per-user cache folder of the FMUs (see the module docstring)."""
+    return Path(_cache_folder())
+
+
+def _cache_folder() -> str:
+    # strings where a function runs at every instantiation: pathlib (Python 3.11) interns every
+    # part of every path it parses, and each interned string that dies takes a slot of the
+    # interpreter's table of interned strings until the next resize of that (megabyte) table
     explicit = os.environ.get("DRILLSTRING_FMU_CACHE")
     if explicit:
-        return Path(explicit)
+        return explicit
     xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg else Path.home() / ".cache"
-    return base / "drillstring"
+    base = xdg if xdg else os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "drillstring")
 
 
 def _package_files(root: Path) -> list[Path]:
@@ -122,31 +136,32 @@ def _remove_tree(path: Path) -> None:
     path.rmdir()
 
 
-def pythonfmu_safe_path(resources: Path, root: Path) -> Path:
-    """``resources`` itself, or a symbolic link to it if its name contains ``%20``."""
-    if "%20" not in str(resources):
+def pythonfmu_safe_path(resources: str, root: str) -> str:
+    """``resources`` itself, or a symbolic link to it in ``root/links`` if its name contains
+    ``%20`` (strings: see ``_cache_folder``)."""
+    if "%20" not in resources:
         return resources
-    links = root / "links"
-    links.mkdir(parents=True, exist_ok=True)
+    links = os.path.join(root, "links")
+    os.makedirs(links, exist_ok=True)
     name = hashlib.sha256(os.fsencode(resources)).hexdigest()[:24]
-    link = links / name
-    if link.is_symlink() and Path(os.readlink(link)) == resources:
+    link = os.path.join(links, name)
+    if os.path.islink(link) and os.readlink(link) == resources:
         return link
-    tmp = links / f".{name}-{os.getpid()}"
-    if tmp.is_symlink():
-        tmp.unlink()
+    tmp = os.path.join(links, f".{name}-{os.getpid()}")
+    if os.path.islink(tmp):
+        os.unlink(tmp)
     os.symlink(resources, tmp)
     os.replace(tmp, link)
     return link
 
 
-def _import_package(resources: Path, records: list[Record]) -> None:
+def _import_package(resources: str, records: list[Record]) -> None:
     loaded = sys.modules.get(PACKAGE)
     if loaded is not None:
         where = list(getattr(loaded, "__path__", [])) or [getattr(loaded, "__file__", "?")]
         records.append((OK, "logInfo", f"using the {PACKAGE} package already imported: {where[0]}"))
         return
-    source = resources / PACKAGE
+    source = Path(resources) / PACKAGE  # once per process
     root = cache_root()
     try:
         folder, created = cached_package(source, root)
@@ -160,7 +175,7 @@ def _import_package(resources: Path, records: list[Record]) -> None:
                 "DRILLSTRING_FMU_CACHE to a writable folder)",
             )
         )
-        folder = resources
+        folder = Path(resources)
     else:
         how = "copied there now" if created else "found there"
         records.append((OK, "logInfo", f"{PACKAGE} package from the cache {folder} ({how})"))
@@ -176,14 +191,13 @@ def prepare(resources: str, module: str) -> tuple[str | None, list[Record]]:
     records: list[Record] = []
     step = "checking the resources folder"
     try:
-        res = Path(resources)
         step = f"importing the {PACKAGE} package"
-        _import_package(res, records)
+        _import_package(resources, records)
         step = f"importing the FMU's module {module}"
-        sys.path.insert(0, str(res))
+        sys.path.insert(0, resources)
         importlib.import_module(module)
         step = "preparing a resources path for pythonfmu"
-        safe = pythonfmu_safe_path(res, cache_root())
+        safe = pythonfmu_safe_path(resources, _cache_folder())
     except BaseException as exc:  # reported to the host, never raised into the C layer
         text = "".join(traceback.format_exception(exc)).rstrip()
         records.append(
@@ -201,3 +215,55 @@ def prepare(resources: str, module: str) -> tuple[str | None, list[Record]]:
 def _printable(records: list[Record]) -> list[Record]:
     """Records whose text is valid UTF-8 (file names may carry undecodable bytes)."""
     return [(s, c, m.encode("utf-8", "backslashreplace").decode("utf-8")) for s, c, m in records]
+
+
+# ------------------------------------------------------------------------------------------------
+# the front layer's typed calls
+# ------------------------------------------------------------------------------------------------
+
+
+class Front(NamedTuple):
+    """What the front layer gives the slave of one instance: the instance (its ``Component``) and
+    the addresses of two C functions of the layer (``fmu_src/fmi_front``), to be called through
+    ctypes with the GIL held: ``fast(component, descriptor, length)`` (``ds_front_fast``: the
+    native fast path) and ``log(component, status, category, message)`` (``ds_front_log``)."""
+
+    component: int
+    fast: int
+    log: int
+
+
+_pending: Front | None = None
+#: component -> the release of its slave (weakly: an instance pythonfmu dropped is not kept)
+_releases: dict[int, weakref.WeakMethod] = {}
+
+
+def begin_instance(component: int, fast: int, log: int) -> None:
+    """Called by the front layer (under its process lock) before pythonfmu makes the slave of
+    ``component``, in ``fmi2Instantiate`` and ``fmi2Reset``."""
+    global _pending
+    _pending = Front(component, fast, log)
+
+
+def end_instance(component: int) -> None:
+    """Called by the front layer after pythonfmu made (or failed to make) the slave."""
+    global _pending
+    _pending = None
+
+
+def attach(release: Callable[[], None]) -> Front | None:
+    """The :class:`Front` of the instance being made, None outside the layer's instantiation (a
+    slave made by the build or directly in Python); ``release`` (a bound method of the slave) is
+    called at the instance's ``fmi2FreeInstance`` or ``fmi2Reset``."""
+    front = _pending
+    if front is not None:
+        _releases[front.component] = weakref.WeakMethod(release)  # type: ignore[arg-type]
+    return front
+
+
+def release(component: int) -> None:
+    """Called by the front layer before pythonfmu frees (or replaces) the slave of ``component``."""
+    ref = _releases.pop(component, None)
+    method = ref() if ref is not None else None
+    if method is not None:
+        method()

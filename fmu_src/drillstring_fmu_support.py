@@ -16,7 +16,7 @@ own validators), the phases (instantiated, initialization, stepping, terminated)
 errors are reported.
 
 **Division of labour with the front layer.** The FMU's binary ``binaries/linux64/<id>.so`` is the
-project's C layer ``drillstring_fmi2.c`` in front of pythonfmu's library; it checks the call
+project's C layer ``fmu_src/fmi_front/`` in front of pythonfmu's library; it checks the call
 sequence of FMI 2.0 (section 4.2.4), value references, types and which variables may be set in
 which state, before anything reaches Python. This module checks *values*. It never raises into
 pythonfmu (that would be ``fmi2Fatal`` and destroy the instance): a rejected call logs a message
@@ -26,6 +26,14 @@ status from the log records of that call and returns ``fmi2Error`` from it. ``fm
 step an internal record (category :data:`RECORD_CATEGORY`, never shown to the host) tells the
 layer the time the FMU reached, for ``fmi2GetRealStatus(fmi2LastSuccessfulTime)``.
 
+**Typed calls into the layer.** At ``fmi2Instantiate`` the layer gives the slave it is making the
+addresses of two of its C functions (:class:`drillstring_fmu_boot.Front`); the slave calls them
+through ctypes: its log messages and records go to the layer directly (pythonfmu 0.7.0 keeps a
+reference to every message that passes its log queue, so each would live forever), and at the
+end of each call while stepping it hands over the descriptor of its native fast path
+(:class:`FastPath`) with its length, which the layer checks before using it. At
+``fmi2FreeInstance`` the layer calls :meth:`FmuModel.release`.
+
 Both FMUs run in one interpreter when a host loads them together; the first imported copy of this
 module serves both, so it must stay backwards compatible within one build of the FMUs.
 """
@@ -33,6 +41,7 @@ module serves both, so it must stay backwards compatible within one build of the
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import json
 import math
 import os
@@ -43,6 +52,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
+import drillstring_fmu_boot as _boot
 import numpy as np
 from pythonfmu import (
     Boolean,
@@ -100,9 +110,12 @@ def read_config(resources: str | os.PathLike[str] | None) -> dict[str, Any]:
     """
     if resources is None:
         raise FileNotFoundError(f"no resources folder given; cannot read {CONFIG_FILE}")
-    path = Path(resources) / CONFIG_FILE
+    # a string, not a Path: pathlib (3.11) interns every part of a path it parses, and this runs
+    # at every instantiation (see drillstring_fmu_boot._cache_folder)
+    path = os.path.join(os.fspath(resources), CONFIG_FILE)
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
     except OSError as exc:
         raise FileNotFoundError(f"cannot read FMU build configuration {path}: {exc}") from exc
     try:
@@ -266,8 +279,9 @@ class FmuState:
 @dataclass
 class FastPath:
     """What the front layer needs to serve calls natively (:mod:`drillstring.model.native`):
-    the shared ``io`` block, the addresses of the native ``step`` and ``outputs`` functions
-    (0: none) and of their ``args``, and the io slots of the inputs and outputs it serves."""
+    the shared ``io`` block (float64), the addresses of the native ``step`` and ``outputs``
+    functions (0: none) and of their ``args``, and the io slots of the inputs and outputs it
+    serves. The layer checks every slot against the block's length."""
 
     io: np.ndarray
     step: int
@@ -277,10 +291,16 @@ class FastPath:
     args: np.ndarray | None = None
 
 
-#: First entries of the descriptor a slave announces to the front layer ("DSFP", version 1).
+#: First entries of the descriptor a slave hands the front layer ("DSFP", version 2: with the io
+#: block's length; fmu_src/fmi_front/fast.c).
 _FAST_MAGIC = 0x44534650
-_FAST_VERSION = 1
+_FAST_VERSION = 2
 _FAST_TYPES = {"Real": 0, "Integer": 1}
+#: The front layer's typed calls (:class:`drillstring_fmu_boot.Front`), called with the GIL held.
+_FAST_CALL = ctypes.PYFUNCTYPE(ctypes.c_int32, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t)
+_LOG_CALL = ctypes.PYFUNCTYPE(
+    ctypes.c_int32, ctypes.c_void_p, ctypes.c_int32, ctypes.c_char_p, ctypes.c_char_p
+)
 
 
 def pack_state(state: FmuState) -> bytes:
@@ -371,9 +391,16 @@ class FmuModel(Fmi2Slave):
     author = "drillstring project"
     license = "MIT"
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=20.0, step_size=0.01)
+    _front: _boot.Front | None = None
+    _log_call: Any = None
+    _fast_call: Any = None
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
+        self._front = _boot.attach(self.release)
+        if self._front is not None:
+            self._log_call = _LOG_CALL(self._front.log)
+            self._fast_call = _FAST_CALL(self._front.fast)
         self.config = read_config(self.resources)
         self.version = str(self.config.get("version", "unknown"))
         self.phase = "instantiated"
@@ -390,7 +417,11 @@ class FmuModel(Fmi2Slave):
         self._fast: FastPath | None = None  # the block the front layer was last given
         self._fast_used: FastPath | None = None  # the last one it was given (for its count)
         self._fast_depth = 0
-        self._native = native.AVAILABLE and os.environ.get("DRILLSTRING_FMU_NATIVE", "1") != "0"
+        self._native = (
+            self._fast_call is not None
+            and native.AVAILABLE
+            and os.environ.get("DRILLSTRING_FMU_NATIVE", "1") != "0"
+        )
         self._python_steps = 0
         for var in self.VARIABLES:
             self._register(var)
@@ -450,7 +481,37 @@ class FmuModel(Fmi2Slave):
         self._vr_of[var.name] = pf_var.value_reference
         self._by_name[var.name] = var
 
+    def release(self) -> None:
+        """Drop the model and the reference cycles through the slave (its variables' getters and
+        setters close over it), so that pythonfmu frees it at once, with its model, rather than
+        some later run of the cyclic garbage collector; the front layer calls it at
+        ``fmi2FreeInstance`` and ``fmi2Reset``, after which the slave is never called again."""
+        for var in self.vars.values():
+            var.getter = var.setter = None
+        self.vars.clear()
+        self.__dict__.clear()
+
     # ----------------------------------------------------------------- reporting
+    def log(
+        self,
+        msg: str,
+        status: Fmi2Status = Fmi2Status.ok,
+        category: str | None = None,
+        debug: Any = None,
+    ) -> None:
+        """pythonfmu's ``log``, through the front layer's typed call when there is one (the
+        module docstring says why); ``category`` defaults to pythonfmu's choice."""
+        call, front = self._log_call, self._front
+        if call is None or front is None:
+            super().log(msg, status, category, debug)
+            return
+        if category is None:
+            category = f"logStatus{status.name.capitalize()}"
+            if category not in self.log_categories:
+                category = "logAll"
+        text = msg.encode("utf-8", "backslashreplace")
+        call(front.component, int(status), category.encode("utf-8"), text)
+
     def _error(self, msg: str) -> None:
         self.log(msg, Fmi2Status.error, "logStatusError")
 
@@ -508,8 +569,10 @@ class FmuModel(Fmi2Slave):
             io[native.IO_RESUME] = -1.0
 
     def _fast_announce(self) -> None:
-        """Give the front layer the block for the next calls (a record naming a descriptor):
-        it serves nothing natively until it receives one, and drops it at each Python call."""
+        """Give the front layer the block for the next calls (a descriptor, through its typed
+        call): it serves nothing natively until it receives one, and drops it at each Python
+        call. A descriptor the layer refuses (it logs why) leaves this instance on the Python
+        path."""
         self.fast_resume = None
         stepping = self._native and self.phase == "stepping" and not self.dirty
         fast = self.fast_path() if stepping else None
@@ -518,14 +581,28 @@ class FmuModel(Fmi2Slave):
             return
         self._fast_used = fast
         io = fast.io
+        if io.dtype != np.float64 or not io.flags.c_contiguous:
+            raise TypeError(f"the io block of the fast path must be contiguous float64: {io.dtype}")
         io[native.IO_TIME] = self.time
         for name, slot in fast.inputs.items():
             io[slot] = self.values[name]
         io[native.IO_RESUME] = -1.0
         self.fast_push(io)
         io[native.IO_STALE] = 0.0
+        descriptor = self.fast_descriptor(fast)  # copied by the layer; io and args stay alive
+        assert self._front is not None  # _native: there is a front layer
+        if self._fast_call(self._front.component, descriptor.ctypes.data, descriptor.size) != 0:
+            self._native = False
+            self._fast = None
+
+    def fast_descriptor(self, fast: FastPath) -> np.ndarray:
+        """The descriptor of ``fast`` the front layer reads (``fmu_src/fmi_front/fast.c``):
+        magic, version, the io block's address and length, the addresses of ``args``, ``step``
+        and ``outputs``, the numbers of inputs and outputs, then (value reference, slot) of each
+        input and (value reference, slot, type 0 Real / 1 Integer) of each output."""
+        io = fast.io
         rows = [
-            _FAST_MAGIC, _FAST_VERSION, io.ctypes.data,
+            _FAST_MAGIC, _FAST_VERSION, io.ctypes.data, io.size,
             0 if fast.args is None else fast.args.ctypes.data, fast.step, fast.outputs,
             len(fast.inputs), len(fast.outputs_at),
         ]  # fmt: skip
@@ -533,8 +610,7 @@ class FmuModel(Fmi2Slave):
             rows += [self._vr_of[name], slot]
         for name, slot in fast.outputs_at.items():
             rows += [self._vr_of[name], slot, _FAST_TYPES[self._by_name[name].type]]
-        self._fast_descriptor = np.array(rows, dtype=np.uint64)  # kept alive with the block
-        self.log(f"fast {self._fast_descriptor.ctypes.data}", Fmi2Status.ok, RECORD_CATEGORY)
+        return np.array(rows, dtype=np.uint64)
 
     # ----------------------------------------------------------------- values
     def _set(self, updates: Mapping[str, Any]) -> None:

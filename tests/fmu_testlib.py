@@ -55,6 +55,8 @@ from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F
 
 ROOT = Path(__file__).resolve().parents[1]
 C_HOST = ROOT / "tests" / "c_host" / "host.c"
+#: Instances made and freed in a loop from a thread with a given stack (tests/c_host/cycles.c).
+C_CYCLES = ROOT / "tests" / "c_host" / "cycles.c"
 PLANT = "DrillStringPlant"
 CONTROLLER = "TorsionalController"
 #: Plant outputs fed back to the controller inputs of the same name, and the torque back.
@@ -650,12 +652,17 @@ def first_use(built: Built, root: Path) -> FirstUse:
 
 def compile_c_host(out_dir: Path) -> Path:
     """Compile tests/c_host/host.c with the system's cc; returns the executable."""
+    return compile_c_program(C_HOST, out_dir, "-std=c99", "-ldl")
+
+
+def compile_c_program(source: Path, out_dir: Path, std: str, *libs: str) -> Path:
+    """Compile a C program of the tests with the system's cc (warnings are errors)."""
     cc = shutil.which("cc")
     if cc is None:
         raise AssertionError("no C compiler (cc) on PATH")
-    exe = out_dir / "host"
+    exe = out_dir / source.stem
     proc = subprocess.run(
-        [cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe), str(C_HOST), "-ldl"],
+        [cc, std, "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe), str(source), *libs],
         capture_output=True,
         text=True,
         timeout=300,

@@ -20,7 +20,9 @@ Python path (``DRILLSTRING_FMU_NATIVE=0`` when the instance is made, or no compi
 
 from __future__ import annotations
 
+import gc
 import re
+import sys
 from typing import Any
 
 import fmu_testlib as tl
@@ -259,3 +261,168 @@ def test_rejected_calls_alike_on_both_paths(built, system, monkeypatch):
     rejected, rows = seen["native"]
     assert all(st == ERROR and message for st, message in rejected), rejected
     assert all(r[0] == OK for r in rows)
+
+
+# ------------------------------------------------------------------------------------------------
+# the descriptor: a typed call, checked by the layer
+# ------------------------------------------------------------------------------------------------
+
+
+def _slave_of(s: tl.Slave) -> Any:
+    """The Python slave of an instance made in this process (the FMU runs in the test's
+    interpreter), found by its instance name."""
+    model = sys.modules["drillstring_fmu_support"].FmuModel
+    name = s.fmu.instanceName
+    found = [o for o in gc.get_objects() if isinstance(o, model)]
+    (slave,) = (o for o in found if getattr(o, "instance_name", None) == name)  # not released
+    return slave
+
+
+def _handover(slave: Any, words: np.ndarray, length: int) -> int:
+    """The layer's ds_front_fast(component, descriptor, length), called as the slave calls it."""
+    support = sys.modules["drillstring_fmu_support"]
+    call = support._FAST_CALL(slave._front.fast)
+    return call(slave._front.component, words.ctypes.data, length)
+
+
+def _corrupt(case: str, d: np.ndarray, vr: dict[str, int]) -> tuple[np.ndarray, int, str]:
+    """A corrupted copy of the plant's descriptor ``d``, its length and the reason expected."""
+    d = d.copy()
+    n = d.size
+    n_in, n_out = int(d[7]), int(d[8])
+    io_len = int(d[3])
+    first_out = 9 + 2 * n_in  # (vr, slot, type) of the first output
+    if case == "magic":
+        d[0] = 0x1234
+        return d, n, "magic 0x1234 version 2, this layer reads 0x44534650 version 2"
+    if case == "version":
+        d[1] = 1
+        return d, n, "magic 0x44534650 version 1, this layer reads 0x44534650 version 2"
+    if case == "header":
+        return d, 5, "a descriptor of 5 words, the header alone has 9"
+    if case == "short":
+        return (
+            d,
+            n - 1,
+            f"a descriptor of {n - 1} words, {n_in} inputs and {n_out} outputs need {n}",
+        )
+    if case == "long":
+        d = np.append(d, np.uint64(0))
+        return (
+            d,
+            n + 1,
+            f"a descriptor of {n + 1} words, {n_in} inputs and {n_out} outputs need {n}",
+        )
+    if case == "counts":
+        d[7] = 2**40
+        return d, n, f"{2**40} inputs and {n_out} outputs, the model has"
+    if case == "io length":
+        d[3] = 3
+        return d, n, "of 3 doubles (at least 4, at most 1048576)"
+    if case == "no io":
+        d[2] = 0
+        return d, n, f"an io block at 0 of {io_len} doubles"
+    if case == "no step":
+        d[5] = 0
+        return d, n, "no step function"
+    if case == "input slot":
+        d[10] = io_len
+        return d, n, f"input R_minus_R0: slot {io_len} outside [4, {io_len})"
+    if case == "input slot in the header":
+        d[10] = 2  # the FMU's time
+        return d, n, f"input R_minus_R0: slot 2 outside [4, {io_len})"
+    if case == "input is an output":
+        d[9] = vr["u"]
+        return d, n, f"input 0: value reference {vr['u']} is not an input"
+    if case == "output unknown":
+        d[first_out] = 999
+        return d, n, "output 0: value reference 999 is no variable of the model"
+    if case == "output is a parameter":
+        d[first_out] = vr["psi"]
+        return d, n, f"output 0: value reference {vr['psi']} is not an output"
+    if case == "output type":
+        d[first_out] = vr["u"]
+        d[first_out + 2] = 1
+        return d, n, f"output 0: value reference {vr['u']} is not an Integer"
+    if case == "output type code":
+        d[first_out + 2] = 7
+        return d, n, "output 0: type code 7 (0 Real, 1 Integer)"
+    if case == "output slot":
+        d[first_out + 1] = 10**6
+        return d, n, f"slot 1000000 outside [4, {io_len})"
+    if case == "output twice":
+        d[first_out + 3] = d[first_out]
+        return d, n, "twice"
+    raise AssertionError(case)
+
+
+REFUSED = (
+    "magic", "version", "header", "short", "long", "counts", "io length", "no io", "no step",
+    "input slot", "input slot in the header", "input is an output", "output unknown",
+    "output is a parameter", "output type", "output type code", "output slot", "output twice",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("case", REFUSED)
+def test_layer_refuses_a_bad_descriptor(built, case, monkeypatch):
+    """The layer checks the descriptor it is handed (magic, version, its length against the
+    counts, the io block's length, every slot against it, value references, causalities and
+    types against the model's table) and refuses a bad one with an error naming why; the
+    instance then goes on served by Python, and a valid descriptor is taken again."""
+    s = make(built.plant, f"refuse_{case}", "native", monkeypatch).init()
+    try:
+        assert s.step(0.0, 0.01) == OK
+        slave = _slave_of(s)
+        valid = slave.fast_descriptor(slave._fast)
+        words, length, reason = _corrupt(case, valid, s.unit.vr)
+        before = len(s.logs)
+        assert _handover(slave, words, length) == 1
+        warnings = [m for st, _, m in s.logs[before:] if st == WARNING]
+        assert len(warnings) == 1 and "the native fast path is refused: " in warnings[0], warnings
+        assert reason in warnings[0], warnings[0]
+        assert warnings[0].endswith(f"the Python slave serves every call of refuse_{case}_native")
+        python_steps = slave._python_steps
+        assert s.step(0.01, 0.01) == OK  # served by Python: the layer holds no descriptor
+        assert slave._python_steps == python_steps + 1
+        assert _handover(slave, valid, valid.size) == 0  # a valid one is taken
+        assert s.step(0.02, 0.01) == OK
+        assert slave._python_steps == python_steps + 1  # served natively
+    finally:
+        s.free()
+
+
+def test_refused_fast_path_runs_on_python_bit_identically(built, monkeypatch):
+    """A slave whose descriptor the layer refuses stays on the Python path: one error at the
+    handover, counted into the status of that call (its results are right); every step by
+    Python, with
+    the bits of an instance made with DRILLSTRING_FMU_NATIVE=0; no message through pythonfmu's
+    log queue (the slave logs through the layer's typed call)."""
+    runs = {}
+    for path in ("refused", "python"):
+        s = make(
+            built.plant, f"bad_{path}", "native" if path == "refused" else "python", monkeypatch
+        )
+        try:
+            slave = _slave_of(s)
+            if path == "refused":  # the slave's own (freed with it)
+                good = slave.fast_descriptor
+                slave.fast_descriptor = lambda fast, good=good: _corrupt(
+                    "output slot", good(fast), {}
+                )[0]
+            s.set(**experiment_start_values(FIG6, SCALED)["plant"])
+            s.fmu.setupExperiment(startTime=0.0)
+            s.fmu.enterInitializationMode()
+            # the first handover: the warning is the call's status
+            expected = WARNING if path == "refused" else OK
+            assert s.call("ExitInitializationMode") == expected, s.logs
+            rows = _plant_run(s, 0.01, 0, 200, _torques("scaled"))
+            s.fmu.terminate()
+            runs[path] = (rows, s.messages(WARNING), terminate_counts(s), list(slave.log_queue))
+        finally:
+            s.free()
+    rows, warnings, counts, queue = runs["refused"]
+    assert rows == runs["python"][0]
+    assert all(r[0] == OK for r in rows)
+    assert len(warnings) == 1 and "the native fast path is refused" in warnings[0], warnings
+    assert counts == (200, None) == runs["python"][2]
+    assert queue == [] == runs["python"][3]

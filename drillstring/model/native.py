@@ -1,6 +1,6 @@
 """The plant FMU's step on its io block, and the C entry points of the FMUs' native fast path.
 
-The FMUs' front layer (``fmu_src/fmi_front/drillstring_fmi2.c``) serves ``fmi2SetReal`` of the
+The FMUs' front layer (``fmu_src/fmi_front/``, ``fast.c``) serves ``fmi2SetReal`` of the
 inputs, ``fmi2DoStep`` and ``fmi2GetReal``/``fmi2GetInteger`` of the outputs without entering
 Python: it calls the compiled functions below (numba ``cfunc``, their ``.address``).
 
