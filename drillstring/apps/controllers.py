@@ -40,6 +40,7 @@ from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
 from drillstring.apps.sweep.spec import (
     CONSTRAINED_CONTROLLERS,
     MAP_CONTROLLERS,
+    SweepSpec,
     SweepSpecError,
     spec_from_dict,
 )
@@ -64,10 +65,15 @@ from drillstring.validation import check_int, check_real
 
 __all__ = [
     "COMPARISON_COLUMNS",
+    "MAP_OUTCOMES",
+    "MAP_RPM",
+    "MAP_V0",
     "Comparison",
     "ControllerMap",
+    "controller_map_spec",
     "controllers_main",
     "format_comparison",
+    "wob_range",
     "write_controller_comparison",
     "write_controller_map",
 ]
@@ -420,6 +426,76 @@ def wob_range(rig: PhysicalParams, v0: tuple[float, float] = MAP_V0) -> tuple[fl
     )
 
 
+def controller_map_spec(
+    gains_path: str | os.PathLike[str],
+    *,
+    constrained_path: str | os.PathLike[str] | None = None,
+    rig: PhysicalParams | None = None,
+    controllers: Sequence[str] = MAP_CONTROLLERS,
+    top_drive: str = "tds-11sa",
+    n: int = 25,
+    rpm: tuple[float, float] = MAP_RPM,
+    wob_kN: tuple[float, float] | None = None,
+    tau_end: float = 200.0,
+    window: float = 30.0,
+    Ts: float = DEFAULT_TS,
+    dphi0_rel: float = -0.5,
+) -> SweepSpec:
+    """The sweep of :func:`write_controller_map` (its parameters, same defaults).
+
+    Returns
+    -------
+    SweepSpec
+        The validated controllers study over rpm x W0_kN on the rig.
+
+    Raises
+    ------
+    ValueError
+        No rig for the design's parameter set, or a bad value (a SweepSpecError naming it).
+    GainsFileError
+        A gains file that cannot be read.
+    """
+    n = check_int("n", n, lower=2)
+    g = read_gains(gains_path)
+    rig = rig if rig is not None else _matching_rig(g.params)
+    if rig is None:
+        raise ValueError(
+            "the map's axes are physical (rpm, kN): the design's parameter set matches no known "
+            "rig; pass rig="
+        )
+    wob = wob_range(rig) if wob_kN is None else wob_kN
+    names = list(controllers)
+    options: dict[str, Any] = {
+        "controllers": names,
+        "top_drive": top_drive,
+        "gains": str(Path(gains_path).resolve()),
+        "feedforward": "point",
+        "window": window,
+        "Ts": Ts,
+        "dphi0_rel": dphi0_rel,
+    }
+    if any(c in CONSTRAINED_CONTROLLERS for c in names):
+        path = (
+            Path(gains_path).parent / CONSTRAINED_FILE
+            if constrained_path is None
+            else Path(constrained_path)
+        )
+        options["gains_constrained"] = str(path.resolve())
+    return spec_from_dict(
+        {
+            "study": "controllers",
+            "base": {"kind": "physical", **rig.to_dict()},
+            "tau_end": tau_end,
+            "sweep": [
+                {"param": "rpm", "start": rpm[0], "stop": rpm[1], "num": n},
+                {"param": "W0_kN", "start": wob[0], "stop": wob[1], "num": n},
+            ],
+            "options": options,
+        },
+        source="controller map",
+    )
+
+
 def write_controller_map(
     out_dir: str | os.PathLike[str],
     gains_path: str | os.PathLike[str],
@@ -492,44 +568,19 @@ def write_controller_map(
     GainsFileError
         A gains file that cannot be read.
     """
-    n = check_int("n", n, lower=2)
-    g = read_gains(gains_path)
-    rig = rig if rig is not None else _matching_rig(g.params)
-    if rig is None:
-        raise ValueError(
-            "the map's axes are physical (rpm, kN): the design's parameter set matches no known "
-            "rig; pass rig="
-        )
-    wob = wob_range(rig) if wob_kN is None else wob_kN
-    names = list(controllers)
-    options: dict[str, Any] = {
-        "controllers": names,
-        "top_drive": top_drive,
-        "gains": str(Path(gains_path).resolve()),
-        "feedforward": "point",
-        "window": window,
-        "Ts": Ts,
-        "dphi0_rel": dphi0_rel,
-    }
-    if any(c in CONSTRAINED_CONTROLLERS for c in names):
-        path = (
-            Path(gains_path).parent / CONSTRAINED_FILE
-            if constrained_path is None
-            else Path(constrained_path)
-        )
-        options["gains_constrained"] = str(path.resolve())
-    spec = spec_from_dict(
-        {
-            "study": "controllers",
-            "base": {"kind": "physical", **rig.to_dict()},
-            "tau_end": tau_end,
-            "sweep": [
-                {"param": "rpm", "start": rpm[0], "stop": rpm[1], "num": n},
-                {"param": "W0_kN", "start": wob[0], "stop": wob[1], "num": n},
-            ],
-            "options": options,
-        },
-        source="controller map",
+    spec = controller_map_spec(
+        gains_path,
+        constrained_path=constrained_path,
+        rig=rig,
+        controllers=controllers,
+        top_drive=top_drive,
+        n=n,
+        rpm=rpm,
+        wob_kN=wob_kN,
+        tau_end=tau_end,
+        window=window,
+        Ts=Ts,
+        dphi0_rel=dphi0_rel,
     )
     report = run_sweep(
         spec,

@@ -15,11 +15,17 @@ Output in DIR:
 * ``results.csv``: one row per point, appended (and flushed) as each point finishes, so an
   interrupted sweep keeps what it finished; ``--resume`` skips the points already in the file
   (``--retry-failed`` also recomputes the points that recorded an error). Columns: ``index``
-  (row-major point number), the grid indices ``i`` (and ``j``), the swept values, the study's
-  metrics, ``seconds`` (wall time of the point) and ``error`` (empty, or the exception of a failed
-  point). When the sweep completes, the file is rewritten sorted by index.
-* ``spec.json``: the validated spec (a resume must use the same one); ``summary.json``.
-* ``plots/<metric>.png``: heat map (2-D) or line plot (1-D) per metric, reference point marked.
+  (row-major point number), the grid indices ``i`` (and ``j``), the swept values, with a derived
+  physical axis (``rpm``, ``W0_kN``) the speed ``Omega0`` [rad/s] and hook speed ``V0`` [m/s]
+  it imposes, the study's metrics, ``seconds`` (wall time of the point) and ``error`` (empty, or
+  the exception of a failed point). When the sweep completes, the file is rewritten sorted by
+  index.
+* ``spec.json``: the validated spec (a resume must use the same one); ``summary.json`` (with the
+  feed, :attr:`~drillstring.apps.sweep.spec.SweepSpec.feed`).
+* ``plots/<metric>.png``: heat map (2-D) or line plot (1-D) per metric, reference point marked;
+  for the controllers study a panel per controller (a physical base's torques, power, speed and
+  times in kN m, kW, rpm and s), its linearised stability boundary overlaid and
+  ``plots/boundary.csv`` with the abscissae on the finer grid it was drawn from.
 """
 
 from __future__ import annotations

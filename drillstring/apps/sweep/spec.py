@@ -22,12 +22,21 @@ TOML (``.toml``) or JSON (``.json``), chosen by suffix. Top-level keys (any othe
 Swept names: with a scaled base, the fields of :class:`~drillstring.model.params.ScaledParams`
 (``lambda`` for the paper's lambda) or the derived ``gammabar`` (sets gamma = gammabar*sqrt(n*psi))
 and ``etabar2`` (sets eta = sqrt(etabar2*n*psi)), eq. (18); with a physical base, the fields of
-:class:`~drillstring.model.params.PhysicalParams` (each point is converted by eqs. (15)-(16)).
-The axial study sweeps the fast-model quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18);
-those not swept are the base set's gammabar, etabar^2 and taubar_n0. The controllers study runs
-every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` at each point (sampled,
-torsional stick on) and records the severity metrics of :mod:`drillstring.analysis.severity`;
-its natural axes are the surface speed (``omega0`` or ``Omega0``) and the feed (``v0`` or ``V0``).
+:class:`~drillstring.model.params.PhysicalParams` (each point is converted by eqs. (15)-(16)) or
+the derived ``rpm`` (sets Omega0 = rpm*2*pi/60) and ``W0_kN`` (sets the hook speed V0 whose
+nominal weight on bit at the point's speed is W0 = 1e3*W0_kN: W0 = n*a*zeta*eps*d0 +
+n*a*l*sigma_bar with d0 = 2*pi*V0/(n*Omega0), eqs. (4), (7), (8); W0 must exceed the wearflat
+contact part n*a*l*sigma_bar). The feed is always an imposed rate of penetration (the hook
+speed); with ``W0_kN`` it is "chosen for the nominal WOB" (:attr:`SweepSpec.feed`, stated on
+the plots, in ``spec.json`` and ``summary.json``). The axial study sweeps the fast-model
+quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18); those not swept are the base set's
+gammabar, etabar^2 and taubar_n0. The controllers study runs the digital controllers of
+:func:`~drillstring.controller.lineup.rig_lineup` chosen by the option ``controllers``
+(default :data:`MAP_CONTROLLERS`) under one top drive (option ``top_drive``) at each point
+(sampled, torsional stick on) and records the severity metrics of
+:mod:`drillstring.analysis.severity`; its natural axes are ``rpm`` and ``W0_kN`` on a physical
+base (``drillstring controllers map``), or the surface speed and the feed (``omega0``/``v0``,
+``Omega0``/``V0``).
 
 Validation happens on load: every key, value and grid point is checked and any problem raises
 :class:`SweepSpecError` (a ``ValueError``) naming the key and the value.
