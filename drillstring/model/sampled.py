@@ -161,6 +161,7 @@ def simulate_sampled(
         st, k, i = run_sampled_from(*engine.kernel_arrays(), block, k, n, Ts, every, rows, i, acc)
         st = int(st)
         if st == 0:
+            status = Status("ok", "", engine.tau)  # the run reached tau_end
             break
         # what needs Python (a buffer to drain or grow, or the stop's status): the engine
         # finishes the advance of sample k, then the loop goes on from k + 1
