@@ -1,15 +1,24 @@
-"""Benchmark of the controller maps (the controllers sweep study on Dask).
+"""Benchmark of the controller maps: the time of a map point against a monolithic run.
 
-For each controller of drillstring.controller.lineup.CONTROLLERS, the 12 x 12 map over omega0 in
-[2, 10] x v0 in [0.25, 2] (reference set, tau_end = 60, window 20, sample period 1e-3, the LMI
-gain fixed from a gains file) on a LocalCluster of 1 and of 2 worker processes. Both clusters
-are started, warmed (kernel loaded, axial design cached on every worker) and kept up, and the
-runs are interleaved (controller by controller: 1 worker, then 2), so that the ratios compare
-runs made side by side; with --repeat R each ratio is the median over R rounds. The 1- and
-2-worker maps must be identical. From the measured point times, the projected wall time of the
-30 x 30 x 4 reference map on a cluster of N workers: the serial point time divided by N and by
-the parallel efficiency measured here (2-worker speed-up / 2), and never below the slowest
-single point. Run: .venv/bin/python bench/controller_map.py --gains out/design/gains.json
+The map is ``drillstring controllers map``'s (:func:`drillstring.apps.controllers.
+controller_map_spec`: rpm x nominal WOB on the design's rig, every controller under the
+TDS-11SA, tau_end = 200, window 30, sample period 1e-3, h = 5e-4, output every 1e-2).
+
+1. Per map point and controller, in this process: the study's point function with that
+   controller alone (setup, the sampled run of the compiled digital controller, the severity
+   metrics, the linearised abscissa) against a monolithic run of the same length at the same
+   point (:func:`drillstring.model.simulate.simulate` with the held torque R_ff, the same h,
+   the same output grid, the torsional-stick model on); interleaved point by point, each the
+   best of --repeat runs. The target: a controller run at most about twice the monolithic run.
+2. The --dask-n x --dask-n map with every controller on a LocalCluster of 1 and of 2 worker
+   processes (both started, warmed and kept up, the runs interleaved); the two maps must be
+   identical.
+3. From the measured times, the projected wall time of a --project x --project x 5 map on N
+   workers: the mean time per point (all controllers) times the points, over N and the
+   parallel efficiency measured in 2. (2-worker speed-up / 2), never below the slowest point.
+
+Run: .venv/bin/python bench/controller_map.py --gains out/design/gains.json
+(the constrained design's gains_constrained.json beside it: drillstring design --torque-limit).
 """
 
 from __future__ import annotations
@@ -23,32 +32,102 @@ import tempfile
 import time
 from pathlib import Path
 
+from drillstring.analysis.severity import OUTCOMES
+from drillstring.apps.controllers import controller_map_spec
 from drillstring.apps.sweep.runner import kernel_warmup, run_sweep
 from drillstring.apps.sweep.spec import spec_from_dict
-from drillstring.apps.sweep.studies import axial_design
-from drillstring.controller.lineup import CONTROLLERS
+from drillstring.apps.sweep.studies import axial_design, evaluate_point
+from drillstring.controller.averaged import averaged_model
+from drillstring.model.engine import EngineOptions
+from drillstring.model.simulate import simulate
 
 
-def spec_for(controller: str, gains: Path, n: int, tau_end: float, design: bool):
+def single(spec, controller):
+    """The spec with one controller (and the constrained gains only if it needs them)."""
+    data = spec.to_dict()
+    options = {
+        k: v
+        for k, v in data["options"].items()
+        if k
+        in (
+            "top_drive",
+            "gains",
+            "gains_constrained",
+            "window",
+            "Ts",
+            "dphi0_rel",
+            "feedforward",
+            "h",
+            "dt_out",
+        )  # fmt: skip
+    }
+    options["controllers"] = [controller]
+    if options.get("gains_constrained") is None:
+        options.pop("gains_constrained", None)
+    base = dict(data["base"])
     return spec_from_dict(
         {
             "study": "controllers",
-            "base": "reference",
-            "tau_end": tau_end,
-            "sweep": [
-                {"param": "omega0", "start": 2.0, "stop": 10.0, "num": n},
-                {"param": "v0", "start": 0.25, "stop": 2.0, "num": n},
-            ],
-            "options": {
-                "controllers": [controller],
-                "gains": "design" if design else str(gains.resolve()),
-                "window": min(20.0, tau_end / 3.0),
-            },
-        }
+            "base": base,
+            "tau_end": data["tau_end"],
+            "sweep": data["sweep"],
+            "options": options,
+        }  # fmt: skip
     )
 
 
-def start(workers: int, params):
+def best_of(f, repeat):
+    """(best time of ``repeat`` calls, the last result)."""
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        result = f()
+        times.append(time.perf_counter() - t0)
+    return min(times), result
+
+
+def point_times(spec, points, repeat):
+    """(monolithic, {controller: time}) per point, interleaved."""
+    names = spec.options["controllers"]
+    specs = {c: single(spec, c) for c in names}
+    opts = spec.options
+    out = []
+    for index in points:
+        p = spec.point_params(index)
+        design = axial_design(p)
+        model = averaged_model(p, design.A, design.taubar_crit)
+        options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
+
+        def mono(p=p, model=model, options=options):
+            return simulate(p, spec.tau_end, control=float(model.R_ff),
+                            initial={"dphi": opts["dphi0_rel"] * p.omega0},
+                            dt_out=opts["dt_out"], options=options, progress=False)  # fmt: skip
+
+        t, res = best_of(mono, repeat)
+        row = {"mono": t}
+        complete = {"mono": res.status.ok}
+        for c in names:
+            row[c], metrics = best_of(
+                lambda c=c, index=index, design=design: evaluate_point(specs[c], index, design),
+                repeat,
+            )
+            complete[c] = metrics[f"outcome.{c}"] in OUTCOMES
+        out.append((row, complete))
+        where = {k: round(v, 2) for k, v in spec.point_values(index).items()}
+        mark = {k: "" if v else " stopped" for k, v in complete.items()}
+        print(
+            f"  point {index:4d} {where}: monolithic {row['mono']:.3f} s{mark['mono']}"
+            + (f" at tau = {res.tau[-1]:.1f} ({res.status.code})" if not res.status.ok else "")
+            + "; "
+            + ", ".join(
+                f"{c} {row[c]:.3f} s ({row[c] / row['mono']:.2f}x){mark[c]}" for c in names
+            ),
+            flush=True,
+        )
+    return out
+
+
+def start(workers, params):
     from dask.distributed import Client, LocalCluster
 
     cluster = LocalCluster(
@@ -64,7 +143,7 @@ def start(workers: int, params):
     return cluster, client
 
 
-def timed(spec, client, out: Path) -> dict:
+def timed(spec, client, out):
     t0 = time.perf_counter()
     report = run_sweep(spec, out, client=client, progress=False, plots=False)
     wall = time.perf_counter() - t0
@@ -79,80 +158,93 @@ def timed(spec, client, out: Path) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--gains", type=Path, default=Path("out/design/gains.json"))
-    ap.add_argument("--n", type=int, default=12, help="points per axis (default 12)")
-    ap.add_argument("--tau-end", type=float, default=60.0)
-    ap.add_argument("--repeat", type=int, default=1, help="rounds (medians over them)")
-    ap.add_argument(
-        "--lmi-design", action="store_true", help="also time the LMI law redesigned per point"
-    )
-    ap.add_argument("--project", type=int, default=30, help="points per axis of the projection")
+    ap.add_argument("--n", type=int, default=25, help="points per axis of the map (default 25)")
+    ap.add_argument("--tau-end", type=float, default=200.0)
+    ap.add_argument("--points", type=int, default=3, help="points per axis timed in 1. (3)")
+    ap.add_argument("--repeat", type=int, default=2, help="best of R runs in 1. (2)")
+    ap.add_argument("--dask-n", type=int, default=4, help="points per axis of 2. (4)")
+    ap.add_argument("--project", type=int, default=30, help="points per axis of 3. (30)")
     args = ap.parse_args()
-    entries = [(c, False) for c in CONTROLLERS] + ([("lmi", True)] if args.lmi_design else [])
-    specs = {(c, d): spec_for(c, args.gains, args.n, args.tau_end, d) for c, d in entries}
-    first = next(iter(specs.values()))
+    logging.getLogger("distributed").setLevel(logging.WARNING)
+    window = min(30.0, args.tau_end / 4.0)
+    spec = controller_map_spec(args.gains, n=args.n, tau_end=args.tau_end, window=window)
+    names = spec.options["controllers"]
     print(
-        f"{args.n} x {args.n} map per controller, tau_end = {args.tau_end}, Ts = "
-        f"{first.options['Ts']:g}, h = {first.options['h']:g}; rounds: {args.repeat}"
+        f"map: {args.n} x {args.n} over {spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
+        f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN, controllers {', '.join(names)}, "
+        f"top drive {spec.options['top_drive']}; tau_end = {spec.tau_end:g}, window "
+        f"{spec.options['window']:g}, Ts = {spec.options['Ts']:g}, h = {spec.options['h']:g}, "
+        f"dt_out = {spec.options['dt_out']:g}"
     )
     print(f"cores: {os.cpu_count()}, load average before: {os.getloadavg()}")
-    print(f"kernel warm-up in the parent: {kernel_warmup()}")
+    print(f"kernel warm-up in this process: {kernel_warmup()}")
+    k = args.points
+    picks = sorted({round(i * (args.n - 1) / max(k - 1, 1)) for i in range(k)})
+    points = [i * args.n + j for i in picks for j in picks]
+    print(f"1. per point and controller (best of {args.repeat}), {len(points)} points:")
+    timed_points = point_times(spec, points, args.repeat)
+    print()
+    print("runs to tau_end only (a run that stops early is shorter; so is the monolithic run "
+          "where the open loop stops):")  # fmt: skip
+    print(f"{'run':<16} {'runs':>5} {'mean [s]':>9} {'median [s]':>10} {'max [s]':>8} "
+          f"{'mean ratio':>10} {'max ratio':>9}")  # fmt: skip
+    both = [(r, ok) for r, ok in timed_points if ok["mono"]]
+    all_ratios = []
+    for c in ("mono", *names):
+        sel = [r for r, ok in both if ok[c]]
+        if not sel:
+            print(f"{c:<16} {0:5d}   (every run stopped early)")
+            continue
+        t = [r[c] for r in sel]
+        ratio = [r[c] / r["mono"] for r in sel]
+        if c != "mono":
+            all_ratios += ratio
+        label = "monolithic" if c == "mono" else c
+        print(f"{label:<16} {len(sel):5d} {statistics.fmean(t):9.3f} {statistics.median(t):10.3f} "
+              f"{max(t):8.3f} {statistics.fmean(ratio):10.2f} {max(ratio):9.2f}")  # fmt: skip
+    if all_ratios:
+        print(f"a controller run to tau_end: {statistics.fmean(all_ratios):.2f} x the monolithic "
+              f"run on average, {statistics.median(all_ratios):.2f} median, "
+              f"{max(all_ratios):.2f} at most ({len(all_ratios)} runs)")  # fmt: skip
+
+    small = controller_map_spec(args.gains, n=args.dask_n, tau_end=args.tau_end, window=window)
+    print()
+    print(f"2. the {args.dask_n} x {args.dask_n} map with every controller on 1 and 2 workers:")
     clusters = {}
     t0 = time.perf_counter()
     for w in (1, 2):
-        clusters[w] = start(w, first.point_params(0))
-    print(f"two clusters started and warmed in {time.perf_counter() - t0:.1f} s")
-    results: dict = {key: {1: [], 2: []} for key in specs}
+        clusters[w] = start(w, small.point_params(0))
+    print(f"  two clusters started and warmed in {time.perf_counter() - t0:.1f} s")
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            for rnd in range(args.repeat):
-                for key, spec in specs.items():
-                    for w in (1, 2):
-                        out = Path(tmp) / f"{key[0]}-{int(key[1])}-{w}-{rnd}"
-                        results[key][w].append(timed(spec, clusters[w][1], out))
-                    r1, r2 = results[key][1][-1], results[key][2][-1]
-                    label = key[0] + (" (designed per point)" if key[1] else "")
-                    print(
-                        f"round {rnd + 1}: {label:<28} 1 worker {r1['wall']:7.1f} s, "
-                        f"2 workers {r2['wall']:7.1f} s, ratio {r1['wall'] / r2['wall']:.2f}, "
-                        f"identical {r1['rows'] == r2['rows']}, failed {r1['failed']}",
-                        flush=True,
-                    )
+            runs = {w: timed(small, clusters[w][1], Path(tmp) / f"w{w}") for w in (1, 2)}
     finally:
         for cluster, client in clusters.values():
             client.close()
             cluster.close()
+    w1, w2 = runs[1]["wall"], runs[2]["wall"]
+    points_1 = runs[1]["point_seconds"]
+    print(f"  1 worker {w1:.1f} s ({w1 / small.n_points:.2f} s per point), 2 workers {w2:.1f} s, "
+          f"speed-up {w1 / w2:.2f}, identical {runs[1]['rows'] == runs[2]['rows']}, failed "
+          f"{runs[1]['failed']}; point time on 1 worker: mean {statistics.fmean(points_1):.2f} s, "
+          f"max {max(points_1):.2f} s")  # fmt: skip
     print(f"load average after: {os.getloadavg()}")
-    print()
-    print(
-        f"{'controller':<28} {'1 worker [s]':>12} {'2 workers [s]':>13} {'ratio':>6} "
-        f"{'point mean [s]':>14} {'point max [s]':>13}"
-    )
-    serial_per_point = 0.0
-    slowest = 0.0
-    ratios = []
-    for key in specs:
-        w1 = statistics.median(r["wall"] for r in results[key][1])
-        w2 = statistics.median(r["wall"] for r in results[key][2])
-        points = [s for r in results[key][1] for s in r["point_seconds"]]
-        mean, peak = statistics.fmean(points), max(points)
-        serial_per_point += mean
-        slowest = max(slowest, peak)
-        ratios.append(w1 / w2)
-        label = key[0] + (" (designed per point)" if key[1] else "")
-        print(f"{label:<28} {w1:12.1f} {w2:13.1f} {w1 / w2:6.2f} {mean:14.3f} {peak:13.2f}")
-    efficiency = statistics.median(ratios) / 2.0
+
+    efficiency = min(1.0, (w1 / w2) / 2.0)
+    point = statistics.fmean(points_1)
+    slowest = max(points_1)
     n_ref = args.project**2
-    serial = n_ref * serial_per_point
+    serial = n_ref * point
     print()
     print(
-        f"projection: {args.project} x {args.project} x {len(specs)} map = {n_ref * len(specs)} "
-        f"runs, {serial / 3600:.2f} h of point time on one worker (mean point time of each "
-        f"controller above); parallel efficiency {efficiency:.2f} (median 2-worker ratio / 2); "
-        f"floor: the slowest point, {slowest:.1f} s"
+        f"3. projection: {args.project} x {args.project} x {len(names)} map = "
+        f"{n_ref * len(names)} runs, {serial / 3600:.2f} h of point time on one worker (mean "
+        f"point time {point:.2f} s of 2.); parallel efficiency {efficiency:.2f}; floor: the "
+        f"slowest point, {slowest:.1f} s"
     )
-    for n in (1, 2, 8, 32, 128, 512):
+    for n in (1, 2, 8, 32):
         t = max(serial / (n * (1.0 if n == 1 else efficiency)), slowest)
         print(f"  {n:4d} workers: {t / 60:8.1f} min")
 

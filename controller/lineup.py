@@ -10,6 +10,7 @@ R_ff and the switch-on time, so that they start from the same state in the same 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -117,6 +118,7 @@ def lmi_gain(
     *,
     feedforward: str = "file",
     gain_max: float | None = None,
+    roots: bool = True,
 ) -> LmiGain:
     """The gain of the paper's law at a point: from ``gains`` or designed there (Theorem 1).
 
@@ -131,6 +133,9 @@ def lmi_gain(
         With ``gains``: K0 and R_ff from the file ("file") or from the point's model ("point").
     gain_max : float, optional
         Bound on ||F|| of the design (default: the synthesis' own).
+    roots : bool
+        With ``gains``: compute the closed loop's spectral abscissa at tau_n0 (False: NaN, for
+        callers that only need the gain).
 
     Returns
     -------
@@ -145,7 +150,7 @@ def lmi_gain(
     else:
         F = np.asarray(gains.F, dtype=float)
         K0, R_ff = (gains.K0, gains.R_ff) if feedforward == "file" else (model.K0, model.R_ff)
-        abscissa = float(closed_loop_roots(model, F, None, 1)[0].real)
+        abscissa = float(closed_loop_roots(model, F, None, 1)[0].real) if roots else math.nan
     gain = (float(F[0]), float(F[1]), float(F[2]), float(F[3]))
     return LmiGain(F=gain, K0=float(K0), R_ff=float(R_ff), abscissa=abscissa)
 

@@ -23,6 +23,7 @@ from drillstring.model.digital import sense
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
 from drillstring.model.laws import FeedForward, SampledAffine, SpeedPI
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
+from drillstring.model.sampled import simulate_sampled
 from drillstring.model.sensing import Sensing
 from drillstring.model.topdrive import RPM, TDS_11SA, TopDrive, top_drive
 
@@ -249,3 +250,10 @@ def test_bad_sensing_is_named():
         Sensing(downhole="telemetry", period=0.1, latency=7.0)
     with pytest.raises(ValueError, match="needs an Observer"):
         Sensing(downhole="observer")
+
+
+def test_a_complete_sampled_run_reports_where_it_ended():
+    # the status of a run that reached tau_end names tau_end (it said 0.0: the status of a
+    # run without a buffer drain was the initial one)
+    r = simulate_sampled(REFERENCE, SpeedPI(kp=4.47, ki=5.0), 2.0, 1e-3)
+    assert r.status.ok and r.status.tau == pytest.approx(2.0, abs=1e-12) == r.tau[-1]

@@ -9,8 +9,11 @@ Two jobs (``docs/controllers.md``), each a function the demo calls and a subcomm
   monolithic path). One figure of the bit speeds, one table of the severity metrics
   (``comparison.png``, ``comparison.csv``, ``comparison.json`` with the laws' parameters in
   scaled and SI units).
-* ``map`` (:func:`write_controller_map`): a small map of the controllers sweep study over the
-  surface speed omega0 and the feed v0 (``results.csv``, the maps in ``plots/``, and
+* ``map`` (:func:`write_controller_map`): the controllers sweep study over the surface speed
+  [rpm] and the nominal weight on bit [kN] on the design's rig (feed: imposed rate of
+  penetration chosen for the nominal WOB), the digital controllers of
+  :func:`~drillstring.controller.lineup.rig_lineup` under one top drive, with the linearised
+  stability boundaries overlaid (``results.csv``, the maps in ``plots/``, and
   ``by_controller.csv``: how often each controller ends in each outcome and is the best).
 """
 
@@ -18,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import dataclasses
 import math
 import os
 import sys
@@ -34,12 +36,17 @@ from drillstring.analysis.severity import OUTCOMES, severity_metrics
 from drillstring.apps.colors import CONTROLLER_COLORS
 from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
-from drillstring.apps.sweep.spec import SweepSpecError, spec_from_dict
+from drillstring.apps.sweep.spec import (
+    CONSTRAINED_CONTROLLERS,
+    MAP_CONTROLLERS,
+    SweepSpec,
+    SweepSpecError,
+    spec_from_dict,
+)
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import CONSTRAINED_FILE
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
 from drillstring.controller.lineup import (
-    CONTROLLERS,
     RIG_CONTROLLERS,
     Tuning,
     lmi_gain,
@@ -49,7 +56,7 @@ from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6, Experiment
-from drillstring.model.params import KNOWN_PARAMS, KNOWN_PHYSICAL, PhysicalParams, ScaledParams
+from drillstring.model.params import PhysicalParams, ScaledParams, known_rig
 from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.topdrive import RPM, top_drive_from_spec
@@ -58,10 +65,15 @@ from drillstring.validation import check_int, check_real
 
 __all__ = [
     "COMPARISON_COLUMNS",
+    "MAP_OUTCOMES",
+    "MAP_RPM",
+    "MAP_V0",
     "Comparison",
     "ControllerMap",
+    "controller_map_spec",
     "controllers_main",
     "format_comparison",
+    "wob_range",
     "write_controller_comparison",
     "write_controller_map",
 ]
@@ -111,24 +123,9 @@ def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
     return gains if isinstance(gains, GainsFile) else read_gains(gains)
 
 
-def _base(params: ScaledParams) -> str | dict[str, Any]:
-    """A sweep's base for ``params``: the name of a known set equal to it, else the set."""
-    for name, known in KNOWN_PARAMS.items():
-        if known == params:
-            return name
-    return {"kind": "scaled", **params.to_dict()}
-
-
 def _matching_rig(params: ScaledParams) -> PhysicalParams | None:
     """A known physical rig whose scaled set is ``params`` (to 1e-9), for the SI columns."""
-    for rig in KNOWN_PHYSICAL.values():
-        s = rig.to_scaled()
-        if all(
-            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=1e-9)
-            for f in dataclasses.fields(ScaledParams)
-        ):
-            return rig
-    return None
+    return known_rig(params)
 
 
 # --------------------------------------------------------------------------------------------
@@ -432,39 +429,153 @@ def _jsonable(obj: Any) -> Any:
 @dataclass
 class ControllerMap:
     """What :func:`write_controller_map` ran: the sweep's report and the per-controller counts
-    (``by_controller`` rows: controller, one count per outcome, failed points, times best)."""
+    (``by_controller`` rows: controller, one count per outcome, stopped runs, failed points,
+    times best)."""
 
     report: SweepReport
     by_controller: list[dict[str, Any]]
     files: dict[str, Path] = field(default_factory=dict)
+    spec: Any = None
 
 
-def _count_rows(results: Path) -> list[dict[str, Any]]:
+#: The outcomes counted per controller in ``by_controller.csv`` (a stopped run counts under
+#: ``stopped``, and also under its status code when that is reverse rotation or bit bouncing).
+MAP_OUTCOMES = (*OUTCOMES, "no_design", "reverse_rotation", "bit_bounce")
+
+
+def _count_rows(results: Path, controllers: Sequence[str]) -> list[dict[str, Any]]:
     with open(results, newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     best = Counter(r["best"] for r in rows if not r["error"])
     out = []
-    for c in CONTROLLERS:
+    for c in controllers:
         outcomes = Counter(r[controller_column("outcome", c)] for r in rows if not r["error"])
         entry: dict[str, Any] = {"controller": c}
-        for o in OUTCOMES:
+        for o in MAP_OUTCOMES:
             entry[o] = outcomes.pop(o, 0)
-        entry["stopped"] = sum(outcomes.values())
+        entry["stopped"] = sum(entry[o] for o in MAP_OUTCOMES[len(OUTCOMES) + 1 :]) + sum(
+            outcomes.values()
+        )
         entry["failed_points"] = sum(1 for r in rows if r["error"])
         entry["best"] = best.get(c, 0)
         out.append(entry)
     return out
 
 
+#: The rpm range of the default map (the reference rig turns at 51.8 rpm).
+MAP_RPM = (30.0, 150.0)
+#: The feeds v0 (scaled, at the reference speed) whose nominal WOB bounds the default map.
+MAP_V0 = (0.25, 2.0)
+
+
+def wob_range(rig: PhysicalParams, v0: tuple[float, float] = MAP_V0) -> tuple[float, float]:
+    """The nominal weights on bit [kN] of the rig's feed at scaled feeds ``v0``, at its speed.
+
+    W0 = n*a*zeta*eps*d0 + n*a*l*sigma_bar, (4) and (7), with d0 = 2*pi*V0/(n*Omega0) of (8)
+    and V0 = v0*L*/t*. A WOB at or below the wearflat contact part n*a*l*sigma_bar (16.5 kN on
+    the reference rig) is reached by no positive feed.
+
+    Parameters
+    ----------
+    rig : PhysicalParams
+        The rig (its Omega0 is the reference speed).
+    v0 : (float, float)
+        Scaled feeds, > 0.
+
+    Returns
+    -------
+    (float, float)
+        The two weights on bit in kN.
+    """
+    lo, hi = (check_real("v0", v, lower=0.0) for v in v0)
+    return tuple(  # type: ignore[return-value]
+        rig.replace(V0=v * rig.L_star / rig.t_star).W0 / 1e3 for v in (lo, hi)
+    )
+
+
+def controller_map_spec(
+    gains_path: str | os.PathLike[str],
+    *,
+    constrained_path: str | os.PathLike[str] | None = None,
+    rig: PhysicalParams | None = None,
+    controllers: Sequence[str] = MAP_CONTROLLERS,
+    top_drive: str = "tds-11sa",
+    n: int = 25,
+    rpm: tuple[float, float] = MAP_RPM,
+    wob_kN: tuple[float, float] | None = None,
+    tau_end: float = 200.0,
+    window: float = 30.0,
+    Ts: float = DEFAULT_TS,
+    dphi0_rel: float = -0.5,
+) -> SweepSpec:
+    """The sweep of :func:`write_controller_map` (its parameters, same defaults).
+
+    Returns
+    -------
+    SweepSpec
+        The validated controllers study over rpm x W0_kN on the rig.
+
+    Raises
+    ------
+    ValueError
+        No rig for the design's parameter set, or a bad value (a SweepSpecError naming it).
+    GainsFileError
+        A gains file that cannot be read.
+    """
+    n = check_int("n", n, lower=2)
+    g = read_gains(gains_path)
+    rig = rig if rig is not None else _matching_rig(g.params)
+    if rig is None:
+        raise ValueError(
+            "the map's axes are physical (rpm, kN): the design's parameter set matches no known "
+            "rig; pass rig="
+        )
+    wob = wob_range(rig) if wob_kN is None else wob_kN
+    names = list(controllers)
+    options: dict[str, Any] = {
+        "controllers": names,
+        "top_drive": top_drive,
+        "gains": str(Path(gains_path).resolve()),
+        "feedforward": "point",
+        "window": window,
+        "Ts": Ts,
+        "dphi0_rel": dphi0_rel,
+    }
+    if any(c in CONSTRAINED_CONTROLLERS for c in names):
+        path = (
+            Path(gains_path).parent / CONSTRAINED_FILE
+            if constrained_path is None
+            else Path(constrained_path)
+        )
+        options["gains_constrained"] = str(path.resolve())
+    return spec_from_dict(
+        {
+            "study": "controllers",
+            "base": {"kind": "physical", **rig.to_dict()},
+            "tau_end": tau_end,
+            "sweep": [
+                {"param": "rpm", "start": rpm[0], "stop": rpm[1], "num": n},
+                {"param": "W0_kN", "start": wob[0], "stop": wob[1], "num": n},
+            ],
+            "options": options,
+        },
+        source="controller map",
+    )
+
+
 def write_controller_map(
     out_dir: str | os.PathLike[str],
     gains_path: str | os.PathLike[str],
     *,
-    n: int = 6,
-    omega0: tuple[float, float] = (2.0, 10.0),
-    v0: tuple[float, float] = (0.25, 2.0),
-    tau_end: float = 60.0,
-    window: float = 20.0,
+    constrained_path: str | os.PathLike[str] | None = None,
+    rig: PhysicalParams | None = None,
+    controllers: Sequence[str] = MAP_CONTROLLERS,
+    top_drive: str = "tds-11sa",
+    n: int = 25,
+    rpm: tuple[float, float] = MAP_RPM,
+    wob_kN: tuple[float, float] | None = None,
+    tau_end: float = 200.0,
+    window: float = 30.0,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
     serial: bool = False,
@@ -474,19 +585,37 @@ def write_controller_map(
     progress: bool = False,
     log: Callable[[str], Any] | None = print,
 ) -> ControllerMap:
-    """A small map of the controllers study: n x n points over omega0 x v0 around the design's
-    parameter set, the LMI gain fixed from ``gains_path`` (its K0 and R_ff taken at each point).
+    """The controller map: n x n points over the surface speed [rpm] and the nominal weight on
+    bit [kN] on the rig of the design, every controller under the same top drive.
+
+    Each point (rpm, W0) sets Omega0 and the hook speed V0 whose nominal weight on bit is W0
+    (feed: imposed rate of penetration chosen for the nominal WOB; ``docs/controllers.md``,
+    "Maps"). The paper-style LMI gain is fixed from ``gains_path``, the input-constrained one
+    from ``constrained_path``, their K0 and R_ff taken at each point.
 
     Parameters
     ----------
     out_dir : path
         The sweep's output folder (``results.csv``, ``plots/``, ``by_controller.csv``).
     gains_path : path
-        The gains file of the LMI design; its parameter set is the map's base.
+        The gains file of the paper-style LMI design; its parameter set must be the rig's.
+    constrained_path : path, optional
+        The gains file of the input-constrained design (default: ``gains_constrained.json``
+        beside ``gains_path``, where ``drillstring design --torque-limit`` writes it); needed
+        only when a constrained controller is in ``controllers``.
+    rig : PhysicalParams, optional
+        The physical base (default: the known rig whose scaled set is the design's).
+    controllers : sequence of str
+        Of :data:`~drillstring.controller.lineup.RIG_CONTROLLERS`.
+    top_drive : str
+        The drive of every controller (``"none"`` or a spec of
+        :func:`~drillstring.model.topdrive.top_drive_from_spec`).
     n : int
         Points per axis (>= 2).
-    omega0, v0 : (float, float)
-        Ranges of the surface speed and the feed (scaled).
+    rpm : (float, float)
+        Range of the surface speed [rpm].
+    wob_kN : (float, float), optional
+        Range of the nominal weight on bit [kN] (default: :func:`wob_range` of the rig).
     tau_end, window, Ts, dphi0_rel : float
         Run length, late window, sample period, initial bit speed as a fraction of omega0
         (options of the study, :mod:`drillstring.apps.sweep.spec`).
@@ -498,27 +627,27 @@ def write_controller_map(
     Returns
     -------
     ControllerMap
+
+    Raises
+    ------
+    ValueError
+        No rig for the design's parameter set, or a bad value (a SweepSpecError naming it).
+    GainsFileError
+        A gains file that cannot be read.
     """
-    n = check_int("n", n, lower=2)
-    g = read_gains(gains_path)
-    spec = spec_from_dict(
-        {
-            "study": "controllers",
-            "base": _base(g.params),
-            "tau_end": tau_end,
-            "sweep": [
-                {"param": "omega0", "start": omega0[0], "stop": omega0[1], "num": n},
-                {"param": "v0", "start": v0[0], "stop": v0[1], "num": n},
-            ],
-            "options": {
-                "gains": str(Path(gains_path).resolve()),
-                "feedforward": "point",
-                "window": window,
-                "Ts": Ts,
-                "dphi0_rel": dphi0_rel,
-            },
-        },
-        source="controller map",
+    spec = controller_map_spec(
+        gains_path,
+        constrained_path=constrained_path,
+        rig=rig,
+        controllers=controllers,
+        top_drive=top_drive,
+        n=n,
+        rpm=rpm,
+        wob_kN=wob_kN,
+        tau_end=tau_end,
+        window=window,
+        Ts=Ts,
+        dphi0_rel=dphi0_rel,
     )
     report = run_sweep(
         spec,
@@ -529,19 +658,24 @@ def write_controller_map(
         resume=resume,
         progress=progress,
     )
-    table = _count_rows(report.results)
-    header = ["controller", *OUTCOMES, "stopped", "failed_points", "best"]
+    table = _count_rows(report.results, spec.options["controllers"])
+    header = ["controller", *MAP_OUTCOMES, "stopped", "failed_points", "best"]
     files = {
         "by_controller": write_csv(
             Path(out_dir) / "by_controller.csv", header, ([r[h] for h in header] for r in table)
         )
     }
     if log is not None:
-        log(f"{spec.n_points} points, {report.n_failed} failed; outcomes per controller:")
-        log(" ".join(f"{h:>13}" for h in header))
+        log(
+            f"{spec.n_points} points ({spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
+            f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN nominal WOB; {spec.feed}; "
+            f"top drive {top_drive}), {report.n_failed} failed, {report.wall_time:.1f} s; "
+            "outcomes per controller:"
+        )
+        log(" ".join(f"{h:>16}" for h in header))
         for r in table:
-            log(" ".join(f"{r[h]!s:>13}" for h in header))
-    return ControllerMap(report=report, by_controller=table, files=files)
+            log(" ".join(f"{r[h]!s:>16}" for h in header))
+    return ControllerMap(report=report, by_controller=table, files=files, spec=spec)
 
 
 # --------------------------------------------------------------------------------------------
@@ -558,7 +692,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="job", required=True)
     for job, text in (
         ("compare", "every controller switched on from Fig. 6's stick-slip state at tau = 25"),
-        ("map", "n x n map of the severity metrics over omega0 x v0 for every controller"),
+        ("map", "n x n map of the severity metrics over speed and WOB for every controller"),
     ):
         p = sub.add_parser(job, help=text, description=text)
         p.add_argument(
@@ -587,25 +721,52 @@ def _parser() -> argparse.ArgumentParser:
         "--window", type=float, default=COMPARISON_WINDOW, help="late window of the metrics"
     )
     m = sub.choices["map"]
-    m.add_argument("--window", type=float, default=20.0, help="late window of the metrics")
-    m.add_argument("--n", type=int, default=6, help="points per axis (default 6)")
+    m.description = m.description + (
+        ": surface speed [rpm] x nominal weight on bit [kN] on the design's rig, every controller "
+        "under one top drive (feed: imposed rate of penetration chosen for the nominal WOB)"
+    )
+    m.add_argument("--window", type=float, default=30.0, help="late window of the metrics")
+    m.add_argument("--n", type=int, default=25, help="points per axis (default 25)")
     m.add_argument(
-        "--omega0",
+        "--rpm",
         type=float,
         nargs=2,
-        default=(2.0, 10.0),
+        default=MAP_RPM,
         metavar=("LO", "HI"),
-        help="range of the surface speed omega0 (scaled; default 2 10)",
+        help=f"range of the surface speed [rpm] (default {MAP_RPM[0]:g} {MAP_RPM[1]:g})",
     )
     m.add_argument(
-        "--v0",
+        "--wob",
         type=float,
         nargs=2,
-        default=(0.25, 2.0),
+        default=None,
         metavar=("LO", "HI"),
-        help="range of the feed v0 (scaled; default 0.25 2)",
+        help="range of the nominal weight on bit [kN] (default: what the rig's feed gives for "
+        f"v0 in [{MAP_V0[0]:g}, {MAP_V0[1]:g}] at its speed; it must stay above the wearflat "
+        "contact part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
     )
-    m.add_argument("--tau-end", type=float, default=60.0, help="run length (default 60)")
+    m.add_argument(
+        "--gains-constrained",
+        type=Path,
+        default=None,
+        help=f"gains file of the input-constrained design (default: {CONSTRAINED_FILE} beside "
+        "--gains)",
+    )
+    m.add_argument(
+        "--controllers",
+        nargs="+",
+        default=list(MAP_CONTROLLERS),
+        metavar="NAME",
+        help=f"the controllers (of {', '.join(RIG_CONTROLLERS)}; default "
+        f"{' '.join(MAP_CONTROLLERS)})",
+    )
+    m.add_argument(
+        "--top-drive",
+        default="tds-11sa",
+        help="the drive of every controller: a rating (tds-11sa), a multiple of the nominal "
+        "torque (50R0), a torque (52kNm) or none (default tds-11sa)",
+    )
+    m.add_argument("--tau-end", type=float, default=200.0, help="run length (default 200)")
     m.add_argument(
         "--workers", type=int, default=None, help="Dask workers (default: CPU count; 0: serial)"
     )
@@ -658,9 +819,12 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
         result_map = write_controller_map(
             args.out,
             args.gains,
+            constrained_path=args.gains_constrained,
+            controllers=args.controllers,
+            top_drive=args.top_drive,
             n=args.n,
-            omega0=tuple(args.omega0),
-            v0=tuple(args.v0),
+            rpm=tuple(args.rpm),
+            wob_kN=None if args.wob is None else tuple(args.wob),
             tau_end=args.tau_end,
             window=args.window,
             Ts=args.Ts,

@@ -83,6 +83,7 @@ __all__ = [
     "ScaledParams",
     "get_params",
     "get_physical",
+    "known_rig",
     "load_params",
     "params_from_spec",
     "read_params",
@@ -440,6 +441,49 @@ class PhysicalParams:
         return self.weight_on_bit(self.d0)
 
     @property
+    def contact_weight(self) -> float:
+        """The wearflat contact part W^f = n*a*l*sigma_bar [N] of the nominal weight on bit,
+        eq. (7) with dU/dt > 0: the least nominal WOB of any positive feed."""
+        return self.n * self.a * self.l * self.sigma_bar
+
+    def hook_speed_for_weight(self, W0: float, Omega0: float | None = None) -> float:
+        """The hook speed V0 [m/s] whose nominal weight on bit is ``W0`` at the speed ``Omega0``.
+
+        The inverse of :attr:`W0`: with d0 = 2*pi*V0/(n*Omega0) of (8), eqs. (4) and (7) give
+        ``W0 = n*a*zeta*eps*d0 + n*a*l*sigma_bar``, so
+        ``V0 = (W0 - n*a*l*sigma_bar)*Omega0/(2*pi*a*zeta*eps)``. The feed stays an imposed rate
+        of penetration (the paper's hook speed); ``W0`` only chooses it.
+
+        Parameters
+        ----------
+        W0 : float
+            Nominal weight on bit [N], above :attr:`contact_weight`.
+        Omega0 : float, optional
+            Rotary speed [rad/s], > 0 (default: this set's).
+
+        Returns
+        -------
+        float
+            V0 [m/s], > 0.
+
+        Raises
+        ------
+        ParameterError
+            ``W0`` is not a finite number above the contact part (no positive feed reaches it),
+            or ``Omega0`` is not > 0; the message names the value.
+        """
+        omega = self.Omega0 if Omega0 is None else Omega0
+        omega = check_real("Omega0", omega, lower=0.0, error=ParameterError)
+        W0 = check_real("W0", W0, error=ParameterError)
+        contact = self.contact_weight
+        if not W0 > contact:
+            raise ParameterError(
+                f"W0 = {W0!r} N is not above the wearflat contact part n*a*l*sigma_bar = "
+                f"{contact!r} N of eq. (7): no positive feed gives that nominal weight on bit"
+            )
+        return (W0 - contact) * omega / (2.0 * math.pi * self.a * self.zeta * self.eps)
+
+    @property
     def T0(self) -> float:
         """Nominal torque on bit T^c + T^f [N m]: eq. (4) at d = d0 plus eq. (7) with dU/dt > 0."""
         return self.torque_on_bit(self.d0)
@@ -791,6 +835,31 @@ def get_physical(name: str) -> PhysicalParams:
             f"parameter set {name!r}{hint}; physical sets: {known} "
             "(use read_params(path) for a file)"
         ) from None
+
+
+def known_rig(params: ScaledParams, rel_tol: float = 1e-9) -> PhysicalParams | None:
+    """The known physical set (:data:`KNOWN_PHYSICAL`) whose scaled set is ``params``.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        A scaled set.
+    rel_tol : float
+        Relative tolerance of every field (the conversion (15)-(16) rounds).
+
+    Returns
+    -------
+    PhysicalParams or None
+        The first match, or None.
+    """
+    for rig in KNOWN_PHYSICAL.values():
+        s = rig.to_scaled()
+        if all(
+            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=rel_tol)
+            for f in dataclasses.fields(ScaledParams)
+        ):
+            return rig
+    return None
 
 
 def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:

@@ -164,6 +164,7 @@ def simulate_sampled(
         )
         st = int(st)
         if st == 0:
+            status = Status("ok", "", engine.tau)  # the run reached tau_end
             break
         # what needs Python (a buffer to drain or grow, or the stop's status): then the engine
         # finishes the advance of sample k, and the loop goes on from k + 1

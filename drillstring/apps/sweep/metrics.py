@@ -6,25 +6,74 @@ Defined apart from the point functions (:mod:`.studies`) so that the sweep descr
 
 from __future__ import annotations
 
-from drillstring.controller.lineup import CONTROLLERS
+import math
+
+from drillstring.controller.lineup import RIG_CONTROLLERS
+from drillstring.model.units import si_scale
 
 __all__ = [
     "CONTROLLER_METRICS",
     "METRICS",
+    "SI_DISPLAY",
     "controller_column",
     "plottable",
+    "si_factor",
 ]
 
-#: Severity metrics recorded for every controller of the controllers study
-#: (:mod:`drillstring.analysis.severity`), (name, type).
+#: Metrics recorded for every controller of the controllers study, (name, type): the fields of
+#: :class:`~drillstring.analysis.severity.Severity` (scaled: torques in units of C, power in
+#: C per unit of tau, speeds per unit of tau, times in tau) and the spectral abscissa of the
+#: law's closed loop linearised about the point (:func:`~drillstring.apps.sweep.studies.
+#: linear_abscissa`; NaN for a law with delayed or estimated measurements).
 CONTROLLER_METRICS: tuple[tuple[str, str], ...] = (
+    ("outcome", "str"),
     ("utr", "float"),
     ("severity", "float"),
     ("stick_fraction", "float"),
-    ("peak_torque", "float"),
     ("stall", "flag"),
-    ("outcome", "str"),
+    ("peak_torque", "float"),
+    ("peak_torque_late", "float"),
+    ("rms_torque_late", "float"),
+    ("peak_power", "float"),
+    ("saturated_fraction", "float"),
+    ("min_table_speed", "float"),
+    ("settling_time", "float"),
+    ("linear_abscissa", "float"),
 )
+
+
+#: How the maps of a physical base show the controllers' dimensional metrics: (dimension of
+#: :data:`drillstring.model.units.DIMENSIONS`, factor from SI, unit).
+SI_DISPLAY: dict[str, tuple[str, float, str]] = {
+    "peak_torque": ("torque", 1e-3, "kN m"),
+    "peak_torque_late": ("torque", 1e-3, "kN m"),
+    "rms_torque_late": ("torque", 1e-3, "kN m"),
+    "peak_power": ("power", 1e-3, "kW"),
+    "min_table_speed": ("speed", 30.0 / math.pi, "rpm"),
+    "settling_time": ("time", 1.0, "s"),
+    "linear_abscissa": ("frequency", 1.0, "1/s"),
+}
+
+
+def si_factor(metric: str, C: float, t_star: float) -> tuple[float, str]:
+    """The factor from a controller metric's scaled value to its display unit on a rig.
+
+    Parameters
+    ----------
+    metric : str
+        A name of :data:`CONTROLLER_METRICS`.
+    C, t_star : float
+        The rig's torque and time scales (eqs. (15)-(16)).
+
+    Returns
+    -------
+    (float, str)
+        The factor and the unit (1 and "" for a dimensionless metric).
+    """
+    if metric not in SI_DISPLAY:
+        return 1.0, ""
+    dimension, factor, unit = SI_DISPLAY[metric]
+    return si_scale(dimension, C, t_star) * factor, unit
 
 
 def controller_column(metric: str, controller: str) -> str:
@@ -35,7 +84,7 @@ def controller_column(metric: str, controller: str) -> str:
     metric : str
         A name of :data:`CONTROLLER_METRICS` (``"utr"``).
     controller : str
-        A name of :data:`~drillstring.controller.lineup.CONTROLLERS` (``"stiff-pi"``).
+        A name of :data:`~drillstring.controller.lineup.RIG_CONTROLLERS` (``"stiff-pi"``).
 
     Returns
     -------
@@ -86,10 +135,17 @@ METRICS: dict[str, tuple[tuple[str, str], ...]] = {
     "controllers": (
         ("A", "float"),
         ("taubar_crit", "float"),
+        ("open_loop_abscissa", "float"),
         ("lmi_gain_norm", "float"),
         ("lmi_abscissa", "float"),
         ("lmi_design_error", "str"),
-        *((controller_column(m, c), kind) for c in CONTROLLERS for m, kind in CONTROLLER_METRICS),
+        ("lmi_constrained_gain_norm", "float"),
+        ("lmi_constrained_abscissa", "float"),
+        *(
+            (controller_column(m, c), kind)
+            for c in RIG_CONTROLLERS
+            for m, kind in CONTROLLER_METRICS
+        ),
         ("best", "str"),
     ),
 }

@@ -1,15 +1,61 @@
 """Maps of sweep metrics: a heat map over the swept plane (2-D) or a line plot (1-D), with the
-reference point (the base set's value of each swept parameter) marked. Failed points are grey."""
+reference point (the base set's value of each swept parameter) marked. Failed points are grey.
+The controllers' panels can carry contour overlays (the linearised stability boundary: the 0
+contour of a spectral abscissa computed on its own, finer grid)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["cell_edges", "metric_figure", "panel_figure"]
+__all__ = ["Overlay", "cell_edges", "metric_figure", "panel_figure"]
+
+
+@dataclass(frozen=True)
+class Overlay:
+    """A field drawn as its 0 contour on a map: ``z`` of shape ``(x.size, y.size)`` over the
+    grid values ``x``, ``y``; ``label`` for the legend, ``style`` the line's ``color``, ``ls``,
+    ``lw`` and a ``hatch`` for the side where ``z`` > 0 (none: not hatched); ``subject`` names
+    the field in a panel's note when it has one sign on the whole map (default ``label``)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    label: str
+    style: Mapping[str, Any]
+    subject: str = ""
+
+
+def _draw_overlay(ax: Any, overlay: Overlay) -> tuple[Any, str]:
+    """The 0 contour of ``overlay`` on ``ax``: (a legend handle, "") when the field changes
+    sign on the map, else (None, a note saying on which side the whole map lies)."""
+    from matplotlib.lines import Line2D
+
+    z = np.asarray(overlay.z, dtype=float)
+    finite = z[np.isfinite(z)]
+    subject = overlay.subject or overlay.label
+    if finite.size == 0:
+        return None, f"{subject}: none"
+    style = {"color": "k", "ls": "-", "lw": 1.2, **dict(overlay.style)}
+    if finite.min() < 0.0 < finite.max():
+        ax.contour(overlay.x, overlay.y, z.T, levels=[0.0], colors=style["color"],
+                   linestyles=style["ls"], linewidths=style["lw"])  # fmt: skip
+        if style.get("hatch"):  # the unstable side
+            ax.contourf(overlay.x, overlay.y, z.T, levels=[0.0, np.inf], colors="none",
+                        hatches=[style["hatch"]])  # fmt: skip
+        handle = Line2D([], [], color=style["color"], ls=style["ls"], lw=style["lw"],
+                        label=overlay.label)  # fmt: skip
+        return handle, ""
+    side = "unstable" if finite.min() >= 0.0 else "stable"
+    return None, f"{subject}: {side} on the whole map"
+
+
+def _label(name: str, labels: Mapping[str, str] | None) -> str:
+    return (labels or {}).get(name, name)
 
 
 def _figure(figsize: tuple[float, float]) -> Any:
@@ -83,6 +129,8 @@ def metric_figure(
     title: str,
     categories: Sequence[str] | None = None,
     palette: Mapping[str, str] | None = None,
+    axis_labels: Mapping[str, str] | None = None,
+    note: str = "",
 ) -> Any:
     """Figure of one sweep metric: a line plot over one axis or a heat map over two.
 
@@ -108,6 +156,10 @@ def metric_figure(
         Order of a string metric's labels (others found follow, sorted).
     palette : mapping of str to colour, optional
         Colours of a string metric's labels (tab10 for the others).
+    axis_labels : mapping of str to str, optional
+        The axes' labels by parameter name (default: the name).
+    note : str
+        A line under the title (e.g. how the model is fed).
 
     Returns
     -------
@@ -123,7 +175,7 @@ def metric_figure(
         ax.plot(x, z, "o-", ms=3)
         ax.axvline(reference[x_axis.param], color="k", ls="--", lw=1, label="reference")
         ax.set_xscale("log" if x_axis.scale == "log" else "linear")
-        ax.set_xlabel(x_axis.param)
+        ax.set_xlabel(_label(x_axis.param, axis_labels))
         ax.set_ylabel(metric)
         if labels is not None:
             ax.set_yticks(range(len(labels)), labels)
@@ -163,9 +215,9 @@ def metric_figure(
 
             handles.append(Patch(facecolor="lightgrey", label="failed / no value"))
         ax.legend(handles=handles, loc="best", fontsize="small")
-        ax.set_xlabel(x_axis.param)
-        ax.set_ylabel(y_axis.param)
-    ax.set_title(title, fontsize="medium")
+        ax.set_xlabel(_label(x_axis.param, axis_labels))
+        ax.set_ylabel(_label(y_axis.param, axis_labels))
+    ax.set_title(f"{title}\n{note}" if note else title, fontsize="medium")
     fig.tight_layout()
     return fig
 
@@ -181,6 +233,9 @@ def panel_figure(
     log: bool = False,
     categories: Sequence[str] | None = None,
     palette: Mapping[str, str] | None = None,
+    axis_labels: Mapping[str, str] | None = None,
+    note: str = "",
+    overlays: Mapping[str, Sequence[Overlay]] | None = None,
 ) -> Any:
     """One metric for several runs side by side (one panel each) on one shared colour scale.
 
@@ -208,6 +263,12 @@ def panel_figure(
         Order of a string metric's labels.
     palette : mapping of str to colour, optional
         Colours of a string metric's labels.
+    axis_labels : mapping of str to str, optional
+        The axes' labels by parameter name.
+    note : str
+        A line under the title.
+    overlays : mapping of str to sequence of Overlay, optional
+        Per panel, the fields drawn as their 0 contour (2-D only), with a legend in the panel.
 
     Returns
     -------
@@ -241,17 +302,17 @@ def panel_figure(
         ax.set_xscale("log" if x_axis.scale == "log" else "linear")
         if log:
             ax.set_yscale("log")
-        ax.set_xlabel(x_axis.param)
+        ax.set_xlabel(_label(x_axis.param, axis_labels))
         ax.set_ylabel(metric)
         if order is not None:
             ax.set_yticks(range(len(order)), order)
         ax.legend(loc="best", fontsize="small")
-        ax.set_title(title, fontsize="medium")
+        ax.set_title(f"{title}\n{note}" if note else title, fontsize="medium")
         fig.tight_layout()
         return fig
     y_axis = axes[1]
     y = y_axis.values()
-    fig = _figure((3.4 * len(names) + 1.2, 3.8))
+    fig = _figure((3.4 * len(names) + 1.2, 4.2))
     grid_axes = fig.subplots(1, len(names), sharex=True, sharey=True, squeeze=False)[0]
     if order is not None:
         cmap = _categorical(order, palette)
@@ -268,6 +329,7 @@ def panel_figure(
         cmap = mpl.colormaps["viridis"]
     cmap = cmap.with_extremes(bad="lightgrey")
     mesh = None
+    legend: dict[str, Any] = {}
     for ax, name in zip(grid_axes, names, strict=True):
         z = encoded[name]
         if log and order is None:
@@ -290,13 +352,28 @@ def panel_figure(
             mec="black",
             ls="",
         )
+        notes = []
+        for overlay in (overlays or {}).get(name, ()):
+            handle, text = _draw_overlay(ax, overlay)
+            if handle is not None and handle.get_label() not in legend:
+                legend[handle.get_label()] = handle
+            if text:
+                notes.append(text)
+        if notes:
+            ax.text(0.02, 0.02, "\n".join(notes), transform=ax.transAxes, fontsize="x-small",
+                    va="bottom", bbox={"fc": "white", "alpha": 0.8, "lw": 0})  # fmt: skip
         ax.set_xscale("log" if x_axis.scale == "log" else "linear")
         ax.set_yscale("log" if y_axis.scale == "log" else "linear")
         ax.set_title(name, fontsize="medium")
-        ax.set_xlabel(x_axis.param)
-    grid_axes[0].set_ylabel(y_axis.param)
-    cbar = fig.colorbar(mesh, ax=list(grid_axes), label=metric, fraction=0.03, pad=0.02)
+        ax.set_xlabel(_label(x_axis.param, axis_labels))
+    grid_axes[0].set_ylabel(_label(y_axis.param, axis_labels))
+    bottom = 0.22 if legend else 0.15
+    fig.subplots_adjust(top=0.8, bottom=bottom, left=0.06, right=0.87, wspace=0.12)
+    cbar = fig.colorbar(mesh, cax=fig.add_axes((0.885, bottom, 0.01, 0.8 - bottom)), label=metric)
     if order is not None:
         cbar.set_ticks(range(len(order)), labels=order)
-    fig.suptitle(title, fontsize="medium")
+    fig.suptitle(f"{title}\n{note}" if note else title, fontsize="medium")
+    if legend:
+        fig.legend(handles=list(legend.values()), loc="lower center", ncol=len(legend),
+                   fontsize="small", frameon=False)  # fmt: skip
     return fig

@@ -15,11 +15,17 @@ Output in DIR:
 * ``results.csv``: one row per point, appended (and flushed) as each point finishes, so an
   interrupted sweep keeps what it finished; ``--resume`` skips the points already in the file
   (``--retry-failed`` also recomputes the points that recorded an error). Columns: ``index``
-  (row-major point number), the grid indices ``i`` (and ``j``), the swept values, the study's
-  metrics, ``seconds`` (wall time of the point) and ``error`` (empty, or the exception of a failed
-  point). When the sweep completes, the file is rewritten sorted by index.
-* ``spec.json``: the validated spec (a resume must use the same one); ``summary.json``.
-* ``plots/<metric>.png``: heat map (2-D) or line plot (1-D) per metric, reference point marked.
+  (row-major point number), the grid indices ``i`` (and ``j``), the swept values, with a derived
+  physical axis (``rpm``, ``W0_kN``) the speed ``Omega0`` [rad/s] and hook speed ``V0`` [m/s]
+  it imposes, the study's metrics, ``seconds`` (wall time of the point) and ``error`` (empty, or
+  the exception of a failed point). When the sweep completes, the file is rewritten sorted by
+  index.
+* ``spec.json``: the validated spec (a resume must use the same one); ``summary.json`` (with the
+  feed, :attr:`~drillstring.apps.sweep.spec.SweepSpec.feed`).
+* ``plots/<metric>.png``: heat map (2-D) or line plot (1-D) per metric, reference point marked;
+  for the controllers study a panel per controller (a physical base's torques, power, speed and
+  times in kN m, kW, rpm and s), its linearised stability boundary overlaid and
+  ``plots/boundary.csv`` with the abscissae on the finer grid it was drawn from.
 """
 
 from __future__ import annotations
@@ -38,22 +44,47 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from tqdm import tqdm
 
 from drillstring.analysis.severity import OUTCOMES
 from drillstring.apps.colors import CONTROLLER_COLORS, OUTCOME_COLORS
-from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, METRICS, controller_column
-from drillstring.apps.sweep.plots import metric_figure, panel_figure
-from drillstring.apps.sweep.spec import SweepSpec, SweepSpecError, load_spec
+from drillstring.apps.sweep.metrics import (
+    CONTROLLER_METRICS,
+    METRICS,
+    controller_column,
+    si_factor,
+)
+from drillstring.apps.sweep.plots import Overlay, metric_figure, panel_figure
+from drillstring.apps.sweep.spec import (
+    AXIS_LABELS,
+    PHYSICAL_DERIVED,
+    SweepSpec,
+    SweepSpecError,
+    load_spec,
+)
 from drillstring.apps.sweep.studies import (
+    OPEN_LOOP,
     DesignInputs,
     axial_design,
     design_key,
     evaluate_point,
+    linear_boundary,
 )
-from drillstring.controller.lineup import CONTROLLERS
+from drillstring.controller.lineup import RIG_CONTROLLERS
 from drillstring.fileio import save_figure, write_csv, write_json
+from drillstring.model.digital import block as digital_block
+from drillstring.model.digital import drive as digital_drive
+from drillstring.model.digital import lawcore as digital_lawcore
+from drillstring.model.digital import loop as digital_loop
+from drillstring.model.digital import sense as digital_sense
+from drillstring.model.digital.controller import DigitalController
+from drillstring.model.laws import SpeedPI
+from drillstring.model.params import REFERENCE, PhysicalParams
+from drillstring.model.sampled import simulate_sampled
+from drillstring.model.sensing import Sensing
 from drillstring.model.simulate import warm_up
+from drillstring.model.topdrive import TopDrive
 
 __all__ = [
     "PointFunction",
@@ -98,11 +129,25 @@ def columns(spec: SweepSpec) -> list[str]:
     Returns
     -------
     list of str
-        ``index``, ``i`` (and ``j``), the swept names, the study's metrics, ``seconds``,
-        ``error``.
+        ``index``, ``i`` (and ``j``), the swept names, the imposed speed and feed ``Omega0``,
+        ``V0`` (SI) when a derived axis (``rpm``, ``W0_kN``) sets them, the study's metrics,
+        ``seconds``, ``error``.
     """
     grid = ["i", "j"][: len(spec.axes)]
-    return ["index", *grid, *spec.names, *(m for m, _ in METRICS[spec.study]), "seconds", "error"]
+    return [
+        "index",
+        *grid,
+        *spec.names,
+        *_imposed(spec),
+        *(m for m, _ in METRICS[spec.study]),
+        "seconds",
+        "error",
+    ]
+
+
+def _imposed(spec: SweepSpec) -> tuple[str, ...]:
+    """The physical speed and hook speed a derived axis sets (columns of ``results.csv``)."""
+    return ("Omega0", "V0") if any(n in PHYSICAL_DERIVED for n in spec.names) else ()
 
 
 def _fmt(value: Any) -> str:
@@ -168,6 +213,9 @@ def _row(
     ij = spec.grid_index(index)
     values = spec.point_values(index)
     out = [str(index), *(str(k) for k in ij), *(repr(values[n]) for n in spec.names)]
+    if _imposed(spec):
+        rig = spec.physical_at(values)
+        out += [repr(rig.Omega0), repr(rig.V0)]
     out += [_fmt(metrics.get(m)) if not error else "" for m, _ in METRICS[spec.study]]
     out += [f"{seconds:.3f}", error]
     return out
@@ -237,16 +285,39 @@ def _rewrite(path: Path, header: Sequence[str], rows: dict[int, list[str]]) -> N
 
 
 def kernel_warmup() -> dict[str, Any]:
-    """Load (or compile) the numba kernel in this process, for the sweep's summary.
+    """Load (or compile) the numba kernel and the compiled sampled loop in this process, for
+    the sweep's summary.
 
     Returns
     -------
     dict
         ``pid`` and what :func:`drillstring.model.simulate.warm_up` reports (``jit`` and,
         with the compiled kernel, ``cache_hits``, ``cache_misses``: nonzero when it was
-        compiled here rather than loaded from numba's cache, and ``seconds``).
+        compiled here rather than loaded from numba's cache, and ``seconds``); with the
+        compiled kernel also ``sampled_cache_hits``, ``sampled_cache_misses`` and
+        ``sampled_seconds`` of a tiny run of the sampled loop (a digital controller with a top
+        drive and the torque from the motor: the controllers study's code).
     """
-    return {"pid": os.getpid(), **warm_up()}
+    info = {"pid": os.getpid(), **warm_up()}
+    if info.get("jit"):
+        t0 = time.perf_counter()
+        law = SpeedPI(kp=1.0, ki=1.0)
+        drive = TopDrive(R_min=-100.0, R_max=100.0, lag=0.01)
+        controller = DigitalController(law, drive, Sensing(torque="motor"))
+        simulate_sampled(REFERENCE, controller, 0.01, 1e-3, dt_out=0.01)
+        hits = misses = 0
+        for module in (digital_loop, digital_block, digital_drive, digital_lawcore, digital_sense):
+            for obj in vars(module).values():
+                stats = getattr(obj, "stats", None)
+                if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
+                    hits += sum(stats.cache_hits.values())
+                    misses += sum(stats.cache_misses.values())
+        info.update(
+            sampled_cache_hits=hits,
+            sampled_cache_misses=misses,
+            sampled_seconds=time.perf_counter() - t0,
+        )
+    return info
 
 
 def _design_params(spec: SweepSpec, todo: Sequence[int]) -> dict[int, Any]:
@@ -325,7 +396,11 @@ def _dask_client(scheduler: str | None, workers: int | None) -> Iterator[tuple[A
     try:
         info["scheduler"] = client.scheduler.address
         info["workers"] = client.run(kernel_warmup)
-        compiled = {w: r for w, r in info["workers"].items() if r.get("cache_misses")}
+        compiled = {
+            w: r
+            for w, r in info["workers"].items()
+            if r.get("cache_misses") or r.get("sampled_cache_misses")
+        }
         if compiled:
             print(
                 f"drillstring sweep: warning: the numba kernel was compiled (not loaded from the "
@@ -528,6 +603,7 @@ def run_sweep(
             "failed": report.n_failed,
             "complete": report.complete,
             "wall_time_s": report.wall_time,
+            **({"feed": spec.feed} if spec.study != "axial" else {}),
             "execution": _canonical(execution),
         },
     )
@@ -572,7 +648,16 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
         raw = [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
         kind = kinds[metric]
         values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
-        fig = metric_figure(metric, kind, values, spec.axes, reference, f"{title_base}: {metric}")
+        fig = metric_figure(
+            metric,
+            kind,
+            values,
+            spec.axes,
+            reference,
+            f"{title_base}: {metric}",
+            axis_labels=AXIS_LABELS,
+            note=spec.feed if spec.study != "axial" else "",
+        )
         paths.append(save_figure(fig, out_dir / f"{metric}.png"))
     return paths
 
@@ -582,11 +667,79 @@ def _column(spec: SweepSpec, rows: dict[int, list[str]], name: str) -> list[str]
     return [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
 
 
+#: The style of a controller's linearised boundary (the unstable side hatched).
+UNSTABLE = {"ls": "-", "lw": 1.4, "hatch": "///"}
+
+
+def _boundary_overlays(
+    spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path
+) -> dict[str, list[Overlay]]:
+    """The linearised stability boundaries of a 2-D controllers map, per panel.
+
+    On a grid four times finer than the map's (:func:`~drillstring.apps.sweep.studies.
+    linear_boundary`, also written to ``boundary.csv``) when the design inputs A, taubar_crit
+    are the same at every point; else, and for a gain designed at each point, from the
+    abscissae the points recorded. The open loop's boundary is on every panel.
+    """
+    if len(spec.axes) != 2:
+        return {}
+    ok = [k for k in range(spec.n_points) if k in rows and not rows[k][-1]]
+    if not ok:
+        return {}
+    a_col, t_col = columns(spec).index("A"), columns(spec).index("taubar_crit")
+    inputs = {(rows[k][a_col], rows[k][t_col]) for k in ok}
+    fine: dict[str, np.ndarray] = {}
+    x, y = spec.axes[0].values(), spec.axes[1].values()
+    xf, yf = x, y
+    if len(inputs) == 1:
+        A, tc = (float(v) for v in inputs.pop())
+        boundary = linear_boundary(spec, DesignInputs(math.nan, math.nan, A=A, taubar_crit=tc))
+        fine, xf, yf = boundary.abscissa, boundary.x, boundary.y
+        names = list(fine)
+        X, Y = np.meshgrid(xf, yf, indexing="ij")
+        write_csv(
+            out_dir / "boundary.csv",
+            [spec.axes[0].param, spec.axes[1].param, *(f"abscissa.{n}" for n in names)],
+            zip(X.ravel(), Y.ravel(), *(fine[n].ravel() for n in names), strict=True),
+        )
+
+    def coarse(column: str) -> np.ndarray:
+        raw = _column(spec, rows, column)
+        return np.array([float(v) if v else math.nan for v in raw]).reshape(x.size, y.size)
+
+    open_loop = (
+        Overlay(xf, yf, fine[OPEN_LOOP], "open loop, linearised", {"ls": ":", "lw": 1.5})
+        if OPEN_LOOP in fine
+        else Overlay(
+            x, y, coarse("open_loop_abscissa"), "open loop, linearised", {"ls": ":", "lw": 1.5}
+        )  # fmt: skip
+    )
+    out = {}
+    for c in spec.options["controllers"]:
+        if c in fine:
+            own = Overlay(xf, yf, fine[c], "linearised boundary (hatched: unstable)", UNSTABLE,
+                          "closed loop, linearised")  # fmt: skip
+        else:
+            own = Overlay(x, y, coarse(controller_column("linear_abscissa", c)),
+                          "linearised boundary (map points; hatched: unstable)",
+                          UNSTABLE, "closed loop, linearised")  # fmt: skip
+        out[c] = [own, open_loop]
+    return out
+
+
 def _controller_plots(
     spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path, title_base: str
 ) -> list[Path]:
     kinds = dict(CONTROLLER_METRICS)
     reference = spec.reference_values()
+    drive = spec.options["top_drive"]
+    note = f"{spec.feed}; top drive: {drive}"
+    overlays = _boundary_overlays(spec, rows, out_dir)
+    scales = (
+        [spec.point_scales(k) for k in range(spec.n_points)]
+        if isinstance(spec.base, PhysicalParams)
+        else None
+    )
     paths = []
     for metric in spec.metrics:
         if metric == "best":
@@ -598,25 +751,40 @@ def _controller_plots(
                 spec.axes,
                 reference,
                 f"{title_base}: best controller",
-                categories=CONTROLLERS,
+                categories=RIG_CONTROLLERS,
                 palette=CONTROLLER_COLORS,
+                axis_labels=AXIS_LABELS,
+                note=note,
             )
         else:
             kind = kinds[metric]
+            label = metric
             panels: dict[str, list[Any]] = {}
             for c in spec.options["controllers"]:
                 raw = _column(spec, rows, controller_column(metric, c))
-                panels[c] = raw if kind == "str" else [float(v) if v else None for v in raw]
+                if kind == "str":
+                    panels[c] = raw
+                    continue
+                values = [float(v) if v else None for v in raw]
+                if scales is not None:  # a physical base: SI units
+                    for k, v in enumerate(values):
+                        factor, unit = si_factor(metric, scales[k].C, scales[k].t_star)
+                        values[k] = None if v is None else v * factor
+                    label = f"{metric} [{unit}]" if unit else metric
+                panels[c] = values
             fig = panel_figure(
-                metric,
+                label,
                 kind,
                 panels,
                 spec.axes,
                 reference,
                 f"{title_base}: {metric}",
                 log=metric == "peak_torque",
-                categories=OUTCOMES if metric == "outcome" else None,
+                categories=(*OUTCOMES, "no_design") if metric == "outcome" else None,
                 palette=OUTCOME_COLORS,
+                axis_labels=AXIS_LABELS,
+                note=note,
+                overlays=overlays,
             )
         paths.append(save_figure(fig, out_dir / f"{metric}.png"))
     return paths

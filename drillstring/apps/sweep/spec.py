@@ -22,12 +22,21 @@ TOML (``.toml``) or JSON (``.json``), chosen by suffix. Top-level keys (any othe
 Swept names: with a scaled base, the fields of :class:`~drillstring.model.params.ScaledParams`
 (``lambda`` for the paper's lambda) or the derived ``gammabar`` (sets gamma = gammabar*sqrt(n*psi))
 and ``etabar2`` (sets eta = sqrt(etabar2*n*psi)), eq. (18); with a physical base, the fields of
-:class:`~drillstring.model.params.PhysicalParams` (each point is converted by eqs. (15)-(16)).
-The axial study sweeps the fast-model quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18);
-those not swept are the base set's gammabar, etabar^2 and taubar_n0. The controllers study runs
-every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` at each point (sampled,
-torsional stick on) and records the severity metrics of :mod:`drillstring.analysis.severity`;
-its natural axes are the surface speed (``omega0`` or ``Omega0``) and the feed (``v0`` or ``V0``).
+:class:`~drillstring.model.params.PhysicalParams` (each point is converted by eqs. (15)-(16)) or
+the derived ``rpm`` (sets Omega0 = rpm*2*pi/60) and ``W0_kN`` (sets the hook speed V0 whose
+nominal weight on bit at the point's speed is W0 = 1e3*W0_kN: W0 = n*a*zeta*eps*d0 +
+n*a*l*sigma_bar with d0 = 2*pi*V0/(n*Omega0), eqs. (4), (7), (8); W0 must exceed the wearflat
+contact part n*a*l*sigma_bar). The feed is always an imposed rate of penetration (the hook
+speed); with ``W0_kN`` it is "chosen for the nominal WOB" (:attr:`SweepSpec.feed`, stated on
+the plots, in ``spec.json`` and ``summary.json``). The axial study sweeps the fast-model
+quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18); those not swept are the base set's
+gammabar, etabar^2 and taubar_n0. The controllers study runs the digital controllers of
+:func:`~drillstring.controller.lineup.rig_lineup` chosen by the option ``controllers``
+(default :data:`MAP_CONTROLLERS`) under one top drive (option ``top_drive``) at each point
+(sampled, torsional stick on) and records the severity metrics of
+:mod:`drillstring.analysis.severity`; its natural axes are ``rpm`` and ``W0_kN`` on a physical
+base (``drillstring controllers map``), or the surface speed and the feed (``omega0``/``v0``,
+``Omega0``/``V0``).
 
 Validation happens on load: every key, value and grid point is checked and any problem raises
 :class:`SweepSpecError` (a ``ValueError``) naming the key and the value.
@@ -49,22 +58,32 @@ import numpy as np
 
 from drillstring.analysis.limit_cycles import fast_params
 from drillstring.apps.sweep.metrics import plottable
-from drillstring.controller.gains import GainsFileError, read_gains
-from drillstring.controller.lineup import CONTROLLERS, FEEDFORWARD
+from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
+from drillstring.controller.lineup import FEEDFORWARD, RIG_CONTROLLERS
 from drillstring.fileio import load_table
 from drillstring.model.control import LATCH_MODES
 from drillstring.model.params import (
     KNOWN_PARAMS,
+    KNOWN_PHYSICAL,
     ParameterError,
     PhysicalParams,
     ScaledParams,
+    known_rig,
     read_params,
 )
 from drillstring.model.sampled import sample_count
+from drillstring.model.tables import Scales
+from drillstring.model.topdrive import RPM, top_drive_from_spec
 
 __all__ = [
     "AXIAL_NAMES",
+    "AXIS_LABELS",
+    "CONSTRAINED_CONTROLLERS",
+    "FEED_FOR_WOB",
+    "FEED_IMPOSED",
+    "MAP_CONTROLLERS",
     "OPTION_DEFAULTS",
+    "PHYSICAL_DERIVED",
     "STUDIES",
     "Axis",
     "SweepOptions",
@@ -79,8 +98,27 @@ STUDIES = ("open-loop", "closed-loop", "axial", "controllers")
 FULL_MODEL_STUDIES = ("open-loop", "closed-loop", "controllers")
 SCALES = ("linear", "log")
 DERIVED_NAMES = ("gammabar", "etabar2")
+#: Derived axes of a physical base: the surface speed in rpm (sets Omega0) and the nominal
+#: weight on bit in kN (sets the hook speed V0 that gives it at the point's speed, (4), (7), (8)).
+PHYSICAL_DERIVED = ("rpm", "W0_kN")
 SCALED_NAMES = ("n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0")
 PHYSICAL_NAMES = tuple(f.name for f in fields(PhysicalParams))
+#: Axis labels of the maps (a name not listed is its own label).
+AXIS_LABELS = {
+    "rpm": "surface speed [rpm]",
+    "W0_kN": "nominal weight on bit [kN]",
+    "Omega0": "Omega0 [rad/s]",
+    "V0": "hook speed V0 [m/s]",
+}
+#: How the full model is fed: the hook moves at the imposed speed (the paper's v0, V0) ...
+FEED_IMPOSED = "feed: imposed rate of penetration (hook speed)"
+#: ... and, with a W0_kN axis, that speed is the one whose nominal weight on bit is W0.
+FEED_FOR_WOB = "feed: imposed rate of penetration (hook speed) chosen for the nominal WOB"
+#: The controllers a map runs by default (of :data:`~drillstring.controller.lineup.
+#: RIG_CONTROLLERS`).
+MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained")
+#: The controllers with the input-constrained gain (option ``gains_constrained``).
+CONSTRAINED_CONTROLLERS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
 AXIAL_NAMES = ("gammabar", "etabar2", "taubar_n")
 TOP_KEYS = ("study", "base", "sweep", "tau_end", "options", "metrics")
 AXIS_KEYS = ("param", "start", "stop", "num", "scale")
@@ -103,22 +141,27 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     },
     # drillstring.analysis.limit_cycles.limit_cycle: step, kick, period budget, lambda/vbar0
     "axial": {"h": 1e-2, "kick": 0.05, "max_periods": 400, "lam_over_vbar0": 50.0},
-    # controllers: which of CONTROLLERS to run (default all); Ts: sample period of the laws;
-    # dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch: switch-on
-    # of every law; window: late window of the metrics; gains, gain_max, feedforward: the LMI
-    # gain as in the closed-loop study (feedforward "point": K0 and R_ff of the point, shared
-    # by every law); tie: severity difference treated as equal when ranking; vibration_tol:
-    # severity below which a run is steady; on_invalid: what bit bouncing does to a run
+    # controllers: which of RIG_CONTROLLERS to run (default MAP_CONTROLLERS); top_drive: the
+    # drive of every controller (a spec of top_drive_from_spec, or "none"); Ts: sample period
+    # of the laws; dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch:
+    # switch-on of every law; window: late window of the metrics (the trend test compares it
+    # with the window before); gains, gain_max, feedforward: the paper-style LMI gain as in the
+    # closed-loop study (feedforward "point": K0 and R_ff of the point, shared by every law);
+    # gains_constrained: the input-constrained design's gains file (F fixed, K0 and R_ff as
+    # feedforward says); tie: severity difference treated as equal when ranking;
+    # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing
     "controllers": {
-        "controllers": CONTROLLERS,
+        "controllers": MAP_CONTROLLERS,
+        "top_drive": "tds-11sa",
         "h": 5e-4,
         "Ts": 1e-3,
         "dt_out": 1e-2,
         "dphi0_rel": -0.5,
         "t_on": 0.0,
         "latch": "angle",
-        "window": 20.0,
+        "window": 30.0,
         "gains": "design",
+        "gains_constrained": None,
         "gain_max": None,
         "feedforward": "point",
         "tie": 0.02,
@@ -220,10 +263,12 @@ class Axis:
 
 @dataclass(frozen=True)
 class SweepOptions:
-    """Study options (see :data:`OPTION_DEFAULTS`); ``gains_file`` is the loaded gains file."""
+    """Study options (see :data:`OPTION_DEFAULTS`); ``gains_file`` is the loaded gains file,
+    ``constrained_file`` the loaded gains file of the input-constrained design."""
 
     values: tuple[tuple[str, Any], ...]
     gains_file: Any = field(default=None, compare=False)  # GainsFile | None
+    constrained_file: Any = field(default=None, compare=False)  # GainsFile | None
 
     def __getitem__(self, key: str) -> Any:
         return dict(self.values)[key]
@@ -252,13 +297,18 @@ class SweepOptions:
         -------
         dict
             Every option by name; with a gains file also ``gains_F``, ``gains_K0`` and
-            ``gains_params_sha256``, so that a changed file does not pass as the same spec.
+            ``gains_params_sha256`` (with a constrained one ``gains_constrained_F``, ...), so
+            that a changed file does not pass as the same spec.
         """
         out = dict(self.values)
-        if self.gains_file is not None:
-            out["gains_F"] = list(self.gains_file.F)
-            out["gains_K0"] = self.gains_file.K0
-            out["gains_params_sha256"] = self.gains_file.params_sha256
+        for prefix, gains in (
+            ("gains", self.gains_file),
+            ("gains_constrained", self.constrained_file),
+        ):
+            if gains is not None:
+                out[f"{prefix}_F"] = list(gains.F)
+                out[f"{prefix}_K0"] = gains.K0
+                out[f"{prefix}_params_sha256"] = gains.params_sha256
         return out
 
 
@@ -342,9 +392,9 @@ class SweepSpec:
     def point_params(self, index: int) -> ScaledParams:
         """The scaled parameter set of point ``index`` (full-model studies).
 
-        A physical base takes the swept values and is converted by eqs. (15)-(16); a scaled
-        base takes the swept fields, then ``gammabar`` (gamma = gammabar*sqrt(n*psi)) and
-        ``etabar2`` (eta = sqrt(etabar2*n*psi)), eq. (18).
+        A physical base takes the swept values (:meth:`physical_at`) and is converted by eqs.
+        (15)-(16); a scaled base takes the swept fields, then ``gammabar`` (gamma =
+        gammabar*sqrt(n*psi)) and ``etabar2`` (eta = sqrt(etabar2*n*psi)), eq. (18).
 
         Parameters
         ----------
@@ -365,11 +415,31 @@ class SweepSpec:
         ParameterError
             A swept value makes an invalid parameter set.
         """
+        return self.params_at(self.point_values(index))
+
+    def params_at(self, values: Mapping[str, float]) -> ScaledParams:
+        """The scaled parameter set at any values of the swept names (see :meth:`point_params`).
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            A value for each swept name (e.g. between the grid points).
+
+        Returns
+        -------
+        ScaledParams
+
+        Raises
+        ------
+        ValueError
+            For the axial study.
+        ParameterError
+            The values make an invalid parameter set.
+        """
         if self.study == "axial":
             raise ValueError("the axial study has no full parameter set per point")
-        values = self.point_values(index)
         if isinstance(self.base, PhysicalParams):
-            return self.base.replace(**values).to_scaled()
+            return self.physical_at(values).to_scaled()
         direct = {k: v for k, v in values.items() if k not in DERIVED_NAMES}
         p = self.base.replace(**direct) if direct else self.base
         changes: dict[str, float] = {}
@@ -378,6 +448,66 @@ class SweepSpec:
         if "etabar2" in values:
             changes["eta"] = math.sqrt(values["etabar2"] * p.n * p.psi)
         return p.replace(**changes) if changes else p
+
+    def physical_at(self, values: Mapping[str, float]) -> PhysicalParams:
+        """The physical set of a physical base at values of the swept names.
+
+        The swept fields are set, then ``rpm`` sets Omega0 = rpm*2*pi/60 and ``W0_kN`` the hook
+        speed V0 whose nominal weight on bit at that Omega0 is W0 = 1e3*W0_kN
+        (:meth:`~drillstring.model.params.PhysicalParams.hook_speed_for_weight`, eqs. (4), (7),
+        (8)): the feed stays an imposed rate of penetration.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            A value for each swept name.
+
+        Returns
+        -------
+        PhysicalParams
+
+        Raises
+        ------
+        ValueError
+            The base is not physical.
+        ParameterError
+            An invalid value (an rpm that is not > 0, a W0 not above the wearflat contact part),
+            named.
+        """
+        if not isinstance(self.base, PhysicalParams):
+            raise ValueError(f"the base {self.base_label!r} is not a physical parameter set")
+        direct = {k: v for k, v in values.items() if k not in PHYSICAL_DERIVED}
+        rig = self.base.replace(**direct) if direct else self.base
+        if "rpm" in values:
+            rpm = values["rpm"]
+            if not (math.isfinite(rpm) and rpm > 0.0):
+                raise ParameterError(f"rpm = {rpm!r} must be a finite number > 0")
+            rig = rig.replace(Omega0=rpm * RPM)
+        if "W0_kN" in values:
+            rig = rig.replace(V0=rig.hook_speed_for_weight(1e3 * values["W0_kN"]))
+        return rig
+
+    def point_scales(self, index: int) -> Scales | None:
+        """The rig's scales C, t* at point ``index``, for SI limits and times (top drive,
+        telemetry).
+
+        Returns
+        -------
+        PhysicalParams or None
+            A physical base's point (:meth:`physical_at`); for a scaled base the known rig
+            whose scaled set is the base (a scaled sweep leaves its C and I1, hence C and t*,
+            as they are: any scaled point is that rig with other masses, damping, wearflat,
+            friction, speed and feed); None when no known rig matches.
+        """
+        if isinstance(self.base, PhysicalParams):
+            return self.physical_at(self.point_values(index))
+        return known_rig(self.base)
+
+    @property
+    def feed(self) -> str:
+        """How the full model is fed at every point: :data:`FEED_FOR_WOB` with a ``W0_kN`` axis,
+        else :data:`FEED_IMPOSED`."""
+        return FEED_FOR_WOB if "W0_kN" in self.names else FEED_IMPOSED
 
     def axial_point(self, index: int) -> tuple[float, float, float]:
         """The fast-model parameters of point ``index`` (axial study), eq. (18).
@@ -426,6 +556,10 @@ class SweepSpec:
         for name in names or self.names:
             if name == "taubar_n":
                 out[name] = s.taubar_n0
+            elif name == "rpm":
+                out[name] = float(self.base.surface_speed_rpm)
+            elif name == "W0_kN":
+                out[name] = float(self.base.W0) / 1e3
             elif name in DERIVED_NAMES:
                 out[name] = float(getattr(s, name))
             elif isinstance(self.base, PhysicalParams):
@@ -453,6 +587,7 @@ class SweepSpec:
             "tau_end": self.tau_end,
             "options": self.options.to_dict(),
             "metrics": list(self.metrics),
+            **({"feed": self.feed} if self.study in FULL_MODEL_STUDIES else {}),
         }
 
 
@@ -502,9 +637,11 @@ def _base(value: Any, base_dir: Path) -> tuple[ScaledParams | PhysicalParams, st
         )
     cls = ScaledParams if kind == "scaled" else PhysicalParams
     try:
-        return cls.from_dict(data), f"inline {kind}"
+        params = cls.from_dict(data)
     except ParameterError as exc:
         raise SweepSpecError(f"base: {exc}") from None
+    same = [name for name, p in (*KNOWN_PARAMS.items(), *KNOWN_PHYSICAL.items()) if p == params]
+    return params, f"inline {kind}" + (f" ({same[0]})" if same else "")
 
 
 def _axis(k: int, value: Any, allowed: tuple[str, ...]) -> Axis:
@@ -556,6 +693,10 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             out[key] = _str(where, v, ("stop", "continue"))
         elif key == "gains":
             out[key] = _str(where, v)
+        elif key == "gains_constrained":
+            out[key] = None if v is None else _str(where, v)
+        elif key == "top_drive":
+            out[key] = _str(where, v).strip().lower()
         elif key == "controllers":
             out[key] = _controllers(where, v)
     if study in FULL_MODEL_STUDIES and out["h"] > out["dt_out"]:
@@ -570,25 +711,74 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             "relative to the initial deviation), got 0.0"
         )
     if study in ("closed-loop", "controllers") and out["gains"] != "design":
-        path = Path(out["gains"])
-        path = (path if path.is_absolute() else base_dir / path).resolve()
-        try:
-            gains_file = read_gains(path)
-        except GainsFileError as exc:
-            raise SweepSpecError(f"options.gains: {exc}") from None
-        out["gains"] = str(path)
-    return SweepOptions(values=tuple(out.items()), gains_file=gains_file)
+        gains_file, out["gains"] = _gains_file("options.gains", out["gains"], base_dir)
+    constrained_file = None
+    if study == "controllers":
+        wanted = [c for c in out["controllers"] if c in CONSTRAINED_CONTROLLERS]
+        if out["gains_constrained"] is not None:
+            constrained_file, out["gains_constrained"] = _gains_file(
+                "options.gains_constrained", out["gains_constrained"], base_dir
+            )
+            if constrained_file.constraint is None:
+                raise SweepSpecError(
+                    f"options.gains_constrained = {out['gains_constrained']!r} holds no "
+                    "input-constrained design (its 'constraint' record is null; drillstring "
+                    "design --torque-limit DRIVE writes one)"
+                )
+        elif wanted:
+            raise SweepSpecError(
+                f"options.controllers has {', '.join(wanted)}: options.gains_constrained must "
+                "name the input-constrained design's gains file (drillstring design "
+                "--torque-limit DRIVE writes gains_constrained.json)"
+            )
+    return SweepOptions(
+        values=tuple(out.items()), gains_file=gains_file, constrained_file=constrained_file
+    )
+
+
+def _gains_file(where: str, name: str, base_dir: Path) -> tuple[GainsFile, str]:
+    """A gains file by name (relative to ``base_dir``), read and checked; and its full path."""
+    path = Path(name)
+    path = (path if path.is_absolute() else base_dir / path).resolve()
+    try:
+        return read_gains(path), str(path)
+    except GainsFileError as exc:
+        raise SweepSpecError(f"{where}: {exc}") from None
+
+
+def _check_top_drive(spec: SweepSpec) -> None:
+    """The option ``top_drive`` at the base point: "none" or a spec that
+    :func:`~drillstring.model.topdrive.top_drive_from_spec` accepts on the base's rig."""
+    value = spec.options["top_drive"]
+    if value == "none":
+        return
+    scales = spec.base if isinstance(spec.base, PhysicalParams) else known_rig(spec.base)
+    try:
+        top_drive_from_spec(value, spec.scaled_base.R0, scales)
+    except ValueError as exc:
+        hint = (
+            " (the base is a scaled set of no known rig: give a physical base for a rating or "
+            "a torque in N m)"
+            if scales is None
+            else ""
+        )
+        raise SweepSpecError(f"options.top_drive = {value!r}: {exc}{hint}") from None
+    if scales is None and "lmi-telemetry" in spec.options["controllers"]:
+        raise SweepSpecError(
+            "options.controllers has lmi-telemetry, whose frames are timed in seconds: the "
+            f"base {spec.base_label!r} is a scaled set of no known rig (give a physical base)"
+        )
 
 
 def _controllers(where: str, value: Any) -> tuple[str, ...]:
-    """A non-empty list of distinct names of CONTROLLERS, in CONTROLLERS' order."""
+    """A non-empty list of distinct names of RIG_CONTROLLERS, in RIG_CONTROLLERS' order."""
     if not isinstance(value, list | tuple) or not value:
         raise SweepSpecError(f"{where} must be a non-empty list of names, got {value!r}")
     for k, name in enumerate(value):
-        _str(f"{where}[{k}]", name, CONTROLLERS)
+        _str(f"{where}[{k}]", name, RIG_CONTROLLERS)
     if len(set(value)) != len(value):
         raise SweepSpecError(f"{where} lists a controller twice: {list(value)!r}")
-    return tuple(c for c in CONTROLLERS if c in value)
+    return tuple(c for c in RIG_CONTROLLERS if c in value)
 
 
 def _check_sampling(out: dict[str, Any]) -> None:
@@ -646,7 +836,7 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
     if study == "axial":
         allowed = AXIAL_NAMES
     elif isinstance(base, PhysicalParams):
-        allowed = PHYSICAL_NAMES
+        allowed = PHYSICAL_NAMES + PHYSICAL_DERIVED
     else:
         allowed = SCALED_NAMES + DERIVED_NAMES
     sweep = data["sweep"]
@@ -657,7 +847,12 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
     axes = tuple(_axis(k, a, allowed) for k, a in enumerate(sweep))
     if len(axes) == 2:
         a, b = axes[0].param, axes[1].param
-        clash = {frozenset(("gamma", "gammabar")), frozenset(("eta", "etabar2"))}
+        clash = {
+            frozenset(("gamma", "gammabar")),
+            frozenset(("eta", "etabar2")),
+            frozenset(("Omega0", "rpm")),
+            frozenset(("V0", "W0_kN")),
+        }
         if a == b or frozenset((a, b)) in clash:
             raise SweepSpecError(f"sweep[0].param = {a!r} and sweep[1].param = {b!r} conflict")
 
@@ -705,6 +900,8 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
         metrics=tuple(raw_metrics),
         source=source,
     )
+    if study == "controllers":
+        _check_top_drive(spec)
     _check_points(spec)
     return spec
 

@@ -13,10 +13,13 @@ in this process.
   file, and the full closed loop (29)-(31) from dphi/dtau(0) = ``dphi0``: convergence, residual
   ripple and the largest torque |R - R0| (Remark 1: the design can fail on the full model).
 * ``axial``: the averaged contact force (lambda/vbar0)<gbar>_a of the fast model (18) (Fig. 4).
-* ``controllers``: every controller of :data:`~drillstring.controller.lineup.CONTROLLERS` (stiff
-  PI, SoftSpeed, Z-Torque, the LMI law with a fixed or a point-wise gain) as a digital law on
-  the full model with torsional stick, from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity
-  metrics of :mod:`drillstring.analysis.severity` over the late window, and the best controller.
+* ``controllers``: the digital controllers of :func:`~drillstring.controller.lineup.rig_lineup`
+  chosen by the option ``controllers`` (stiff PI, SoftSpeed, Z-Torque with the string torque
+  from the motor, the paper-style LMI law with a fixed or a point-wise gain, the
+  input-constrained LMI law), every one under the same top drive, on the full model with
+  torsional stick from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity metrics of
+  :mod:`drillstring.analysis.severity` over the late window, the linearised closed loop's
+  spectral abscissa, and the best controller.
 
 A and taubar_crit of (22) depend on (gammabar, etabar^2) only; :func:`axial_design` computes them
 once per distinct pair (the sweep runs it as a separate task that the point tasks depend on).
@@ -33,24 +36,40 @@ import numpy as np
 from drillstring.analysis.limit_cycles import design_inputs, limit_cycle
 from drillstring.analysis.severity import Severity, best_controller, severity_metrics
 from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, controller_column
-from drillstring.apps.sweep.spec import SweepOptions, SweepSpec
-from drillstring.controller.averaged import averaged_model, open_loop_roots
-from drillstring.controller.lineup import LmiGain, controller_lineup, lmi_gain
+from drillstring.apps.sweep.spec import CONSTRAINED_CONTROLLERS, Axis, SweepOptions, SweepSpec
+from drillstring.controller.averaged import (
+    AveragedModel,
+    averaged_model,
+    linearised_ode_matrix,
+    open_loop_roots,
+)
+from drillstring.controller.lineup import LmiGain, lmi_gain, rig_lineup
 from drillstring.controller.synthesis import SynthesisInfeasible
+from drillstring.controller.tuning import linear_closed_loop
 from drillstring.model.control import AffineFeedback
+from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
+from drillstring.model.params import PhysicalParams, ScaledParams
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
+from drillstring.model.tables import Scales
+from drillstring.model.topdrive import TopDrive, top_drive_from_spec
 
 __all__ = [
+    "OPEN_LOOP",
     "DesignInputs",
+    "LinearBoundary",
     "axial_design",
     "axial_metrics",
     "closed_loop_metrics",
     "controllers_metrics",
     "design_key",
     "evaluate_point",
+    "linear_abscissa",
+    "linear_boundary",
+    "map_top_drive",
     "open_loop_metrics",
+    "point_controllers",
     "rightmost_nonzero_root",
 ]
 
@@ -298,15 +317,268 @@ def closed_loop_metrics(
     return out
 
 
+def map_top_drive(value: str, params: ScaledParams, scales: Scales | None) -> TopDrive | None:
+    """The top drive of the option ``top_drive`` at a point.
+
+    Parameters
+    ----------
+    value : str
+        ``"none"`` or a spec of :func:`~drillstring.model.topdrive.top_drive_from_spec`
+        (``"tds-11sa"``, ``"50R0"``, ``"52kNm"``).
+    params : ScaledParams
+        The point (its R0 for a multiple of the nominal torque).
+    scales : PhysicalParams or None
+        The point's rig (C, t*) for a rating or a torque in N m.
+
+    Returns
+    -------
+    TopDrive or None
+        None for ``"none"``.
+    """
+    if value == "none":
+        return None
+    return top_drive_from_spec(value, params.R0, scales)
+
+
+def _abscissa(M: np.ndarray) -> float:
+    """Spectral abscissa of ``M``, the rigid-body root of the bit angle left out exactly: when
+    no equation depends on phi (column 0 is zero), the eigenvalues other than that s = 0 are
+    those of ``M`` without phi's row and column."""
+    if not np.any(M[:, 0]):
+        M = M[1:, 1:]
+    return float(np.max(np.linalg.eigvals(M).real))
+
+
+def linear_abscissa(model: AveragedModel, controller: DigitalController | None) -> float:
+    """Spectral abscissa of the torsional model (13), (27) linearised about the point, closed by
+    the controller's law in continuous time (:func:`~drillstring.controller.tuning.
+    linear_closed_loop`); ``None``: the open loop, R - R0 = R_ff.
+
+    The rigid-body root s = 0 of the bit angle (the PI laws and the open loop do not feed phi
+    back) is left out. What the linearisation leaves out: the sampling (Ts), the top drive's
+    limits and lag, the axial stick-slip (averaged, (22)); the torque from the motor is the
+    string torque there. A law whose bit angle and speed are delayed (telemetry) or estimated
+    (observer) gets NaN: its closed loop is not that ODE.
+
+    Parameters
+    ----------
+    model : AveragedModel
+        The averaged model (29)-(31) of the point (c, tau_n0, rho).
+    controller : DigitalController or None
+        The controller.
+
+    Returns
+    -------
+    float
+        The largest real part; < 0: the linearised closed loop is stable.
+    """
+    if controller is None:
+        return _abscissa(linearised_ode_matrix(model))
+    if controller.sensing.downhole != "ideal":
+        return math.nan
+    return _abscissa(linear_closed_loop(model, controller.law))
+
+
+def _gains_at(
+    model: AveragedModel, opts: SweepOptions, names: tuple[str, ...], roots: bool = True
+) -> tuple[LmiGain, LmiGain | None, str]:
+    """The paper-style and the constrained LMI gains at a point, and the design error."""
+    error = ""
+    gains = opts.gains_file
+    K0, R_ff = (
+        (gains.K0, gains.R_ff)
+        if gains is not None and opts["feedforward"] == "file"
+        else (model.K0, model.R_ff)
+    )
+    paper = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=K0, R_ff=R_ff, abscissa=math.nan)
+    if "lmi" in names:
+        try:
+            paper = lmi_gain(
+                model,
+                gains,
+                feedforward=opts["feedforward"],
+                gain_max=opts["gain_max"],
+                roots=roots,
+            )
+        except SynthesisInfeasible as exc:
+            error = _first_line(exc)
+    constrained = None
+    if any(c in CONSTRAINED_CONTROLLERS for c in names):
+        constrained = lmi_gain(
+            model, opts.constrained_file, feedforward=opts["feedforward"], roots=roots
+        )
+    return paper, constrained, error
+
+
+def point_controllers(
+    params: ScaledParams,
+    model: AveragedModel,
+    opts: SweepOptions,
+    scales: Scales | None,
+    names: tuple[str, ...] | None = None,
+    roots: bool = True,
+) -> tuple[dict[str, DigitalController], LmiGain, LmiGain | None, str]:
+    """The digital controllers of the controllers study at one point.
+
+    :func:`~drillstring.controller.lineup.rig_lineup` of the option ``controllers`` (or
+    ``names``), every one under the top drive of the option ``top_drive``
+    (:func:`map_top_drive`), the paper-style LMI gain from ``gains`` (or designed at the point)
+    and the constrained one from ``gains_constrained``, their K0 and R_ff as ``feedforward``
+    says. A failed design at the point leaves ``lmi`` out (the error is returned).
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The point.
+    model : AveragedModel
+        Its averaged model.
+    opts : SweepOptions
+        The controllers study's options.
+    scales : PhysicalParams or None
+        The point's rig (:meth:`~drillstring.apps.sweep.spec.SweepSpec.point_scales`).
+    names : tuple of str, optional
+        A subset of the option's controllers.
+    roots : bool
+        Compute the LMI gains' spectral abscissae at tau_n0 of (29) (False: NaN).
+
+    Returns
+    -------
+    controllers : dict
+        Name -> DigitalController.
+    paper, constrained : LmiGain
+        The gains (``constrained`` None when no constrained law is run).
+    error : str
+        The design error of ``lmi`` ("" when none).
+    """
+    names = tuple(opts["controllers"] if names is None else names)
+    paper, constrained, error = _gains_at(model, opts, names, roots)
+    wanted = tuple(c for c in names if not (c == "lmi" and error))
+    controllers = rig_lineup(
+        params,
+        model,
+        paper=paper,
+        constrained=constrained,
+        top_drive=map_top_drive(opts["top_drive"], params, scales),
+        scales=scales if scales is not None else _NO_RIG,
+        Ts=opts["Ts"],
+        t_on=opts["t_on"],
+        latch=opts["latch"],
+        names=wanted,
+    )
+    return controllers, paper, constrained, error
+
+
+@dataclass(frozen=True)
+class LinearBoundary:
+    """The linearised closed loops' spectral abscissae on a grid of a 2-D sweep.
+
+    ``x``, ``y``: the grid values of the two axes; ``abscissa``: name -> array of shape
+    ``(x.size, y.size)`` for each controller and ``"open-loop"`` (:func:`linear_abscissa`).
+    The stability boundary is its 0 contour.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    abscissa: dict[str, np.ndarray]
+
+
+#: The name of the open loop (R - R0 = R_ff) in a :class:`LinearBoundary`.
+OPEN_LOOP = "open-loop"
+
+
+def linear_boundary(
+    spec: SweepSpec, design: DesignInputs, refine: int = 4, names: tuple[str, ...] | None = None
+) -> LinearBoundary:
+    """:func:`linear_abscissa` of the open loop and of each controller on a grid ``refine``
+    times finer than the map's (the same ranges and scales), for the stability boundary.
+
+    The design inputs A, taubar_crit must be those of every point (an rpm x WOB map leaves
+    gammabar, etabar^2 as they are). A law whose gain is designed at each point (``gains =
+    "design"``) is left out: its boundary is drawn from the map's points.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        A 2-D controllers sweep.
+    design : DesignInputs
+        A and taubar_crit of the sweep.
+    refine : int
+        Intervals of the fine grid per interval of the map's, >= 1.
+    names : tuple of str, optional
+        The controllers (default: the study's, less the point-wise designed LMI law).
+
+    Returns
+    -------
+    LinearBoundary
+
+    Raises
+    ------
+    ValueError
+        Not a 2-D controllers sweep, or ``refine`` < 1.
+    """
+    if spec.study != "controllers" or len(spec.axes) != 2:
+        raise ValueError("the linearised boundary is drawn for a 2-D controllers sweep")
+    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
+        raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
+    design.check()
+    opts = spec.options
+    if names is None:
+        names = tuple(
+            c for c in opts["controllers"] if not (c == "lmi" and opts.gains_file is None)
+        )
+    fine = [
+        Axis(a.param, a.start, a.stop, refine * (a.num - 1) + 1, a.scale).values()
+        for a in spec.axes
+    ]
+    shape = (fine[0].size, fine[1].size)
+    out = {name: np.full(shape, math.nan) for name in (OPEN_LOOP, *names)}
+    physical = isinstance(spec.base, PhysicalParams)
+    for i, xv in enumerate(fine[0]):
+        for j, yv in enumerate(fine[1]):
+            values = {spec.axes[0].param: float(xv), spec.axes[1].param: float(yv)}
+            params = spec.params_at(values)
+            scales = spec.physical_at(values) if physical else spec.point_scales(0)
+            model = averaged_model(params, design.A, design.taubar_crit)
+            out[OPEN_LOOP][i, j] = linear_abscissa(model, None)
+            controllers = point_controllers(params, model, opts, scales, names, roots=False)[0]
+            for name, c in controllers.items():
+                out[name][i, j] = linear_abscissa(model, c)
+    return LinearBoundary(x=fine[0], y=fine[1], abscissa=out)
+
+
+@dataclass(frozen=True)
+class _Unscaled:
+    """The scales of a scaled set of no known rig (only telemetry needs real ones, and the
+    spec refuses it there)."""
+
+    C: float = 1.0
+    t_star: float = 1.0
+
+
+_NO_RIG = _Unscaled()
+
+
 def controllers_metrics(
-    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+    params: Any,
+    design: DesignInputs,
+    tau_end: float,
+    opts: SweepOptions,
+    scales: Scales | None = None,
 ) -> dict[str, Any]:
     """Severity of every controller at one point (see the module docstring); the controllers
     not selected by the option ``controllers`` get no values.
 
-    A failed LMI design (no admissible gain at the point) is recorded in ``lmi_design_error``
-    with the outcome "no_design" for the LMI law; the industrial laws still run, with the
-    point's feed-forward R_ff = -K0 (31). See ``docs/controllers.md``, "Maps".
+    Each controller of :func:`point_controllers` runs as a
+    :class:`~drillstring.model.digital.controller.DigitalController` in the sampled loop
+    (:func:`~drillstring.model.sampled.simulate_sampled`) from dphi/dtau(0) =
+    ``dphi0_rel*omega0`` with the torsional-stick model on; the metrics are those of
+    :func:`~drillstring.analysis.severity.severity_metrics` over the late ``window`` (the bit
+    speed averaged over the axial cycle, the trend test against the window before, the drive's
+    effort from the switch-on) and the linearised closed loop's spectral abscissa
+    (:func:`linear_abscissa`). A failed LMI design (no admissible gain at the point) is
+    recorded in ``lmi_design_error`` with the outcome "no_design" for the LMI law; the other
+    laws still run, with the point's feed-forward R_ff = -K0 (31). See
+    ``docs/controllers.md``, "Maps".
 
     Parameters
     ----------
@@ -317,15 +589,19 @@ def controllers_metrics(
     tau_end : float
         Run length (scaled), a multiple of ``Ts``.
     opts : SweepOptions
-        Options of the controllers study (``controllers``, ``Ts``, ``dphi0_rel``, ``t_on``,
-        ``latch``, ``window``, ``gains``, ``feedforward``, ``tie``, ``vibration_tol``, ...).
+        Options of the controllers study (``controllers``, ``top_drive``, ``Ts``,
+        ``dphi0_rel``, ``t_on``, ``latch``, ``window``, ``gains``, ``gains_constrained``,
+        ``feedforward``, ``tie``, ``vibration_tol``, ...).
+    scales : PhysicalParams, optional
+        The point's rig, for a top drive rated in SI units and the telemetry's seconds.
 
     Returns
     -------
     dict
-        A, taubar_crit, the LMI gain's norm and abscissa (None when ``lmi`` is not run),
-        ``lmi_design_error``, one ``<metric>.<controller>`` column per severity metric of each
-        selected controller (flags as 0/1) and ``best``
+        A, taubar_crit, the open loop's linearised abscissa, the LMI gains' norms and
+        abscissae at tau_n0 of (29) (None when not run), ``lmi_design_error``, one
+        ``<metric>.<controller>`` column per metric of :data:`~drillstring.apps.sweep.metrics.
+        CONTROLLER_METRICS` of each selected controller (flags as 0/1) and ``best``
         (:func:`~drillstring.analysis.severity.best_controller`).
 
     Raises
@@ -335,43 +611,34 @@ def controllers_metrics(
     """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    error = ""
-    gains = opts.gains_file
-    K0, R_ff = (
-        (gains.K0, gains.R_ff)
-        if gains is not None and opts["feedforward"] == "file"
-        else (model.K0, model.R_ff)
-    )
-    gain = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=K0, R_ff=R_ff, abscissa=math.nan)
-    run_lmi = "lmi" in opts["controllers"]
-    if run_lmi:
-        try:
-            gain = lmi_gain(
-                model, gains, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
-            )
-        except SynthesisInfeasible as exc:
-            error = _first_line(exc)
-    laws = controller_lineup(params, gain, t_on=opts["t_on"], latch=opts["latch"])
+    names = tuple(opts["controllers"])
+    controllers, paper, constrained, error = point_controllers(params, model, opts, scales)
     options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
+    run_lmi = "lmi" in names
     out: dict[str, Any] = {
         "A": design.A,
         "taubar_crit": design.taubar_crit,
-        "lmi_gain_norm": (math.nan if error else float(np.linalg.norm(gain.F)))
+        "open_loop_abscissa": linear_abscissa(model, None),
+        "lmi_gain_norm": (math.nan if error else float(np.linalg.norm(paper.F)))
         if run_lmi
         else None,
-        "lmi_abscissa": gain.abscissa if run_lmi else None,
+        "lmi_abscissa": paper.abscissa if run_lmi else None,
         "lmi_design_error": error,
+        "lmi_constrained_gain_norm": None
+        if constrained is None
+        else float(np.linalg.norm(constrained.F)),
+        "lmi_constrained_abscissa": None if constrained is None else constrained.abscissa,
     }
     found: dict[str, Severity] = {}
-    for name in opts["controllers"]:
-        law = laws[name]
-        if name == "lmi" and error:
+    for name in names:
+        if name not in controllers:  # the LMI design failed at the point
             nan = math.nan
             sev = Severity(nan, nan, nan, nan, False, "no_design", nan)
+            linear = nan
         else:
             res = simulate_sampled(
                 params,
-                law,
+                controllers[name],
                 tau_end,
                 opts["Ts"],
                 initial={"dphi": opts["dphi0_rel"] * params.omega0},
@@ -381,8 +648,9 @@ def controllers_metrics(
             sev = severity_metrics(
                 res, opts["window"], t_from=opts["t_on"], vibration_tol=opts["vibration_tol"]
             )
+            linear = linear_abscissa(model, controllers[name])
         found[name] = sev
-        values = sev.to_dict()
+        values = {**sev.to_dict(), "linear_abscissa": linear}
         for metric, kind in CONTROLLER_METRICS:
             value = values[metric]
             out[controller_column(metric, name)] = int(value) if kind == "flag" else value
@@ -467,5 +735,7 @@ def evaluate_point(spec: SweepSpec, index: int, design: DesignInputs | None) -> 
     if spec.study == "open-loop":
         return open_loop_metrics(params, design, spec.tau_end, spec.options)
     if spec.study == "controllers":
-        return controllers_metrics(params, design, spec.tau_end, spec.options)
+        return controllers_metrics(
+            params, design, spec.tau_end, spec.options, scales=spec.point_scales(index)
+        )
     return closed_loop_metrics(params, design, spec.tau_end, spec.options)
