@@ -29,7 +29,6 @@ import contextlib
 import dataclasses
 import math
 import os
-import subprocess
 import sys
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -63,7 +62,6 @@ __all__ = [
     "RECORD",
     "LoopModel",
     "fmu_paths",
-    "build_fmus_into",
     "experiment_start_values",
     "loop_units",
     "loop_model",
@@ -95,7 +93,6 @@ RECORD: tuple[str, ...] = (
     "plant.torsional_stick",
     "plant.bit_bounce",
 )
-_ROOT = Path(__file__).resolve().parents[1]
 
 # The FMUs' variable names (fmu_src/drillstring_plant.py, fmu_src/drillstring_controller.py).
 #: ScaledParams field -> plant parameter
@@ -247,40 +244,6 @@ def fmu_paths(fmus_dir: str | os.PathLike[str], variant: LoopVariant = SCALED) -
             f"--gains GAINS.json --out {d}`)"
         )
     return paths
-
-
-def build_fmus_into(out_dir: str | os.PathLike[str], gains: str | os.PathLike[str]) -> Path:
-    """Build both FMUs with ``build_fmus.py`` (a subprocess, so the builder does not touch this
-    process).
-
-    Parameters
-    ----------
-    out_dir : path
-        Folder for the FMUs.
-    gains : path
-        Gains file baked into the controller FMU.
-
-    Returns
-    -------
-    Path
-        ``out_dir``.
-
-    Raises
-    ------
-    ValueError
-        If ``build_fmus.py`` is not there (an installed package without the repository).
-    RuntimeError
-        If the build fails, with its error output.
-    """
-    script = _ROOT / "build_fmus.py"
-    if not script.is_file():
-        raise ValueError(f"{script} not found: pass a folder of prebuilt FMUs instead")
-    cmd = [sys.executable, str(script), "--gains", str(gains), "--out", str(out_dir)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=_ROOT, timeout=900)
-    if proc.returncode != 0:
-        raise RuntimeError(f"build_fmus.py failed ({proc.returncode}):\n{proc.stderr.strip()}")
-    fmu_paths(out_dir)
-    return Path(out_dir)
 
 
 def experiment_start_values(

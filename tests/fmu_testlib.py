@@ -50,7 +50,10 @@ from fmpy.fmi2 import (
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
-from drillstring.orchestration.closed_loop import build_fmus_into
+from drillstring.apps.export import build_fmus_into
+from drillstring.controller.averaged import averaged_model
+from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.model.params import REFERENCE
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -162,10 +165,6 @@ def make_gains_file(path: Path) -> dict[str, Any]:
     The FMU tests need a consistent gains file, not a designed one (the synthesis has its own
     tests); A = 0.45 and taubar_crit = 5 are merely admissible values.
     """
-    from drillstring.controller.averaged import averaged_model
-    from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
-    from drillstring.model.params import REFERENCE
-
     model = averaged_model(REFERENCE, 0.45, 5.0)
     gains = GainsFile(
         F=PAPER_F,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -86,6 +87,52 @@ def test_imports_point_one_way(module, path):
         assert _layer(target) <= layer, (
             f"{module} ({LAYERS[layer]}) imports {target} ({LAYERS[_layer(target)]})"
         )
+
+
+#: The files outside the package that import it: the build command, the FMU sources, the
+#: benchmarks and the tests.
+SCRIPTS = sorted(
+    [ROOT / "build_fmus.py"]
+    + [p for d in ("fmu_src", "bench", "tests") for p in (ROOT / d).rglob("*.py")]
+)
+
+
+@pytest.mark.parametrize("path", SCRIPTS, ids=[str(p.relative_to(ROOT)) for p in SCRIPTS])
+def test_no_function_local_imports_outside_the_package(path):
+    """No import of a project module inside a function anywhere: a hidden import hides a cycle
+    and a slow import."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    local = [t for t, in_function in _project_imports(tree) if in_function]
+    assert not local, f"{path.name} imports {local} inside a function"
+
+
+def test_build_command_is_a_thin_command_over_the_builder():
+    """``build_fmus.py`` holds no build logic: it imports the builder's command line and calls
+    it; the builder is a module of the package (the apps layer: it uses the controller design and
+    the orchestration's SSP packages)."""
+    tree = ast.parse((ROOT / "build_fmus.py").read_text(encoding="utf-8"))
+    assert _project_imports(tree) == [("drillstring.apps.export.cli", False)]
+    assert not [n for n in tree.body if isinstance(n, ast.FunctionDef | ast.ClassDef)]
+    assert _layer("drillstring.apps.export.build") == LAYERS.index("apps")
+
+
+def test_every_package_is_installed():
+    """``pyproject.toml`` lists its packages by hand (controller/, orchestration/ and fmu_src/ are
+    mapped under drillstring): every folder with an ``__init__.py`` must be among them, or an
+    installed (non-editable) package lacks it."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    listed = set(config["tool"]["setuptools"]["packages"])
+    mapping = config["tool"]["setuptools"]["package-dir"]
+    found = set()
+    for package, folder in mapping.items():
+        for init in sorted((ROOT / folder).rglob("__init__.py")):
+            rel = init.parent.relative_to(ROOT / folder).parts
+            found.add(".".join([package, *rel]))
+    assert sorted(found - listed) == []
+    for package in listed - found:  # a data folder (package data, no modules)
+        root = max((p for p in mapping if package.startswith(p)), key=len)
+        folder = ROOT / mapping[root] / Path(*package[len(root) + 1 :].split("."))
+        assert folder.is_dir() and not list(folder.glob("*.py")), package
 
 
 def test_no_relative_imports():

@@ -28,6 +28,7 @@ from drillstring.analysis.axial_stability import (
 )
 from drillstring.analysis.figures import write_stability_diagram
 from drillstring.analysis.spectrum import quasi_polynomial_roots
+from drillstring.model.params import REFERENCE
 
 
 def first_destabilising_delay(g: float, e2: float, step: float = 0.25, tol: float = 1e-11) -> float:
@@ -150,8 +151,6 @@ def test_no_crossing_means_stable_for_all_delays() -> None:
 
 
 def test_reference_set_is_unstable() -> None:
-    from drillstring.model.params import REFERENCE
-
     g, e2, tau0 = REFERENCE.gammabar, REFERENCE.etabar2, REFERENCE.taubar_n0
     assert abs(g - 0.2) < 1e-12 and abs(e2 - 0.1) < 1e-12 and abs(tau0 - 9.93) < 0.01
     tc = taubar_crit(REFERENCE)

@@ -9,6 +9,7 @@ from drillstring.analysis.limit_cycles import design_inputs
 from drillstring.controller.gains import PAPER_F
 from drillstring.controller.synthesis import design
 from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import EngineOptions
 from drillstring.model.params import REFERENCE
 from drillstring.model.simulate import simulate
 
@@ -49,8 +50,6 @@ def test_open_loop_with_feedforward_only_does_not_converge(lmi_design):
 def test_fig6_switch_on_suppresses_torsional_stick_slip(lmi_design):
     """Fig. 6: torsional stick-slip under way (torsional-stick model on), controller switched on
     bumplessly at tau = 25: no torsional stick afterwards, dphi back to a small ripple."""
-    from drillstring.model.engine import EngineOptions
-
     m = lmi_design.model
     law = AffineFeedback(F=tuple(lmi_design.F), K0=m.K0, R_ff=m.R_ff, t_on=25.0, latch="angle")
     opts = EngineOptions(torsional_stick=True)

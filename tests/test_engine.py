@@ -11,6 +11,8 @@ import sys
 import numpy as np
 import pytest
 
+from drillstring.analysis.axial_stability import critical_delay
+from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.kernel.jit import numba_available
@@ -33,8 +35,6 @@ def test_nominal_motion_is_invariant():
 
 def test_axial_kick_decays_below_critical_delay():
     """Below the critical delay of (21) the axial equilibrium is stable: a kick decays."""
-    from drillstring.analysis.axial_stability import critical_delay
-
     taubar_crit = critical_delay(P.gammabar, P.etabar2)
     taubar = 0.5 * taubar_crit
     omega0 = 2 * math.pi / (P.n * taubar / P.sqrt_npsi)
@@ -51,8 +51,6 @@ def test_axial_kick_decays_below_critical_delay():
 def _rightmost_root(p) -> complex:
     """Rightmost root of s^2 + gamma s + eta^2 + n psi (1 - exp(-s tau_n0)), by Newton from
     the spectral estimate of drillstring.analysis.spectrum (independent of the engine)."""
-    from drillstring.analysis.spectrum import dde_roots
-
     npsi = p.n * p.psi
     a0 = np.array([[0.0, 1.0], [-(p.eta**2 + npsi), -p.gamma]])
     a1 = np.array([[0.0, 0.0], [npsi, 0.0]])

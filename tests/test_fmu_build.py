@@ -1,4 +1,5 @@
-"""build_fmus.py and the modelDescription.xml of the FMUs (plant, LMI and top-drive controller).
+"""build_fmus.py (drillstring.apps.export) and the modelDescription.xml of the FMUs (plant, LMI
+and top-drive controller).
 
 Checked against the FMI 2.0 standard (fmpy's validator) and against independent sources of truth:
 the start values against the gains file and the reference set, the computed outputs against a
@@ -10,9 +11,9 @@ only); determinism by rebuilding.
 
 from __future__ import annotations
 
-import importlib.util
 import io
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -27,6 +28,12 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
+from drillstring.apps.export.archive import validate
+from drillstring.apps.export.front_layer import compile_front_layer, find_compiler, model_header
+from drillstring.apps.export.python_runtime import python_record
+from drillstring.apps.export.specs import BuildError
+from drillstring.controller.gains import read_gains
+from drillstring.model.control import LATCH_MODES
 from drillstring.model.digital.controller import OperatingPoint
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
@@ -118,14 +125,13 @@ def test_front_layer_frames_are_small(built, tmp_path):
     """GCC's -fstack-usage for every function of the layer: a static frame below MAX_FRAME bytes
     (paths and messages live on the heap; the interpreter's record once held 64 KiB of paths on
     the stack, fmi2Instantiate needed a 107 KB frame)."""
-    bf = _build_module()
     with zipfile.ZipFile(built.plant.fmu) as z:
         root = ET.fromstring(z.read("modelDescription.xml"))
         entry = z.read("resources/slavemodule.txt").decode().strip()
     work = tmp_path / "layer"
     out = tmp_path / "layer.so"
-    include = bf.python_record()["include"]
-    bf.compile_front_layer(bf.model_header(root, entry), out, include, work, ("-fstack-usage",))
+    include = python_record()["include"]
+    compile_front_layer(model_header(root, entry), out, include, work, ("-fstack-usage",))
     rows = [
         line.split("\t")
         for su in sorted(tmp_path.rglob("*.su"))
@@ -237,8 +243,6 @@ def test_controller_output_depends_on_its_four_inputs(built):
 
 
 def test_enumerations_of_on_invalid_and_latch(built):
-    from drillstring.model.control import LATCH_MODES
-
     for unit, name, type_name, items in (
         (built.plant, "on_invalid", "OnInvalid", ("stop", "continue")),
         (built.controller, "latch", "Latch", LATCH_MODES),
@@ -380,12 +384,35 @@ def _archive(source: Path | io.BytesIO) -> tuple[list[tuple], set[tuple[int, ...
 
 
 @pytest.mark.slow  # a build of its own (the session's build is the first of the two)
-def test_rebuild_is_deterministic(built, tmp_path):
-    """The session's build (build time not pinned) and a build with SOURCE_DATE_EPOCH pinned:
-    every FMU and SSP package is the same apart from generationDateAndTime and the entries'
-    timestamps, so two pinned builds are identical byte for byte."""
+def test_rebuild_from_the_installed_package_is_deterministic(built, tmp_path):
+    """The session's build (from the checkout, build time not pinned) and a build with
+    SOURCE_DATE_EPOCH pinned by ``drillstring fmus`` of the package installed from it (a wheel,
+    not editable) in a folder outside the checkout: every FMU and SSP package is the same apart
+    from generationDateAndTime and the entries' timestamps, so two pinned builds are identical
+    byte for byte, and the builder needs nothing of the checkout (its sources are package
+    data)."""
+    site = tmp_path / "site"
+    # pip's build tools may write into HOME (rustup's settings where it is on PATH): a HOME of
+    # its own
+    pip_env = {**os.environ, "HOME": str(tmp_path / "pip_home")}
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(site),
+         str(tl.ROOT)],
+        check=True, capture_output=True, timeout=600, env=pip_env,
+    )  # fmt: skip
     pinned = tmp_path / "pinned"
-    tl.run_build(pinned, built.gains, env={"SOURCE_DATE_EPOCH": "1700000000"})
+    env = {**os.environ, "SOURCE_DATE_EPOCH": "1700000000", "PYTHONPATH": str(site)}
+    probe = "import drillstring.apps.export as e; print(e.__file__)"
+    where = subprocess.run(
+        [sys.executable, "-c", probe], env=env, cwd=tmp_path, capture_output=True, text=True
+    )
+    assert where.stdout.startswith(str(site)), where  # the installed copy, not the checkout
+    command = [str(site / "bin" / "drillstring"), "fmus", "--gains", str(built.gains)]
+    proc = subprocess.run(
+        [sys.executable, *command, "--out", str(pinned)], env=env, cwd=tmp_path,
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
     models = (tl.PLANT, tl.CONTROLLER, tl.PLANT_SI, tl.CONTROLLER_SI, tl.TOPDRIVE, tl.TOPDRIVE_SI)
     packages = (
         "DrillStringClosedLoop.ssp",
@@ -407,18 +434,7 @@ def test_rebuild_is_deterministic(built, tmp_path):
     assert len(guids) == len(models)
 
 
-def _build_module():
-    spec = importlib.util.spec_from_file_location(
-        "build_fmus_under_test", tl.ROOT / "build_fmus.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_validation_failure_fails_the_build(built, tmp_path):
-    bf = _build_module()
     broken = tmp_path / f"{tl.PLANT}.fmu"
     with zipfile.ZipFile(built.plant.fmu) as z:
         entries = {n: z.read(n) for n in z.namelist()}
@@ -429,9 +445,9 @@ def test_validation_failure_fails_the_build(built, tmp_path):
     with zipfile.ZipFile(broken, "w") as z:
         for name, data in entries.items():
             z.writestr(name, data)
-    with pytest.raises(bf.BuildError, match=r"(?s)validate_fmu reports \d+ problem.*Outputs"):
-        bf.validate(broken)
-    bf.validate(built.plant.fmu)  # the real one passes
+    with pytest.raises(BuildError, match=r"(?s)validate_fmu reports \d+ problem.*Outputs"):
+        validate(broken)
+    validate(built.plant.fmu)  # the real one passes
 
 
 def test_bad_gains_file_fails_loudly(tmp_path):
@@ -445,8 +461,6 @@ def test_bad_gains_file_fails_loudly(tmp_path):
 def test_missing_gains_file_runs_the_synthesis(designed):
     """The session's build without a gains file (conftest's ``designed``): the synthesis wrote
     one where there was none, and the controller FMU's start values are its gains."""
-    from drillstring.controller.gains import read_gains
-
     designed_gains = read_gains(designed.gains)  # a valid gains file ...
     md = read_model_description(str(designed.out / f"{tl.CONTROLLER}.fmu"))
     starts = {v.name: float(v.start) for v in md.modelVariables if v.type == "Real" and v.start}
@@ -456,11 +470,10 @@ def test_missing_gains_file_runs_the_synthesis(designed):
 
 
 def test_missing_compiler_fails_the_build_with_the_reason(tmp_path, monkeypatch):
-    bf = _build_module()
     monkeypatch.setenv("PATH", str(tmp_path))  # no cc, gcc or clang there
     monkeypatch.delenv("CC", raising=False)
-    with pytest.raises(bf.BuildError, match=r"no C compiler found .*install one"):
-        bf.find_compiler()
+    with pytest.raises(BuildError, match=r"no C compiler found .*install one"):
+        find_compiler()
     monkeypatch.setenv("CC", "no-such-compiler")
-    with pytest.raises(bf.BuildError, match=r"CC='no-such-compiler': no-such-compiler not found"):
-        bf.find_compiler()
+    with pytest.raises(BuildError, match=r"CC='no-such-compiler': no-such-compiler not found"):
+        find_compiler()

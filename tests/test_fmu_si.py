@@ -30,7 +30,13 @@ from fmpy.validation import validate_fmu
 from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE_RIG, ParameterError
 from drillstring.model.units import PLANT_SI, UNITS, SIScaling
-from drillstring.orchestration.closed_loop import SCALED, SI, closed_loop_master, kept_sys_path
+from drillstring.orchestration.closed_loop import (
+    SCALED,
+    SI,
+    closed_loop_master,
+    kept_sys_path,
+    read_loop_model,
+)
 
 pytestmark = pytest.mark.fmu
 
@@ -248,8 +254,6 @@ def test_si_controller_is_the_scaled_law_converted(built):
 
 def test_si_loop_model_is_the_scaled_model(built):
     """read_loop_model of the SI FMUs converts back to the scaled model of the same loop."""
-    from drillstring.orchestration.closed_loop import read_loop_model
-
     a = read_loop_model(built.out, FIG5, variant=SCALED)
     b = read_loop_model(built.out, FIG5, variant=SI)
     assert b.scaling is not None and a.scaling is None

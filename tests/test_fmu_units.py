@@ -17,6 +17,7 @@ import fmu_testlib as tl
 import numpy as np
 import pytest
 
+from drillstring.model.control import LATCH_MODES
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE
 
@@ -208,8 +209,6 @@ def _set_x(c: tl.Slave, x: tuple[float, float, float, float]) -> None:
 
 @pytest.mark.parametrize("latch", ["none", "angle", "angle+twist"])
 def test_controller_law_and_bumpless_switch_on(built, latch):
-    from drillstring.model.control import LATCH_MODES
-
     g = built.gains_values
     code = LATCH_MODES.index(latch) + 1  # the Enumeration item's value
     c = tl.Slave(built.controller, f"law_{latch}").init(t_on=0.05, latch=code)

@@ -17,7 +17,13 @@ import numpy as np
 import pytest
 
 from drillstring.apps.sweep.runner import SweepError, columns, read_results, run_sweep, sweep_main
-from drillstring.apps.sweep.spec import SweepSpecError, load_spec, spec_from_dict
+from drillstring.apps.sweep.spec import (
+    OPTION_DEFAULTS,
+    SweepOptions,
+    SweepSpecError,
+    load_spec,
+    spec_from_dict,
+)
 from drillstring.apps.sweep.studies import (
     axial_design,
     closed_loop_metrics,
@@ -291,8 +297,6 @@ def test_closed_loop_with_the_paper_gain_file(tmp_path):
 
 
 def test_closed_loop_design_at_the_point_converges():
-    from drillstring.apps.sweep.spec import OPTION_DEFAULTS, SweepOptions
-
     opts = SweepOptions(values=tuple(OPTION_DEFAULTS["closed-loop"].items()))
     out = closed_loop_metrics(REFERENCE, axial_design(REFERENCE), 20.0, opts)
     assert out["status"] == "ok" and out["converged"] == 1

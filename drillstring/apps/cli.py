@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
     "controllers": ("drillstring.apps.controllers", "controllers_main", "industrial vs LMI"),
+    "fmus": ("drillstring.apps.export.cli", "export_main", "build the FMUs and SSP packages"),
     "demo": ("drillstring.apps.demo", "demo_main", "the main job (make demo)"),
 }
 

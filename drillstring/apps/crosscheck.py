@@ -19,8 +19,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from drillstring.apps.export import build_fmus_into
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFileError, read_gains
-from drillstring.orchestration.closed_loop import build_fmus_into, fmu_paths
+from drillstring.orchestration.closed_loop import fmu_paths
 from drillstring.orchestration.crosscheck import (
     CROSSCHECK,
     DEFAULT_CONTROL,
