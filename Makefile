@@ -1,7 +1,8 @@
 # drillstring: `make demo` runs the main job, `make test` runs lint + the whole suite,
 # `make test-fast` the tests that need no FMU build and no host (markers in pyproject.toml).
 # Both use one virtual environment, .venv, created with `python3 -m venv` on first use and
-# reinstalled (editable, with the test and fast extras) only when pyproject.toml changes.
+# reinstalled (editable, with the test extra: numba and the FMI hosts too) only when
+# pyproject.toml changes.
 
 PYTHON ?= python3
 VENV   := .venv
@@ -15,7 +16,7 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
-	$(BIN)/python -m pip install -e '.[test,fast]'
+	$(BIN)/python -m pip install -e '.[test]'
 	touch $(STAMP)
 
 test: venv

@@ -45,11 +45,13 @@ __all__ = [
     "MUD_PULSE_LATENCY_S",
     "MUD_PULSE_PERIOD_S",
     "RIG_CONTROLLERS",
+    "SENSING",
     "Tuning",
     "controller_lineup",
     "industrial_lineup",
     "lmi_gain",
     "rig_lineup",
+    "sensing_note",
 ]
 
 #: The laws, in the order of every table and figure.
@@ -65,8 +67,30 @@ RIG_CONTROLLERS = (*INDUSTRIAL, "lmi", "lmi-constrained", "lmi-telemetry", "lmi-
 #: it was taken (a few bits per second, seconds of latency; ``docs/controllers.md``).
 MUD_PULSE_PERIOD_S = 2.0
 MUD_PULSE_LATENCY_S = 4.0
+#: What each controller of :data:`RIG_CONTROLLERS` measures (:func:`rig_lineup`): the notes of
+#: the maps and tables: the table speed, the string torque from the motor torque and the table's
+#: acceleration, the bit angle and speed "exact downhole" (the paper's idealisation: no rig
+#: measures them at every sample), by mud-pulse telemetry, or observed from surface signals.
+SENSING = {
+    "stiff-pi": "table speed",
+    "soft-speed": "table speed",
+    "z-torque": "speed, motor torque",
+    "lmi": "exact downhole",
+    "lmi-constrained": "exact downhole",
+    "lmi-telemetry": f"mud pulse {MUD_PULSE_PERIOD_S:g} s, {MUD_PULSE_LATENCY_S:g} s late",
+    "lmi-observer": "observer (surface)",
+}
 #: Where the LMI law's K0 and R_ff come from with a gains file: the file, or the point's (31).
 FEEDFORWARD = ("file", "point")
+
+
+def sensing_note(names: Sequence[str]) -> str:
+    """What the controllers ``names`` measure (:data:`SENSING`), grouped: the note of a map or
+    table that compares them ("sensing: stiff-pi, soft-speed: table speed; lmi: ...")."""
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        groups.setdefault(SENSING[name], []).append(name)
+    return "sensing: " + "; ".join(f"{', '.join(n)}: {what}" for what, n in groups.items())
 
 
 @dataclass(frozen=True)

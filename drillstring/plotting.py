@@ -83,6 +83,6 @@ def plot_velocities(
     if len(runs) > 1:
         ax2.legend(fontsize=8)
     if title:
-        ax1.set_title(title)
+        ax1.set_title(title, fontsize="small" if "\n" in title else None)
     fig.tight_layout()
     return save_figure(fig, path)

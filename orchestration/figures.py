@@ -34,10 +34,13 @@ from typing import Any
 
 import numpy as np
 
+from drillstring.analysis.severity import actuator_demand
 from drillstring.fileio import write_csv
 from drillstring.model.control import AffineFeedback
 from drillstring.model.experiments import FIG5, FIG6, Experiment
+from drillstring.model.params import ScaledParams, known_rig
 from drillstring.model.simulate import SimulationResult
+from drillstring.model.topdrive import RPM, TDS_11SA, top_drive
 from drillstring.orchestration.closed_loop import (
     Overrides,
     closed_loop_master,
@@ -49,7 +52,7 @@ from drillstring.orchestration.monolithic import run_monolithic
 from drillstring.orchestration.results import CosimResult
 from drillstring.plotting import plot_velocities
 
-__all__ = ["run_pair", "write_fig5", "write_fig6", "FIG6_RIPPLE"]
+__all__ = ["FIG6_RIPPLE", "actuator_note", "run_pair", "write_fig5", "write_fig6"]
 
 #: Fig. 6: max |dphi/dtau| over the last 10 time units below this fraction of |dphi/dtau(0)|
 FIG6_RIPPLE = 0.05
@@ -110,7 +113,8 @@ def run_pair(
         The monolithic twin sampled every H.
     summary : dict
         Steps, wall times, max |difference| of du/dtau and dphi/dtau over the common
-        communication points, the co-simulation's failure if any.
+        communication points, the co-simulation's failure if any; what the run asks of the
+        actuator and the note that says so (``actuator``, ``assumes``: :func:`actuator_note`).
 
     Raises
     ------
@@ -132,6 +136,7 @@ def run_pair(
         name: float(np.max(np.abs(cos[f"plant.{name}"][:n] - getattr(mono, name)[k])))
         for name in ("du", "dphi")
     }
+    actuator, assumes = actuator_note(model.params, mono)
     dphi0 = model.initial.dphi
     summary: dict[str, Any] = {
         "experiment": experiment.name,
@@ -150,6 +155,8 @@ def run_pair(
         "max_abs_diff_du": diff["du"],
         "max_abs_diff_dphi": diff["dphi"],
         "max_abs_diff_dphi_rel": diff["dphi"] / abs(dphi0) if dphi0 else math.nan,
+        "actuator": actuator,
+        "assumes": assumes,
     }
     return cos, mono, summary
 
@@ -200,6 +207,55 @@ def _write_outputs(
         ),
     )
     return {"png": png, "csv": csv}
+
+
+def actuator_note(params: ScaledParams, run: SimulationResult) -> tuple[dict[str, Any], str]:
+    """What the paper's set-up asks of the top drive over a run, and the line that says so on
+    its figure.
+
+    The paper's loop has an ideal actuator (any torque, power and table speed at once) and
+    measures the downhole bit angle and speed exactly at every step. The figure states it, with
+    the torque, power and table speed the run needed (:func:`~drillstring.analysis.severity.
+    actuator_demand`) and, on a known rig, whether a real top drive (:data:`~drillstring.model.
+    topdrive.TDS_11SA`) delivers them (``docs/controllers.md``).
+
+    Returns
+    -------
+    summary : dict
+        ``peak_torque_over_R0``, ``min_torque_over_R0``; on a known rig also the SI demand
+        (``peak_torque_Nm``, ``min_torque_Nm``, ``peak_power_W``, ``table_speed_rpm``) and
+        ``within_tds_11sa``.
+    line : str
+        The figure's note.
+    """
+    d = actuator_demand(run.tau, run.R_minus_R0, run.dtheta, params.R0, params.omega0)
+    out: dict[str, Any] = {
+        "peak_torque_over_R0": d.peak_torque / params.R0,
+        "min_torque_over_R0": d.min_torque / params.R0,
+    }
+    line = (
+        "assumes the paper's ideal actuator and exact downhole bit angle and speed:\n"
+        f"R/R0 from {out['min_torque_over_R0']:.0f} to {out['peak_torque_over_R0']:.0f}"
+    )
+    rig = known_rig(params)
+    if rig is not None:
+        si = d.to_si(rig.C, rig.t_star)
+        within = d.within(top_drive(TDS_11SA, rig))
+        speeds = (si["min_table_speed"] / RPM, si["max_table_speed"] / RPM)
+        out.update(
+            peak_torque_Nm=si["peak_torque"],
+            min_torque_Nm=si["min_torque"],
+            peak_power_W=si["peak_power"],
+            table_speed_rpm=speeds,
+            within_tds_11sa=within,
+        )
+        line += (
+            f" ({si['min_torque'] / 1e3:.0f} to {si['peak_torque'] / 1e3:.0f} kN m), "
+            f"{si['peak_power'] / 1e6:.3g} MW, table {speeds[0]:.0f} to {speeds[1]:.0f} rpm,\n"
+            f"{'within' if within else 'beyond'} a {TDS_11SA.name} ({TDS_11SA.torque / 1e3:.3g} "
+            f"kN m, {TDS_11SA.power / 1e3:.0f} kW, 0-{TDS_11SA.max_speed / RPM:.0f} rpm)"
+        )
+    return out, line
 
 
 def _late_max(t: np.ndarray, y: np.ndarray, t0: float) -> float:
@@ -253,7 +309,11 @@ def write_fig5(
     summary["late_max_abs_dphi_monolithic"] = _late_max(mono.tau, mono.dphi, late)
     summary["min_d_cosim"] = float(np.min(cos["plant.d"]))
     summary["axial_stick_events_cosim"] = int(cos["plant.stick_events"][-1])
-    title = rf"Fig. 5: closed loop from $\dot\varphi(0) = {summary['dphi0']:g}$"
+    title = (
+        rf"Fig. 5: closed loop from $\dot\varphi(0) = {summary['dphi0']:g}$"
+        + "\n"
+        + summary["assumes"]
+    )
     paths = _write_outputs(Path(out_dir), "fig5", cos, mono, summary, title, None, csv_dt)
     return {**paths, **summary}
 
@@ -341,7 +401,7 @@ def write_fig6(
     )
     title = (
         rf"Fig. 6: torsional stick-slip from $\dot\varphi(0) = {dphi0:g}$, "
-        rf"controller on at $\tau = {t_on:g}$"
+        rf"controller on at $\tau = {t_on:g}$" + "\n" + summary["assumes"]
     )
     paths = _write_outputs(Path(out_dir), "fig6", cos, mono, summary, title, t_on, csv_dt)
     return {**paths, **summary}

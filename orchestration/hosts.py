@@ -85,7 +85,9 @@ def load_ecospy() -> ModuleType:
     try:
         import ecospy
     except ImportError as exc:
-        raise RuntimeError(f"Ecos is not installed (pip install ecospy): {exc}") from exc
+        raise RuntimeError(
+            f"Ecos is not installed (pip install 'drillstring[hosts]', or ecospy and tbb): {exc}"
+        ) from exc
     return ecospy
 
 
@@ -113,7 +115,9 @@ def ecos_command(*args: str) -> list[str]:
     """
     spec = importlib.util.find_spec("ecospy")  # not imported: its library needs libtbb first
     if spec is None or spec.origin is None:
-        raise RuntimeError("Ecos is not installed (pip install ecospy)")
+        raise RuntimeError(
+            "Ecos is not installed (pip install 'drillstring[hosts]', or ecospy and tbb)"
+        )
     exe = Path(spec.origin).parent / "binaries" / "ecos"
     loader = "/lib64/ld-linux-x86-64.so.2"
     return [loader, "--library-path", str(tbb_library_dir()), str(exe), *args]

@@ -40,9 +40,11 @@ from drillstring.controller.design import design_constrained
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.lineup import (
     RIG_CONTROLLERS,
+    SENSING,
     LmiGain,
     lmi_gain,
     rig_lineup,
+    sensing_note,
 )
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import Experiment
@@ -523,3 +525,29 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
     assert [a["param"] for a in spec["sweep"]] == ["rpm", "W0_kN"]
     assert spec["sweep"][1]["start"] == pytest.approx(wob_range(REFERENCE_RIG)[0])
     assert spec["feed"] == FEED_FOR_WOB
+
+
+def test_the_sensing_labels_say_what_each_controller_measures(paper_gains, constrained_gains):
+    """The labels of the tables and map notes (SENSING) agree with the Sensing of each
+    controller of the rig lineup: exact downhole only where the law gets the bit's angle and
+    speed exactly, the mud-pulse period and latency those of its telemetry in seconds."""
+    rig = REFERENCE_RIG
+    d = axial_design(REFERENCE)
+    model = averaged_model(REFERENCE, d.A, d.taubar_crit)
+    controllers = rig_lineup(
+        REFERENCE, model,
+        paper=lmi_gain(model, paper_gains[0]), constrained=lmi_gain(model, constrained_gains[0]),
+        top_drive=top_drive(TDS_11SA, rig), scales=rig, Ts=1e-3,
+    )  # fmt: skip
+    assert set(SENSING) == set(RIG_CONTROLLERS) == set(controllers)
+    for name, c in controllers.items():
+        s, label = c.sensing, SENSING[name]
+        assert (label == "exact downhole") == (s.downhole == "ideal" and name.startswith("lmi"))
+        if s.downhole == "telemetry":
+            period, latency = s.period * rig.t_star, s.latency * rig.t_star
+            assert label == f"mud pulse {period:.3g} s, {latency:.3g} s late", label
+        assert (label == "observer (surface)") == (s.downhole == "observer")
+        # the torque from the motor where a law uses the string torque (Z-Torque, the observer)
+        assert ("motor" in label) == (name == "z-torque")
+    note = sensing_note(["stiff-pi", "lmi", "soft-speed"])
+    assert note == "sensing: stiff-pi, soft-speed: table speed; lmi: exact downhole"

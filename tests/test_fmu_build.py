@@ -392,12 +392,16 @@ def test_rebuild_from_the_installed_package_is_deterministic(built, tmp_path):
     byte for byte, and the builder needs nothing of the checkout (its sources are package
     data)."""
     site = tmp_path / "site"
+    # setuptools builds in the source's build/ folder: install from a copy of the checkout;
     # pip's build tools may write into HOME (rustup's settings where it is on PATH): a HOME of
     # its own
+    source = tmp_path / "source"
+    junk = (".git", ".venv", "build", "out", "results", "__pycache__", "*.egg-info", ".*cache")
+    shutil.copytree(tl.ROOT, source, ignore=shutil.ignore_patterns(*junk))
     pip_env = {**os.environ, "HOME": str(tmp_path / "pip_home")}
     subprocess.run(
         [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(site),
-         str(tl.ROOT)],
+         str(source)],
         check=True, capture_output=True, timeout=600, env=pip_env,
     )  # fmt: skip
     pinned = tmp_path / "pinned"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from types import SimpleNamespace
 
@@ -10,11 +11,11 @@ import pytest
 
 from drillstring.analysis.severity import (
     Severity,
+    actuator_demand,
     axial_average,
     axial_period,
     best_controller,
     outcome,
-    peak_torque,
     severity_metrics,
     speed_severity,
     stick_fraction,
@@ -23,6 +24,7 @@ from drillstring.analysis.severity import (
 )
 from drillstring.model.engine import Event, Status
 from drillstring.model.params import REFERENCE
+from drillstring.model.topdrive import TopDrive
 
 W0 = REFERENCE.omega0  # 5
 
@@ -66,13 +68,29 @@ def test_stick_fraction_is_exact_from_the_mode_events():
         stick_fraction(events, 3.0, 3.0, "slip")
 
 
-def test_peak_torque_from_the_switch_on():
+def test_actuator_demand_from_the_switch_on():
+    """Peak and least torque, peak power |R Omega| and table speed range, by hand."""
     tau = np.linspace(0.0, 10.0, 11)
-    r = np.array([50.0, 0, 0, 1.0, 2.5, -1.0, 0, 0, 0, 0, 0])
-    assert peak_torque(tau, r, 4.0, t_from=2.0) == 6.5
-    assert peak_torque(tau, r, 4.0) == 54.0
+    r = np.array([50.0, 0, 0, 1.0, 2.5, -5.0, 0, 0, 0, 0, 0])
+    dtheta = np.array([9.0, 0, 0, 1.0, -1.0, -3.5, 0, 0, 0, 0, 0])
+    d = actuator_demand(tau, r, dtheta, 4.0, 2.0, t_from=2.0)
+    assert (d.peak_torque, d.min_torque) == (6.5, -1.0)
+    # |R Omega| at tau = 3, 4, 5: 5 * 3, 6.5 * 1, |-1 * -1.5|
+    assert d.peak_power == 15.0
+    assert (d.min_table_speed, d.max_table_speed) == (-1.5, 3.0)
+    assert actuator_demand(tau, r, dtheta, 4.0, 2.0).peak_torque == 54.0
+    si = d.to_si(C=100.0, t_star=0.5)
+    assert si == {"peak_torque": 650.0, "min_torque": -100.0, "peak_power": 3000.0,
+                  "min_table_speed": -3.0, "max_table_speed": 6.0}  # fmt: skip
+    rated = TopDrive(R_min=-1.0, R_max=6.5, P_max=15.0, omega_min=-1.5, omega_max=3.0)
+    assert d.within(rated) and d.within(TopDrive())  # at its limits; no limits
+    for short in ({"R_min": -0.5}, {"R_max": 6.4}, {"P_max": 14.9}, {"omega_min": 0.0},
+                  {"omega_max": 2.9}):  # fmt: skip
+        assert not d.within(dataclasses.replace(rated, **short)), short
     with pytest.raises(ValueError, match="no samples at or after t_from = 11"):
-        peak_torque(tau, r, 4.0, t_from=11.0)
+        actuator_demand(tau, r, dtheta, 4.0, 2.0, t_from=11.0)
+    with pytest.raises(ValueError, match="differ in shape"):
+        actuator_demand(tau, r, dtheta[:-1], 4.0, 2.0)
 
 
 def test_window_start():

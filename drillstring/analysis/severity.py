@@ -36,16 +36,18 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from drillstring.model.engine import MODE_NAMES, Event, time_in_mode
+from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
 
 __all__ = [
     "OUTCOMES",
+    "ActuatorDemand",
     "Severity",
+    "actuator_demand",
     "axial_average",
     "axial_period",
     "best_controller",
     "outcome",
-    "peak_torque",
     "severity_metrics",
     "speed_severity",
     "stick_fraction",
@@ -191,40 +193,94 @@ def axial_average(tau: ArrayLike, x: ArrayLike, period: float) -> tuple[np.ndarr
     return t[k - 1 :], (c[k:] - c[:-k]) / k
 
 
-def peak_torque(tau: ArrayLike, R_minus_R0: ArrayLike, R0: float, t_from: float = 0.0) -> float:
-    """Largest top-drive torque ``R = R0 + max(R - R0)`` from ``t_from`` on.
+@dataclass(frozen=True)
+class ActuatorDemand:
+    """What a run asks of the top drive from a time on (scaled: torque in units of C, time
+    tau; :func:`actuator_demand`), and whether a rated drive delivers it.
 
-    See ``docs/controllers.md``, "Severity metrics".
+    Attributes
+    ----------
+    peak_torque, min_torque : float
+        Largest and smallest table torque R = R0 + (R - R0).
+    peak_power : float
+        Largest |R dTheta/dtau| (units of C per unit of tau).
+    min_table_speed, max_table_speed : float
+        Range of the table speed dTheta/dtau = omega0 + dtheta/dtau.
+    """
+
+    peak_torque: float
+    min_torque: float
+    peak_power: float
+    min_table_speed: float
+    max_table_speed: float
+
+    def to_si(self, C: float, t_star: float) -> dict[str, float]:
+        """The same in SI: torques in N m (times C), power in W (times C/t*), speeds in rad/s
+        (divided by t*) on a rig of stiffness ``C`` [N m/rad] and time scale ``t_star`` [s]."""
+        return {
+            "peak_torque": self.peak_torque * C,
+            "min_torque": self.min_torque * C,
+            "peak_power": self.peak_power * C / t_star,
+            "min_table_speed": self.min_table_speed / t_star,
+            "max_table_speed": self.max_table_speed / t_star,
+        }
+
+    def within(self, drive: TopDrive) -> bool:
+        """Whether ``drive`` (scaled like the demand) delivers it: torque in [R_min, R_max],
+        power at most P_max, table speed in [omega_min, omega_max]."""
+        return (
+            drive.R_min <= self.min_torque
+            and self.peak_torque <= drive.R_max
+            and self.peak_power <= drive.P_max
+            and drive.omega_min <= self.min_table_speed
+            and self.max_table_speed <= drive.omega_max
+        )
+
+
+def actuator_demand(
+    tau: ArrayLike, R_minus_R0: ArrayLike, dtheta: ArrayLike, R0: float, omega0: float,
+    t_from: float = 0.0,
+) -> ActuatorDemand:  # fmt: skip
+    """The top-drive torque, power and table speed a run asks for from ``t_from`` on.
 
     Parameters
     ----------
-    tau : array_like
-        Sample times (scaled).
-    R_minus_R0 : array_like
-        Torque deviation R - R0 at those times (scaled, units of C), same shape as ``tau``.
-    R0 : float
-        Nominal table torque (scaled, units of C), eq. (16).
+    tau, R_minus_R0, dtheta : array_like
+        Sample times, torque deviation R - R0 and table speed deviation dtheta/dtau (scaled,
+        eqs. (13)-(14)), of one shape.
+    R0, omega0 : float
+        Nominal table torque (units of C) and speed, eqs. (14), (16).
     t_from : float
         First time included (the switch-on time).
 
     Returns
     -------
-    float
-        The peak torque R (scaled, units of C).
+    ActuatorDemand
+        Peak and least torque, peak power |R Omega|, range of the table speed.
 
     Raises
     ------
     ValueError
-        ``tau`` and ``R_minus_R0`` differ in shape, or no sample lies at or after ``t_from``.
+        Arrays of different shapes, or no sample at or after ``t_from``.
     """
     t = np.asarray(tau, dtype=float)
     r = np.asarray(R_minus_R0, dtype=float)
-    if t.shape != r.shape:
-        raise ValueError(f"tau and R_minus_R0 differ in shape: {t.shape} and {r.shape}")
-    sel = r[t >= t_from]
-    if sel.size == 0:
+    w = np.asarray(dtheta, dtype=float)
+    if not t.shape == r.shape == w.shape:
+        raise ValueError(
+            f"tau, R_minus_R0 and dtheta differ in shape: {t.shape}, {r.shape}, {w.shape}"
+        )
+    on = t >= t_from
+    if not np.any(on):
         raise ValueError(f"no samples at or after t_from = {t_from!r}")
-    return float(R0 + np.max(sel))
+    R, Omega = R0 + r[on], omega0 + w[on]
+    return ActuatorDemand(
+        peak_torque=float(np.max(R)),
+        min_torque=float(np.min(R)),
+        peak_power=float(np.max(np.abs(R * Omega))),
+        min_table_speed=float(np.min(Omega)),
+        max_table_speed=float(np.max(Omega)),
+    )
 
 
 def window_start(tau: ArrayLike, window: float) -> int:
@@ -402,7 +458,7 @@ def severity_metrics(
         decay = a_late / a_before if a_before > 0.0 else math.nan
     R = p.R0 + np.asarray(result.R_minus_R0, dtype=float)
     on = tau >= t_from
-    Omega = p.omega0 + np.asarray(result.dtheta, dtype=float)
+    demand = actuator_demand(tau, result.R_minus_R0, result.dtheta, p.R0, p.omega0, t_from)
     if "R_max" in data:
         peak_late = float(np.max(data["R_max"][j:]))
         power = float(np.max(data["P_max"][on]))
@@ -410,7 +466,7 @@ def severity_metrics(
         saturated = float(np.sum(data["n_saturated"][on][1:]) / samples) if samples else 0.0
     else:
         peak_late = float(np.max(R[j:]))
-        power = float(np.max(np.abs(R[on] * Omega[on])))
+        power = demand.peak_power
         saturated = math.nan
     outside = np.abs(wa - p.omega0) > settle_band * p.omega0
     after = ta >= t_from
@@ -424,7 +480,7 @@ def severity_metrics(
         utr=utr(w, p.omega0),
         severity=sev,
         stick_fraction=stick,
-        peak_torque=peak_torque(tau, result.R_minus_R0, p.R0, t_from),
+        peak_torque=demand.peak_torque,
         stall=stall,
         outcome=outcome(sev, stick, stall, vibration_tol=vibration_tol, decay=decay),
         tau_reached=t1,
@@ -432,7 +488,7 @@ def severity_metrics(
         rms_torque_late=float(np.sqrt(np.mean(R[j:] ** 2))),
         peak_power=power,
         saturated_fraction=saturated,
-        min_table_speed=float(np.min(Omega[on])),
+        min_table_speed=demand.min_table_speed,
         settling_time=settling,
     )
 

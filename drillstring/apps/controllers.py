@@ -24,6 +24,7 @@ import csv
 import math
 import os
 import sys
+import textwrap
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -48,9 +49,11 @@ from drillstring.controller.design import CONSTRAINED_FILE
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
 from drillstring.controller.lineup import (
     RIG_CONTROLLERS,
+    SENSING,
     Tuning,
     lmi_gain,
     rig_lineup,
+    sensing_note,
 )
 from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
@@ -103,17 +106,7 @@ OPEN_LOOP = "open-loop"
 #: reproduction of the figure; no real drive delivers its torque).
 LMI_UNLIMITED = "lmi-unlimited"
 #: How each row measures (``sensing`` column).
-SENSING_TEXT = {
-    OPEN_LOOP: "-",
-    "stiff-pi": "table speed",
-    "soft-speed": "table speed",
-    "z-torque": "speed, torque from motor",
-    "lmi": "bit angle, speed exact",
-    "lmi-constrained": "bit angle, speed exact",
-    "lmi-telemetry": "mud pulse 2 s, 4 s late",
-    "lmi-observer": "observer, surface only",
-    LMI_UNLIMITED: "bit angle, speed exact",
-}
+SENSING_TEXT = {OPEN_LOOP: "-", **SENSING, LMI_UNLIMITED: SENSING["lmi"]}
 #: The comparison's run: Fig. 6's switch-on at tau = 25, then 75 (13 torsional periods).
 COMPARISON_TAU_END = 100.0
 COMPARISON_WINDOW = 30.0
@@ -255,7 +248,7 @@ def _plot(
         ax.legend(loc="upper left", fontsize=7, ncol=2)
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[-1].set_xlabel(r"$\tau$")
-    np.atleast_1d(axes)[0].set_title(title, fontsize="medium")
+    np.atleast_1d(axes)[0].set_title(title, fontsize="small")
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -369,7 +362,12 @@ def write_controller_comparison(
     out = Path(out_dir)
     title = (
         f"{experiment.name} set-up: controllers on at tau = {t_on:g}, sampled every {Ts:g}, "
-        f"top drive {top_drive}"
+        f"top drive {top_drive} ({LMI_UNLIMITED}: none, the paper's)\n"
+        + "\n".join(
+            textwrap.wrap(
+                sensing_note([n for n in runs if n in SENSING]), 120, break_on_hyphens=False
+            )
+        )
     )
     files = {
         "figure": _plot(out / "comparison.png", runs, params.omega0, t_on, window, title),

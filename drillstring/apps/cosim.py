@@ -41,6 +41,7 @@ from drillstring.orchestration.closed_loop import (
     loop_model,
 )
 from drillstring.orchestration.connections import effective_start_values
+from drillstring.orchestration.figures import actuator_note
 from drillstring.orchestration.hosts import run_ecos
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.monolithic import run_monolithic
@@ -144,7 +145,7 @@ def plot_speeds(
     if len(runs) > 1:
         ax1.legend(fontsize=8)
     if title:
-        ax1.set_title(title)
+        ax1.set_title(title, fontsize="small" if "\n" in title else None)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -331,6 +332,7 @@ def run_si_demo(
     if not mono.status.ok:
         raise RuntimeError(f"the monolithic run stopped: {mono.status.message}")
     ref = scaling.plant_outputs(mono.data, mono.tau)
+    actuator, assumes = actuator_note(model.params, mono)
     n = len(ecos)
     master_err = _errors(res, {k: ref[k] for k in _COMPARED}, slice(None))
     ecos_err = _errors(ecos, {k: ref[k][1 : n + 1] for k in _COMPARED}, slice(None))
@@ -353,7 +355,7 @@ def run_si_demo(
         out / "si_fig5.png",
         [("master", res), ("Ecos", ecos), ("monolithic", mono_rows)],
         SI,
-        title=f"Fig. 5 in SI from {ssp.name} (H = {step:g} s)",
+        title=f"Fig. 5 in SI from {ssp.name} (H = {step:g} s)\n{assumes}",
     )
     summary = {
         "ssp": str(ssp),
@@ -370,6 +372,7 @@ def run_si_demo(
         },
         "ecos_vs_master": max(diff.values()),
         "ecos_vs_master_by_variable": diff,
+        "actuator": actuator,
         "wall_time": wall,
         "files": {"csv": str(out / "si_fig5.csv"), "png": str(png)},
     }

@@ -6,8 +6,9 @@
    axial limit cycles (the Fig. 4 line at the reference set's gammabar, etabar^2:
    ``axial_fit.csv``), the LMI design (33) and its certificate (``gains.json``), the
    input-constrained design for the reference rig's top drive (``gains_constrained.json``);
-2. ``python build_fmus.py --gains out/design/gains.json --out build``: the plant and controller
-   FMUs, the gains baked into the controller FMU;
+2. ``python build_fmus.py --gains out/design/gains.json --out build``: the plant, LMI and
+   top-drive controller FMUs (scaled and SI) and the SSP packages, the gains baked into the LMI
+   controller FMUs;
 3. ``drillstring demo --design out/design --fmus build --out out`` (:func:`run_demo`):
    Section III (Fig. 2, Fig. 3, Fig. 4 with the design's own line reused), then Figs. 5 and 6
    by co-simulation of the FMUs on the fmpy master with the monolithic solver of the same loop
@@ -67,6 +68,7 @@ class DemoSummary:
     si: dict[str, Any] = field(default_factory=dict)
     controllers: list[dict[str, Any]] = field(default_factory=list)
     controller_map: list[dict[str, Any]] = field(default_factory=list)
+    map_points: int = 0
     seconds: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -88,6 +90,8 @@ def run_demo(
     *,
     H: float = 1e-3,
     workers: int | None = 2,
+    map_points: int = 25,
+    progress: bool = False,
     log: Any = print,
 ) -> DemoSummary:
     """Run the demo (module docstring) and write ``summary.json`` into ``out_dir``.
@@ -104,6 +108,10 @@ def run_demo(
         Macro step of the co-simulations.
     workers : int, optional
         Dask workers of the controller map (0: serially in this process).
+    map_points : int
+        Points per axis of the controller map (surface speed x weight on bit).
+    progress : bool
+        Show the map's progress bar.
     log : callable
         Receives one line of progress text per step.
 
@@ -162,7 +170,11 @@ def run_demo(
     staging = map_dir.with_name(f".{map_dir.name}.new")
     if staging.exists():
         shutil.rmtree(staging)
-    cmap = write_controller_map(staging, design_dir / GAINS_FILE, n=6, workers=workers, log=None)
+    cmap = write_controller_map(
+        staging, design_dir / GAINS_FILE, n=map_points, workers=workers, progress=progress,
+        log=None,
+    )  # fmt: skip
+    summary.map_points = map_points
     replace_dir(staging, map_dir)
     summary.controller_map = list(cmap.by_controller)
     summary.figures["controller_map"] = {
@@ -246,12 +258,28 @@ def print_summary(summary: DemoSummary) -> None:
         f"{r['torsional_stick_before_t_on_cosim']}/{r['torsional_stick_after_t_on_cosim']}, "
         f"suppressed: {r['suppressed']}"
     )
+    for name in ("fig5", "fig6"):
+        a = getattr(summary, name)["actuator"]
+        line = f"   {name} assumes the paper's ideal actuator and exact downhole sensing: "
+        line += f"peak R {a['peak_torque_over_R0']:.0f} R0"
+        if "peak_torque_Nm" in a:
+            lo, hi = a["table_speed_rpm"]
+            line += (
+                f" ({a['peak_torque_Nm'] / 1e3:.0f} kN m), {a['peak_power_W'] / 1e6:.3g} MW, "
+                f"table {lo:.0f} to {hi:.0f} rpm: "
+                f"{'within' if a['within_tds_11sa'] else 'beyond'} a TDS-11SA"
+            )
+        print(line)
     for line in si_demo_lines(summary.si):
         print(f"   {line}")
     print("   controllers switched on at tau = 25 from the Fig. 6 state, on the rig's top drive:")
     for line in format_comparison(summary.controllers).splitlines():
         print(f"     {line}")
-    print("   6 x 6 map over omega0 x v0, outcomes per controller:")
+    n = summary.map_points
+    print(
+        f"   {n} x {n} map over surface speed [rpm] x weight on bit [kN], every controller "
+        "under the TDS-11SA, outcomes per controller:"
+    )
     for row in summary.controller_map:
         counts = ", ".join(f"{k} {v}" for k, v in row.items() if k != "controller")
         print(f"     {row['controller']:<11} {counts}")
@@ -280,10 +308,15 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument(
         "--design", type=Path, default=Path("out/design"), help="folder of drillstring design"
     )
-    ap.add_argument("--fmus", type=Path, default=Path("build"), help="folder with the two FMUs")
+    ap.add_argument(
+        "--fmus", type=Path, default=Path("build"), help="folder of the built FMUs and SSP packages"
+    )
     ap.add_argument("--H", type=float, default=1e-3, help="macro step of the co-simulation")
     ap.add_argument(
         "--workers", type=int, default=2, help="Dask workers of the controller map (0: serial)"
+    )
+    ap.add_argument(
+        "--map-points", type=int, default=25, help="points per axis of the controller map"
     )
     args = ap.parse_args(argv)
     try:
@@ -293,8 +326,13 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
             args.out,
             H=args.H,
             workers=args.workers,
+            map_points=args.map_points,
+            progress=True,
             log=lambda s: print(f"\n== {s}", flush=True),
         )
+    except RuntimeError as exc:  # a host that is not installed, a run that stopped
+        print(f"drillstring demo: {exc}", file=sys.stderr)
+        return 2
     except (GainsFileError, ValueError, OSError) as exc:
         print(
             f"drillstring demo: {exc} (run `drillstring design --out {args.design}` and "

@@ -36,6 +36,7 @@ import json
 import math
 import os
 import sys
+import textwrap
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -71,7 +72,7 @@ from drillstring.apps.sweep.studies import (
     evaluate_point,
     linear_boundary,
 )
-from drillstring.controller.lineup import RIG_CONTROLLERS
+from drillstring.controller.lineup import RIG_CONTROLLERS, sensing_note
 from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.digital import block as digital_block
 from drillstring.model.digital import drive as digital_drive
@@ -733,7 +734,8 @@ def _controller_plots(
     kinds = dict(CONTROLLER_METRICS)
     reference = spec.reference_values()
     drive = spec.options["top_drive"]
-    note = f"{spec.feed}; top drive: {drive}"
+    sensing = textwrap.wrap(sensing_note(spec.options["controllers"]), 120, break_on_hyphens=False)
+    note = "\n".join([f"{spec.feed}; top drive: {drive}", *sensing])
     overlays = _boundary_overlays(spec, rows, out_dir)
     scales = (
         [spec.point_scales(k) for k in range(spec.n_points)]
