@@ -22,9 +22,8 @@ own model names in the messages.
 The rows ``K1``... concern the industrial top-drive controller (``TopDriveController``,
 ``TopDriveControllerSI``): its own values and that its law's state goes on alike.
 
-The README's table ("Using the FMUs in other tools") is the scaled one:
-``test_readme_carries_the_table`` compares them; ``python tests/test_fmu_conformance.py`` prints
-it.
+The table of ``docs/fmus.md`` ("Conformance table") is the scaled one:
+``test_docs_carry_the_table`` compares them; ``python tests/test_fmu_conformance.py`` prints it.
 """
 
 from __future__ import annotations
@@ -1343,7 +1342,7 @@ def instantiate_cases(sy: System) -> list[InstantiateCase]:
     ]
 
 
-#: The scaled table (the README's) and the SI one.
+#: The scaled table (that of docs/fmus.md) and the SI one.
 CASES = make_cases(SYSTEMS["scaled"])
 TABLE = [(sy, c) for sy in SYSTEMS.values() for c in make_cases(sy)]
 INSTANTIATE_TABLE = [(sy, c) for sy in SYSTEMS.values() for c in instantiate_cases(sy)]
@@ -1433,9 +1432,9 @@ def test_errors_are_logged_with_logging_off_and_info_only_with_it_on(built, sy):
 
 
 def test_each_row_is_its_own():
-    """A row's id names it alone (the README's "#" column, the test ids; pytest would silently
-    number a repeated id), and no two rows make the same call in the same state of the same FMU
-    (the README could not tell them apart, and the second would check nothing new)."""
+    """A row's id names it alone (the "#" column of docs/fmus.md, the test ids; pytest would
+    silently number a repeated id), and no two rows make the same call in the same state of the
+    same FMU (the table could not tell them apart, and the second would check nothing new)."""
     ids = [c.id for c in CASES] + [c.id for c in INSTANTIATE_CASES]
     assert sorted({i for i in ids if ids.count(i) > 1}) == []
     rows = [(c.unit, c.state, c.situation) for c in CASES]
@@ -1453,7 +1452,7 @@ def _excerpt(pattern: str) -> str:
 
 
 def markdown_table() -> str:
-    """The conformance table as the README carries it."""
+    """The conformance table as ``docs/fmus.md`` carries it."""
     rows = [
         "| # | FMU | State | Call or value | Status | Message (excerpt) |",
         "|---|-----|-------|---------------|--------|-------------------|",
@@ -1471,10 +1470,10 @@ def markdown_table() -> str:
     return "\n".join(rows) + "\n"
 
 
-def test_readme_carries_the_table():
-    readme = (tl.ROOT / "README.md").read_text(encoding="utf-8")
-    assert markdown_table() in readme, (
-        "README table differs: run python tests/test_fmu_conformance.py"
+def test_docs_carry_the_table():
+    doc = (tl.ROOT / "docs" / "fmus.md").read_text(encoding="utf-8")
+    assert markdown_table() in doc, (
+        "the table of docs/fmus.md differs: run python tests/test_fmu_conformance.py"
     )
 
 

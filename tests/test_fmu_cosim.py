@@ -22,6 +22,8 @@ is named so that its file URI needs percent-encoding (``ü``, ``#``, ``%``, ``[`
 
 from __future__ import annotations
 
+import re
+
 import fmu_testlib as tl
 import numpy as np
 import pytest
@@ -305,12 +307,10 @@ def test_fmpy_command_line_fails_on_a_validity_stop(built, tmp_path, clean_home)
     assert "bit bouncing: depth of cut d < 0, outside the model at tau = 0.0107" in text
 
 
-def test_readme_c_host_example(built, tmp_path, clean_home):
-    """The C-host example of README.md, run as it stands (with the session's FMUs)."""
-    import re
-
-    readme = (tl.ROOT / "README.md").read_text(encoding="utf-8")
-    section = readme[readme.index("### Example: a C host") :]
+def test_docs_c_host_example(built, tmp_path, clean_home):
+    """The C-host example of docs/fmus.md, run as it stands (with the session's FMUs)."""
+    doc = (tl.ROOT / "docs" / "fmus.md").read_text(encoding="utf-8")
+    section = doc[doc.index("## Example: a C host") :]
     script = re.search(r"```sh\n(.*?)```", section, re.S).group(1)
     env = tl.clean_env(clean_home, FMUS=str(built.out))
     proc = tl.run_clean(["bash", "-e", "-c", script], env, tl.ROOT)
