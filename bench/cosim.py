@@ -49,12 +49,12 @@ from pathlib import Path
 import numpy as np
 
 from drillstring.apps.design import design_main
+from drillstring.apps.export import build_fmus_into
 from drillstring.model.engine import Engine
 from drillstring.model.experiments import FIG5
 from drillstring.orchestration import native_loop
 from drillstring.orchestration.closed_loop import (
     CONNECTIONS,
-    build_fmus_into,
     closed_loop_master,
     experiment_start_values,
     fmu_paths,
