@@ -9,8 +9,17 @@ The layer then hands each instance the addresses of its typed calls (:func:`begi
 :class:`Front`, see :meth:`drillstring_fmu_support.FmuModel.__init__`) and releases the slave at
 ``fmi2FreeInstance`` (:func:`release`).
 
-:func:`prepare` does three things and reports each as a log record for the layer to forward:
+:func:`prepare` does four things and reports each as a log record for the layer to forward:
 
+0. **The modules that compute the numbers, of the versions the FMU was built with.** The build
+   records the versions of numpy and numba it imported (``require`` lines of
+   ``drillstring_fmu_python.cfg``, "none" for a module it could not import). The interpreter the
+   FMU runs in, the one the layer started or the host's own (a Python host: fmpy, libcosimpy),
+   must import the same versions: a numpy or numba of another version, or one the build did not
+   have, would compute with code the FMU was never built and tested with, so the instantiation
+   is refused with the versions named (which the layer logs; pythonfmu never sees it). With
+   ``DRILLSTRING_JIT=0`` numba is not used and not checked. The layer has checked the
+   interpreter's own version and ABI before (``fmu_src/fmi_front/runtime.c``).
 1. **The drillstring package from a per-user cache.** numba caches compiled code next to the
    source files and keys it by their path and modification time, so importing the package from
    each fresh unpack folder of the FMU would recompile the kernel (10-16 s) every time a tool
@@ -45,6 +54,8 @@ OK, WARNING, ERROR = 0, 1, 3
 #: Modification time given to every cached file (numba keys its cache by it).
 FIXED_MTIME = 315532800  # 1980-01-01, the earliest time a zip entry can hold
 PACKAGE = "drillstring"
+#: The FMU's record of the Python that built it (resources/, written by build_fmus.py).
+RUNTIME_RECORD = "drillstring_fmu_python.cfg"
 _IGNORED_PARTS = {"__pycache__"}
 
 Record = tuple[int, str, str]
@@ -155,6 +166,63 @@ def pythonfmu_safe_path(resources: str, root: str) -> str:
     return link
 
 
+def recorded_modules(resources: str) -> dict[str, str | None]:
+    """The ``require NAME VERSION`` lines of the FMU's record (VERSION "none": None)."""
+    found: dict[str, str | None] = {}
+    with open(os.path.join(resources, RUNTIME_RECORD), encoding="utf-8") as f:
+        for line in f:
+            parts = line.split()
+            if len(parts) == 3 and parts[0] == "require":
+                found[parts[1]] = None if parts[2] == "none" else parts[2]
+    return found
+
+
+def imported_version(name: str) -> tuple[str | None, str]:
+    """``__version__`` of module ``name`` as this interpreter imports it (None: not importable)
+    and where it comes from (or why it cannot be imported)."""
+    try:
+        module = importlib.import_module(name)
+    except Exception as exc:  # an ImportError, or a module that fails while importing
+        return None, f"{type(exc).__name__}: {exc}"
+    return str(getattr(module, "__version__", "unknown")), str(getattr(module, "__file__", "?"))
+
+
+def module_mismatch(resources: str, borrowed: bool) -> str | None:
+    """Why the modules this interpreter imports are not those of the build (see the module
+    docstring, point 0), or None if they are."""
+    wanted = recorded_modules(resources)
+    if os.environ.get("DRILLSTRING_JIT", "1") == "0":
+        wanted.pop("numba", None)
+    wrong = []
+    for name, version in wanted.items():
+        found, where = imported_version(name)
+        if found == version:
+            continue
+        built = f"{name} {version}" if version else f"no {name}"
+        here = f"{name} {found} ({where})" if found else f"no {name} ({where})"
+        wrong.append((name, version, f"built with {built}, this Python imports {here}"))
+    if not wrong:
+        return None
+    python = f"Python {sys.version.split()[0]} ({sys.executable or 'executable unknown'})"
+    pins = " ".join(f"{n}=={v}" for n, v, _ in wrong if v)
+    fixes = []
+    if pins:
+        where = "the host's environment" if borrowed else "site-packages of this Python"
+        fixes.append(f"install them into {where} (pip install {pins})")
+    if any(n == "numba" for n, _, _ in wrong):
+        fixes.append("set DRILLSTRING_JIT=0 to run the plain-Python kernel without numba")
+    if not borrowed:
+        fixes.append("set DRILLSTRING_FMU_SITE_PACKAGES to site-packages that hold them")
+    return (
+        f"fmi2Instantiate: the FMU runs only with the versions of numpy and numba it was built "
+        f"with (they compute its numbers), and {python} differs: "
+        + "; ".join(text for _, _, text in wrong)
+        + ". To run it: "
+        + ", or ".join(fixes)
+        + f" (all the FMU needs: {os.path.join(resources, 'requirements.txt')})"
+    )
+
+
 def _import_package(resources: str, records: list[Record]) -> None:
     loaded = sys.modules.get(PACKAGE)
     if loaded is not None:
@@ -183,14 +251,20 @@ def _import_package(resources: str, records: list[Record]) -> None:
     importlib.import_module(PACKAGE)
 
 
-def prepare(resources: str, module: str) -> tuple[str | None, list[Record]]:
+def prepare(resources: str, module: str, borrowed: int = 0) -> tuple[str | None, list[Record]]:
     """Make the FMU's Python side importable; returns (path for pythonfmu or None, records).
+    ``borrowed``: the interpreter is the host's (not started by the front layer).
 
     Never raises: a failure is an error record (with the traceback) and ``None``.
     """
     records: list[Record] = []
     step = "checking the resources folder"
     try:
+        step = "checking the versions of numpy and numba"
+        mismatch = module_mismatch(resources, bool(borrowed))
+        if mismatch is not None:
+            records.append((ERROR, "logStatusError", mismatch))
+            return None, _printable(records)
         step = f"importing the {PACKAGE} package"
         _import_package(resources, records)
         step = f"importing the FMU's module {module}"

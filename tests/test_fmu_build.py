@@ -24,6 +24,8 @@ from typing import Any
 from xml.etree import ElementTree as ET
 
 import fmu_testlib as tl
+import numba
+import numpy
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
@@ -71,7 +73,10 @@ def test_capabilities_default_experiment_and_module_names(built):
             # it (build_fmus.entry_module: pythonfmu 0.7.0 leaks per class it finds there)
             assert f'globals()[""] = {script}.{unit.model}' in text
             assert not re.search(r"^(class|from) ", text, flags=re.M)
-            assert z.read("resources/requirements.txt").decode().split() == ["numpy>=2.0"]
+            # the versions this process (the building Python) imports, pinned: a Python host
+            # installs them with `pip install -r` (test_fmu_python_hosts.py)
+            pins = [f"numpy=={numpy.__version__}", f"numba=={numba.__version__}", "tqdm>=4.66"]
+            assert z.read("resources/requirements.txt").decode().split() == pins
             files = set(z.namelist())
         # the physics is bundled as a package, not written into the FMU script
         assert {
@@ -155,6 +160,9 @@ def test_python_record_names_this_interpreter(built):
         assert Path(rec["libpython"]).resolve() == tl.libpython().resolve()
         assert rec["home"] == sys.base_prefix
         assert rec["site"] == sysconfig.get_paths()["purelib"]
+        assert rec["abi"] == sysconfig.get_config_var("SOABI")
+        required = re.findall(r"^require (\S+) (\S+)$", text, flags=re.M)
+        assert required == [("numpy", numpy.__version__), ("numba", numba.__version__)]
         for var in ("DRILLSTRING_FMU_LIBPYTHON", "DRILLSTRING_FMU_PYTHONHOME"):
             assert var in text
 

@@ -4,7 +4,14 @@
  *  - the interpreter: if the host process has no Python, the layer loads libpython with
  *    RTLD_GLOBAL and starts it with an explicit configuration (home, module search path: the
  *    build's record in resources/drillstring_fmu_python.cfg, each entry overridable by an
- *    environment variable); if the host already runs Python, that interpreter is used;
+ *    environment variable); if the host already runs Python, that interpreter is used, and only
+ *    if it is of the kind the FMU was built for: the recorded major.minor version and ABI (the
+ *    SOABI its extension modules are built for, "cpython-311-x86_64-linux-gnu": implementation,
+ *    version, ABI flags, platform). A process holds one Python (a second libpython would bind
+ *    the host's global symbols), and the FMU's compiled modules are built for that ABI: a Python
+ *    host of another version or build gets a NULL from fmi2Instantiate naming both, before any
+ *    of the FMU's Python code runs in it. The modules the FMU computes with (numpy, numba) are
+ *    checked against the versions recorded there by drillstring_fmu_boot.prepare;
  *  - nothing per instance: sys.path is restored after each instantiation, and the reference that
  *    pythonfmu 0.7.0 drops on each instantiation (it releases a borrowed reference to the entry
  *    module's dictionary) is given back;
@@ -76,11 +83,12 @@ __asm__(".type drillstring_fmi2_process_lock, @gnu_unique_object");
 static PythonApi py;
 PythonFmu ds_pf;
 static int g_python_ready, g_python_started_here;
-static char g_python_failure[2048];
+static char g_python_failure[ERR_LEN]; /* the reason, remembered: the interpreter stays */
 
 /* ---- the Python runtime ---------------------------------------------------------------------- */
 typedef struct {
     char *version, *libpython, *home; /* on the heap, like the Runtime itself */
+    char *abi; /* the SOABI of the extension modules, NULL: not recorded (an older build) */
     char **sites;
     int n_sites;
 } Runtime;
@@ -91,6 +99,7 @@ static void runtime_free(Runtime *rt)
     free(rt->version);
     free(rt->libpython);
     free(rt->home);
+    free(rt->abi);
     for (int i = 0; i < rt->n_sites; ++i) free(rt->sites[i]);
     free(rt->sites);
     free(rt);
@@ -150,6 +159,7 @@ static Runtime *read_runtime(const char *resources, char *err, size_t errn)
         if (strcmp(line, "version") == 0) bad = set_text(&rt->version, value, n);
         else if (strcmp(line, "libpython") == 0) bad = set_text(&rt->libpython, value, n);
         else if (strcmp(line, "home") == 0) bad = set_text(&rt->home, value, n);
+        else if (strcmp(line, "abi") == 0) bad = set_text(&rt->abi, value, n);
         else if (strcmp(line, "site") == 0) bad = add_site(rt, value, n);
     }
     fclose(fp);
@@ -205,18 +215,24 @@ static int append_path(PyConfig *config, const char *path)
     return py.PyStatus_Exception(st) ? -1 : 0;
 }
 
+/* Py_GetVersion()'s "3.11.7 (main, ...)" is of the recorded major.minor "3.11". */
+static int same_version(const char *version, const char *recorded)
+{
+    const size_t n = strlen(recorded);
+    return strncmp(version, recorded, n) == 0 && (version[n] == '.' || version[n] == ' ');
+}
+
 /* Start the interpreter with an explicit configuration: nothing is guessed from PATH, PYTHONHOME
    or PYTHONPATH (isolated mode); the standard library of `home`, then the recorded site-packages
-   (their .pth files are not processed, no user site: the FMU's own drillstring package wins). */
-static int start_python(const Runtime *rt, char *err, size_t errn)
+   (their .pth files are not processed, no user site: the FMU's own drillstring package wins).
+   `lib` names the library that provides Python's functions, for the messages. */
+static int start_python(const Runtime *rt, const char *lib, char *err, size_t errn)
 {
     const char *version = py.Py_GetVersion();
-    const size_t vlen = strlen(rt->version);
-    if (strncmp(version, rt->version, vlen) != 0 ||
-        (version[vlen] != '.' && version[vlen] != ' ')) {
-        ds_format(err, errn, "libpython %s is Python %.20s, but the FMU was built with Python %s "
+    if (!same_version(version, rt->version)) {
+        ds_format(err, errn, "%s is Python %.*s, but the FMU was built with Python %s "
                   "(set DRILLSTRING_FMU_LIBPYTHON and DRILLSTRING_FMU_PYTHONHOME to a Python %s)",
-                  rt->libpython, version, rt->version, rt->version);
+                  lib, (int)strcspn(version, " "), version, rt->version, rt->version);
         return -1;
     }
     int result = -1;
@@ -288,6 +304,62 @@ done:
     return result;
 }
 
+/* A text of the running interpreter (GIL held): sys.<name>, or sysconfig.get_config_var(name)
+   if `config`; on the heap, or NULL (absent, not a string, out of memory). Only functions of
+   Python's stable ABI are called: the interpreter may be of another version than the headers. */
+static char *interpreter_text(const char *name, int config)
+{
+    PyObject *obj = NULL;
+    if (config) {
+        PyObject *sysconfig = py.PyImport_ImportModule("sysconfig");
+        obj = sysconfig ? py.PyObject_CallMethod(sysconfig, "get_config_var", "s", name) : NULL;
+        py.Py_DecRef(sysconfig);
+    } else {
+        obj = py.PySys_GetObject(name); /* borrowed */
+        py.Py_IncRef(obj);
+    }
+    const char *text = obj ? py.PyUnicode_AsUTF8(obj) : NULL;
+    char *out = text ? strdup(text) : NULL;
+    py.PyErr_Clear();
+    py.Py_DecRef(obj);
+    return out;
+}
+
+/* The interpreter the slaves are to run in, started here (`borrowed` 0) or the host's, is of the
+   recorded major.minor version and ABI (see the top of this file); 0, or -1 with the reason in
+   err. Nothing of the FMU's runs in it before: only Py_GetVersion, sys and sysconfig are read. */
+static int check_interpreter(const Runtime *rt, int borrowed, const char *lib,
+                             const char *resources, char *err, size_t errn)
+{
+    const char *version = py.Py_GetVersion();
+    const int vlen = (int)strcspn(version, " ");
+    const PyGILState_STATE gil = py.PyGILState_Ensure();
+    char *abi = interpreter_text("SOABI", 1), *exe = borrowed ? interpreter_text("executable", 0)
+                                                              : NULL;
+    py.PyGILState_Release(gil);
+    const int ok = same_version(version, rt->version) &&
+                   (!rt->abi || (abi && strcmp(abi, rt->abi) == 0));
+    if (!ok && borrowed)
+        ds_format(err, errn, "the host process runs Python %.*s (ABI %s; %s), but this FMU was "
+                  "built with Python %s (ABI %s) and runs only in an interpreter of that version "
+                  "and ABI (a process holds one Python, and the FMU's compiled modules are built "
+                  "for that ABI). Run the host on a Python %s with the packages of "
+                  "%s/requirements.txt (pip install -r that file), or run the FMU from a host "
+                  "that does not run Python: there it starts the Python recorded in %s/" RUNTIME_FILE
+                  " (DRILLSTRING_FMU_LIBPYTHON, DRILLSTRING_FMU_PYTHONHOME and "
+                  "DRILLSTRING_FMU_SITE_PACKAGES override that record)", vlen, version,
+                  abi ? abi : "unknown", exe && exe[0] ? exe : "executable unknown", rt->version,
+                  rt->abi ? rt->abi : "not recorded", rt->version, resources, resources);
+    else if (!ok)
+        ds_format(err, errn, "%s is Python %.*s (ABI %s), but the FMU was built with Python %s "
+                  "(ABI %s): set DRILLSTRING_FMU_LIBPYTHON and DRILLSTRING_FMU_PYTHONHOME to a "
+                  "Python %s of that ABI", lib, vlen, version, abi ? abi : "unknown",
+                  rt->version, rt->abi ? rt->abi : "not recorded", rt->version);
+    free(abi);
+    free(exe);
+    return ok ? 0 : -1;
+}
+
 /* The site-packages folders, ':'-separated (on the heap), or NULL: out of memory. */
 static char *joined_sites(const Runtime *rt)
 {
@@ -310,8 +382,8 @@ static int ensure_python(Component *c, const char *resources)
         return 0;
     }
     if (g_python_failure[0]) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: Python could not be started earlier in this "
-                "process: %s", g_python_failure);
+        ds_logf(c, fmi2Error, "fmi2Instantiate: no Python for this FMU in this process (found "
+                "at an earlier instantiation): %s", g_python_failure);
         return -1;
     }
     char *err = malloc(ERR_LEN);
@@ -334,8 +406,11 @@ static int ensure_python(Component *c, const char *resources)
         }
     }
     if (resolve_python(where, err, ERR_LEN) != 0) goto fail;
-    if (!py.Py_IsInitialized()) {
-        if (start_python(rt, err, ERR_LEN) != 0) goto fail;
+    const char *lib = present ? "the Python library of the host process" : rt->libpython;
+    const int borrowed = py.Py_IsInitialized();
+    if (!borrowed && start_python(rt, lib, err, ERR_LEN) != 0) goto fail;
+    if (check_interpreter(rt, borrowed, lib, resources, err, ERR_LEN) != 0) goto fail;
+    if (!borrowed) {
         g_python_started_here = 1;
         for (int i = 0; i < rt->n_sites; ++i)
             if (!ds_is_dir(rt->sites[i]))
@@ -456,8 +531,8 @@ static void log_python_error(Component *c, const char *fn, const char *what)
     py.Py_DecRef(tb);
 }
 
-/* drillstring_fmu_boot.prepare(resources, entry module): forwards its records, returns the
-   resources path for pythonfmu (on the heap), or NULL. */
+/* drillstring_fmu_boot.prepare(resources, entry module, borrowed): forwards its records, returns
+   the resources path for pythonfmu (on the heap), or NULL. */
 static char *boot(Component *c, const char *resources)
 {
     PyObject *sys_path = py.PySys_GetObject("path"); /* borrowed */
@@ -473,7 +548,8 @@ static char *boot(Component *c, const char *resources)
         log_python_error(c, "fmi2Instantiate", "cannot import " BOOT_MODULE);
         return NULL;
     }
-    PyObject *result = py.PyObject_CallMethod(module, "prepare", "ss", resources, DS_ENTRY_MODULE);
+    PyObject *result = py.PyObject_CallMethod(module, "prepare", "ssi", resources, DS_ENTRY_MODULE,
+                                              !g_python_started_here);
     py.Py_DecRef(module);
     if (!result) {
         log_python_error(c, "fmi2Instantiate", BOOT_MODULE ".prepare failed");

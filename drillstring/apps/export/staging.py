@@ -21,7 +21,7 @@ from typing import Any
 
 from pythonfmu import FmuBuilder
 
-from drillstring.apps.export.python_runtime import RUNTIME_NAME, runtime_file
+from drillstring.apps.export.python_runtime import RUNTIME_NAME, requirements_file, runtime_file
 from drillstring.apps.export.specs import (
     BOOT,
     FMU_MODULES,
@@ -34,7 +34,6 @@ from drillstring.apps.export.specs import (
 
 __all__ = [
     "CONFIG_NAME",
-    "REQUIREMENTS",
     "class_module",
     "entry_module",
     "forget_fmu_modules",
@@ -45,9 +44,6 @@ __all__ = [
 ]
 
 CONFIG_NAME = "drillstring_fmu.json"
-#: Runtime dependencies of the FMUs' Python code besides the standard library (pythonfmu's own
-#: Python files are bundled by pythonfmu; numba is optional: without it the kernel is plain Python).
-REQUIREMENTS = "numpy>=2.0\n"
 #: Files of the drillstring package that are not bundled.
 _IGNORE_FILES = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc", ".*")
 #: Sub-packages of an installed drillstring that the FMUs do not use (in a source checkout they
@@ -125,7 +121,7 @@ def stage(spec: FmuSpec, staging: Path, config: dict[str, Any], record: dict[str
     cfg = json.dumps(config, indent=2, sort_keys=True) + "\n"
     (staging / CONFIG_NAME).write_text(cfg, encoding="utf-8")
     (staging / RUNTIME_NAME).write_text(runtime_file(record), encoding="utf-8")
-    (staging / "requirements.txt").write_text(REQUIREMENTS, encoding="utf-8")
+    (staging / "requirements.txt").write_text(requirements_file(record), encoding="utf-8")
     return script
 
 
