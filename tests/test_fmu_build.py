@@ -18,6 +18,7 @@ import re
 import shutil
 import subprocess
 import sys
+import sysconfig
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -151,8 +152,6 @@ def test_front_layer_frames_are_small(built, tmp_path):
 
 
 def test_python_record_names_this_interpreter(built):
-    import sysconfig
-
     for unit in _units(built).values():
         text = (unit.unzipped / "resources" / "drillstring_fmu_python.cfg").read_text()
         rec = dict(line.split(" ", 1) for line in text.splitlines() if not line.startswith("#"))
@@ -170,6 +169,7 @@ def test_python_record_names_this_interpreter(built):
 def test_documentation_says_what_a_host_needs(built):
     for unit in _units(built).values():
         doc = (unit.unzipped / "documentation" / "index.html").read_text()
+        flat = " ".join(doc.split())  # the text as read, not as wrapped
         for needed in (
             "Time base and units",
             "start time must be 0",
@@ -180,8 +180,14 @@ def test_documentation_says_what_a_host_needs(built):
             "DRILLSTRING_FMU_SITE_PACKAGES",
             "DRILLSTRING_FMU_CACHE",
             "DRILLSTRING_JIT=0",
+            # the interpreter it runs in, and what a Python host of another one gets
+            f"CPython {sys.version_info.major}.{sys.version_info.minor} (ABI <code>"
+            f"{sysconfig.get_config_var('SOABI')}</code>) importing numpy {numpy.__version__} "
+            f"and numba {numba.__version__}",
+            "pip install -r resources/requirements.txt",
+            "the FMU refuses at <code>fmi2Instantiate</code> (NULL, with a logged error",
         ):
-            assert needed in doc, (unit.model, needed)
+            assert needed in flat, (unit.model, needed)
         md = read_model_description(str(unit.fmu))
         for v in md.modelVariables:
             assert f"<code>{v.name}</code>" in doc

@@ -178,6 +178,21 @@ def test_a_python_host_of_the_same_minor_version_runs_only_on_the_fmus_numpy_and
         "requirements.txt",
     ):
         assert part in message, (part, message)
+    # the same rule where the FMU starts its Python itself (a C host) and finds these packages
+    plant_dir = tl.unpack(built.plant.fmu, tmp_path / "c_host" / "plant")
+    csv = tmp_path / "c_host" / "out.csv"
+    config = tl.host_config(built, {"plant": plant_dir}, 10_000_000, 5, {}, csv, logging=True)
+    site = {"DRILLSTRING_FMU_SITE_PACKAGES": str(host.outside(host.site))}
+    exe = tl.compile_c_host(tmp_path / "c_host")
+    proc, rows = tl.run_c_host(
+        exe, config, tmp_path / "c_host", tl.clean_env(clean_home, **site), csv
+    )
+    assert proc.returncode == 1 and rows is None, proc.stderr  # a NULL, not a signal
+    for part in (
+        f"built with numpy {numpy.__version__}, this Python imports numpy {other.group(1)} (",
+        "set DRILLSTRING_FMU_SITE_PACKAGES to site-packages that hold them",
+    ):
+        assert part in proc.stderr, (part, proc.stderr)
 
     # 2. the FMU's numpy, still no numba
     python_hosts.install(host, [f"numpy=={numpy.__version__}"])

@@ -73,6 +73,8 @@ class Host:
     root: Path = Path("/")
     #: the environment variables it needs (the tree's PYTHONPATH)
     env: dict[str, str] = field(default_factory=dict)
+    #: the folder its packages are installed into, inside root ("": unknown)
+    site: str = ""
 
     def command(self, *args: str) -> list[str]:
         """The command line that runs ``python ARGS`` in this host (file names inside root)."""
@@ -176,7 +178,9 @@ def provide(choice: str, dest: Path, requirements: Sequence[str]) -> Host:
     if python is not None:
         venv = dest / "venv"
         _run([str(python), "-m", "venv", "--without-pip", str(venv)], f"{python} -m venv")
-        host = Host(str(venv / "bin" / "python"), _version([str(venv / "bin" / "python")]))
+        version = _version([str(venv / "bin" / "python")])
+        site = venv / "lib" / f"python{version.rsplit('.', 1)[0]}" / "site-packages"
+        host = Host(str(venv / "bin" / "python"), version, site=str(site))
         install(host, ["fmpy", *requirements])
         return host
     minor = next((m for m in minors if m in DEBIAN_PYTHON), None)
@@ -189,7 +193,7 @@ def provide(choice: str, dest: Path, requirements: Sequence[str]) -> Host:
     root = debian_tree(suite, dest / f"debian-{suite}")
     python_in = f"/usr/bin/python{minor}"
     probe = Host(python_in, "", root)
-    host = Host(python_in, _version(probe.command()), root, {"PYTHONPATH": TREE_SITE})
+    host = Host(python_in, _version(probe.command()), root, {"PYTHONPATH": TREE_SITE}, TREE_SITE)
     install(host, ["fmpy", *requirements])
     return host
 

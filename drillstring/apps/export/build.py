@@ -170,7 +170,7 @@ def build_fmu(
         starts = dict(instance.values)
         docs = work / "documentation"
         docs.mkdir()
-        text = documentation(cls, cls.VARIABLES, starts)
+        text = documentation(cls, cls.VARIABLES, starts, record)
         (docs / "index.html").write_text(text, encoding="utf-8")
         raw = pythonfmu_build(script, work / "raw", docs)
         dest = out_dir / f"{spec.model}.fmu"

@@ -35,9 +35,15 @@ def _time_base(variables: Sequence[Any]) -> str:
     )
 
 
-def documentation(cls: Any, variables: Sequence[Any], starts: dict[str, Any]) -> str:
-    """``documentation/index.html`` of one FMU (FMI 2.0, section 2.1: the documentation's entry)."""
+def documentation(
+    cls: Any, variables: Sequence[Any], starts: dict[str, Any], record: dict[str, Any]
+) -> str:
+    """``documentation/index.html`` of one FMU (FMI 2.0, section 2.1: the documentation's entry);
+    ``record`` is the Python that builds it (:func:`~drillstring.apps.export.python_runtime.
+    python_record`), which the FMU needs."""
     esc = html.escape
+    py = record["version"]
+    modules = " and ".join(f"{n} {v}" for n, v in record["modules"].items() if v is not None)
     rows = []
     for v in variables:
         start = "" if v.causality == "output" else format_start(starts[v.name], v.type)
@@ -105,17 +111,27 @@ discards and warnings are always logged; information only with logging on (categ
 <h2>What the host needs</h2>
 <p>Linux x86-64 and, on the machine that built the FMU, nothing else: the FMU loads the recorded
 libpython itself and starts it with the recorded home and site-packages
-(<code>resources/{RUNTIME_NAME}</code>); a host that already runs Python (fmpy, libcosimpy) lends
-its interpreter, which then needs numpy. No <code>LD_PRELOAD</code>, <code>PYTHONPATH</code> or
-<code>PYTHONHOME</code>. On another machine set</p>
+(<code>resources/{RUNTIME_NAME}</code>). No <code>LD_PRELOAD</code>, <code>PYTHONPATH</code> or
+<code>PYTHONHOME</code>. The FMU runs only in the kind of Python that built it: CPython {py}
+(ABI <code>{esc(str(record["abi"]))}</code>) importing {esc(modules)}, the versions that compute
+its numbers (<code>resources/requirements.txt</code> pins them). On another machine set</p>
 <ul>
-<li><code>{OVERRIDES["libpython"]}</code>: the <code>libpython3.11.so</code> of a CPython 3.11
+<li><code>{OVERRIDES["libpython"]}</code>: the <code>libpython{py}.so</code> of a CPython {py}
 (built with <code>--enable-shared</code>);</li>
 <li><code>{OVERRIDES["home"]}</code>: its installation prefix (with
-<code>lib/python3.11</code>);</li>
-<li><code>{OVERRIDES["site"]}</code>: ':'-separated site-packages with numpy (and numba for the
-compiled kernel).</li>
+<code>lib/python{py}</code>);</li>
+<li><code>{OVERRIDES["site"]}</code>: ':'-separated site-packages with {esc(modules)}
+(<code>pip install -r resources/requirements.txt</code>).</li>
 </ul>
+<p>A host that is itself Python (fmpy, libcosimpy) lends its interpreter instead (a process holds
+one Python), and the variables above do not apply: that interpreter must be a CPython {py} of the
+same ABI (another build of it will do, such as a distribution's python3 {py}) whose environment
+imports {esc(modules)} (<code>pip install -r resources/requirements.txt</code> there).
+Otherwise, a Python of another minor version, another numpy or numba or none, the FMU refuses at
+<code>fmi2Instantiate</code> (NULL, with a logged error naming the host's version or modules and
+the FMU's) before any of its Python code runs; such a host can run the FMU in a process of its
+own that does not run Python (a C host, libcosim, Ecos), where the FMU starts the recorded
+Python. With <code>DRILLSTRING_JIT=0</code> numba is not used and need not be there.</p>
 <p>The drillstring package is copied once into <code>$DRILLSTRING_FMU_CACHE</code>, else
 <code>$XDG_CACHE_HOME/drillstring</code>, else <code>~/.cache/drillstring</code>, where numba keeps
 the compiled kernel: the first run on a machine compiles it (logged at info level, 10-20 s), every
