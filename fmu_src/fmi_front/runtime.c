@@ -8,10 +8,12 @@
  *    if it is of the kind the FMU was built for: the recorded major.minor version and ABI (the
  *    SOABI its extension modules are built for, "cpython-311-x86_64-linux-gnu": implementation,
  *    version, ABI flags, platform). A process holds one Python (a second libpython would bind
- *    the host's global symbols), and the FMU's compiled modules are built for that ABI: a Python
- *    host of another version or build gets a NULL from fmi2Instantiate naming both, before any
- *    of the FMU's Python code runs in it. The modules the FMU computes with (numpy, numba) are
- *    checked against the versions recorded there by drillstring_fmu_boot.prepare;
+ *    the host's global symbols); this layer is compiled against the headers of the FMU's
+ *    Python (its macros, PyConfig), and the numpy and numba the FMU was built with exist for
+ *    that ABI only: a Python host of another version or ABI gets a NULL from fmi2Instantiate
+ *    naming both, before any of the FMU's Python code runs in it. The modules the FMU computes
+ *    with (numpy, numba) are checked against the versions recorded there by
+ *    drillstring_fmu_boot.prepare;
  *  - nothing per instance: sys.path is restored after each instantiation, and the reference that
  *    pythonfmu 0.7.0 drops on each instantiation (it releases a borrowed reference to the entry
  *    module's dictionary) is given back;
@@ -342,11 +344,12 @@ static int check_interpreter(const Runtime *rt, int borrowed, const char *lib,
     if (!ok && borrowed)
         ds_format(err, errn, "the host process runs Python %.*s (ABI %s; %s), but this FMU was "
                   "built with Python %s (ABI %s) and runs only in an interpreter of that version "
-                  "and ABI (a process holds one Python, and the FMU's compiled modules are built "
-                  "for that ABI). Run the host on a Python %s with the packages of "
+                  "and ABI (a process holds one Python; the FMU's front layer is compiled "
+                  "against that Python's headers, and the numpy and numba it was built with "
+                  "exist for that ABI only). Run the host on a Python %s with the packages of "
                   "%s/requirements.txt (pip install -r that file), or run the FMU from a host "
-                  "that does not run Python: there it starts the Python recorded in %s/" RUNTIME_FILE
-                  " (DRILLSTRING_FMU_LIBPYTHON, DRILLSTRING_FMU_PYTHONHOME and "
+                  "that does not run Python: there it starts the Python recorded in "
+                  "%s/" RUNTIME_FILE " (DRILLSTRING_FMU_LIBPYTHON, DRILLSTRING_FMU_PYTHONHOME and "
                   "DRILLSTRING_FMU_SITE_PACKAGES override that record)", vlen, version,
                   abi ? abi : "unknown", exe && exe[0] ? exe : "executable unknown", rt->version,
                   rt->abi ? rt->abi : "not recorded", rt->version, resources, resources);
