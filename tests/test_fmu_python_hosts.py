@@ -110,6 +110,7 @@ def other_minor(tmp_path_factory: pytest.TempPathFactory) -> Any:
     return host
 
 
+@pytest.mark.slow  # an interpreter's environment installed (and maybe a Debian tree made)
 def test_a_python_host_of_another_minor_version_gets_a_logged_null(built, other_minor, tmp_path):
     host = other_minor
     check = subprocess.run(
