@@ -5,9 +5,11 @@
 uses the same build. Two more builds check what needs one: ``designed`` (the build without a
 gains file, :func:`fmu_testlib.designed_fmus`: the synthesis runs, and other gains give another
 closed loop) and the rebuild with a pinned SOURCE_DATE_EPOCH of the determinism test, which
-compares it with the session's build. The autouse ``_sys_path`` fixture puts ``sys.path`` back
-after each test: the FMUs promise to leave it alone (tested), this is a second line of defence
-so that one failing FMU test cannot make the next one import another copy of the package.
+compares it with the session's build. ``small_fmus`` are the master's small test FMUs
+(``tests/fmus/``), built once for the three modules that use them. The autouse ``_sys_path``
+fixture puts ``sys.path`` back after each test: the FMUs promise to leave it alone (tested), this
+is a second line of defence so that one failing FMU test cannot make the next one import another
+copy of the package.
 
 ``clean_home`` is the HOME of the hosts outside this process (the clean-environment hosts of
 ``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
@@ -38,7 +40,7 @@ import pytest
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
 SLOW_FIXTURES = {"clean_home", "first_use", "designed"}
 #: Session fixtures of built FMUs.
-FMU_FIXTURES = {"built", *SLOW_FIXTURES}
+FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -86,6 +88,13 @@ def built(tmp_path_factory: pytest.TempPathFactory) -> tl.Built:
 def designed(tmp_path_factory: pytest.TempPathFactory) -> tl.Designed:
     """The session's second build: without a gains file, so the synthesis designs one first."""
     return tl.designed_fmus(tmp_path_factory.mktemp("designed"))
+
+
+@pytest.fixture(scope="session")
+def small_fmus(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The master's small test FMUs (integrator, gain, oscillator of ``tests/fmus/``), built once
+    for test_master, test_native_loop and test_crosscheck."""
+    return tl.build_small_fmus(tmp_path_factory.mktemp("small_fmus"))
 
 
 @pytest.fixture(autouse=True)

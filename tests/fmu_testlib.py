@@ -3,6 +3,7 @@
 * :func:`built_fmus` builds both FMUs once per test session with the real command
   (``python build_fmus.py --gains ... --out ...`` in a subprocess, so the test process is not
   touched by pythonfmu's builder) from a gains file made here;
+* :func:`build_small_fmus` builds the master's small test FMUs of ``tests/fmus/``;
 * :class:`Slave` drives one FMU instance with fmpy, records its log messages (formatted as a C
   host formats them) and returns raw statuses;
 * :func:`jacobi_fmpy`, :func:`run_libcosim` and :func:`run_c_host` run the same fixed-step Jacobi
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -35,9 +37,9 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree as ET
 
 import numpy as np
-import pythonfmu  # noqa: F401
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
@@ -47,6 +49,7 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
+from pythonfmu import FmuBuilder
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
@@ -276,6 +279,78 @@ def built_fmus(tmp_path_factory: Any) -> Built:
         scaled.other = si
         _CACHE["built"] = scaled
     return _CACHE["built"]
+
+
+# ------------------------------------------------------------------------------------------------
+# the master's small test FMUs (tests/fmus/)
+# ------------------------------------------------------------------------------------------------
+
+#: The scripts of the master's test FMUs (short name -> pythonfmu script).
+SMALL_SCRIPTS = {
+    "integrator": ROOT / "tests" / "fmus" / "msttest_integrator.py",
+    "gain": ROOT / "tests" / "fmus" / "msttest_gain.py",
+    "oscillator": ROOT / "tests" / "fmus" / "msttest_oscillator.py",
+}
+
+
+def build_small_fmus(dest: Path) -> dict[str, Path]:
+    """Build the master's test FMUs (:data:`SMALL_SCRIPTS`) into ``dest`` with pythonfmu and
+    state their true ModelStructure; returns {short name: path to .fmu}.
+
+    pythonfmu lists every output without a ``dependencies`` attribute, which in FMI 2.0 means
+    "depends on all inputs": a master would then see false algebraic loops. Each script declares
+    ``OUTPUT_DEPENDENCIES``, which is written into ``ModelStructure/Outputs`` of the built FMU.
+    Built once per session (conftest's ``small_fmus``).
+    """
+    dest.mkdir(parents=True, exist_ok=True)
+    built = {}
+    with kept_sys_path():
+        for name, script in SMALL_SCRIPTS.items():
+            fmu = FmuBuilder.build_FMU(
+                script, dest=dest, canGetAndSetFMUstate=True, canSerializeFMUstate=True
+            )
+            _patch_model_structure(Path(fmu), _output_dependencies(script))
+            built[name] = Path(fmu)
+    return built
+
+
+def _output_dependencies(script: Path) -> dict[str, list[str]]:
+    spec = importlib.util.spec_from_file_location(f"_deps_{script.stem}", script)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.OUTPUT_DEPENDENCIES
+
+
+def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
+    with zipfile.ZipFile(fmu) as z:
+        entries = {info.filename: z.read(info.filename) for info in z.infolist()}
+    root = ET.fromstring(entries["modelDescription.xml"])
+    variables = root.find("ModelVariables").iter("ScalarVariable")
+    index = {sv.get("name"): i + 1 for i, sv in enumerate(variables)}
+    name_of = {v: k for k, v in index.items()}
+    outputs = root.find("ModelStructure/Outputs")
+    seen = set()
+    for unknown in outputs.iter("Unknown"):
+        name = name_of[int(unknown.get("index"))]
+        seen.add(name)
+        unknown.set("dependencies", " ".join(str(index[d]) for d in deps[name]))
+        unknown.set("dependenciesKind", " ".join("fixed" for _ in deps[name]))
+    if seen != set(deps):
+        raise RuntimeError(f"{fmu.name}: OUTPUT_DEPENDENCIES {sorted(deps)} != {sorted(seen)}")
+    # FMI 2.0 wants every output with initial="calculated" (the default) listed as an
+    # initial unknown; no dependencies attribute = may depend on all start values.
+    structure = root.find("ModelStructure")
+    initial = ET.Element("InitialUnknowns")
+    for unknown in outputs.iter("Unknown"):
+        ET.SubElement(initial, "Unknown", index=unknown.get("index"))
+    structure.insert(list(structure).index(outputs) + 1, initial)
+    entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+    tmp = fmu.with_suffix(".tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in entries.items():
+            z.writestr(name, data)
+    tmp.replace(fmu)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -829,8 +904,6 @@ def fmu_with_units(
     into) ``UnitDefinitions``. The FMU's code is unchanged: it computes with the numbers it is
     given, so declaring a unit is honest only where every value it meets is given in it.
     """
-    from xml.etree import ElementTree as ET
-
     with zipfile.ZipFile(src) as z:
         entries = {i.filename: z.read(i.filename) for i in z.infolist()}
     root = ET.fromstring(entries["modelDescription.xml"])

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import importlib.util
 import math
 
 import fmu_testlib as tl
@@ -119,17 +118,6 @@ def test_default_exchange_differs_by_order_H_and_is_closer_to_monolithic(lib_run
     print(f"difference ratio for H halved: {ratio:.3f} (first order: 2)")
     assert 1.7 < ratio < 2.3
     assert diffs[1] > 1e-4  # a real O(H) difference, far above round-off
-
-
-@pytest.fixture(scope="module")
-def small_fmus(tmp_path_factory):
-    """The master's small test FMUs (integrator, feedthrough gain) of ``tests/fmus``."""
-    spec = importlib.util.spec_from_file_location(
-        "_crosscheck_test_fmus", tl.ROOT / "tests" / "fmus" / "build.py"
-    )
-    build = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(build)
-    return build.build_test_fmus(tmp_path_factory.mktemp("small_fmus"))
 
 
 @pytest.mark.parametrize("exchange", ["propagate", "simple"])

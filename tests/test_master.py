@@ -8,10 +8,8 @@ oscillator (matrix exponential) for the coupling error and its convergence order
 from __future__ import annotations
 
 import csv
-import importlib.util
 import math
 import re
-from pathlib import Path
 
 import fmu_testlib as tl
 import numpy as np
@@ -22,32 +20,22 @@ from drillstring.orchestration.master import Connection, Master, StepControl, Un
 
 pytestmark = pytest.mark.fmu
 
-HERE = Path(__file__).resolve().parent
-
-
-@pytest.fixture(scope="session")
-def fmus(tmp_path_factory) -> dict[str, Path]:
-    spec = importlib.util.spec_from_file_location("_master_test_fmus", HERE / "fmus" / "build.py")
-    build = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(build)
-    return build.build_test_fmus(tmp_path_factory.mktemp("master_fmus"))
-
 
 # -- two integrators in a loop: a' = k_a * b, b' = k_b * a ---------------------------------
 
 
-def integrator_loop(fmus, ka=1.0, kb=-1.0, a0=1.0, b0=0.0, a_extra=None, **kw) -> Master:
+def integrator_loop(small_fmus, ka=1.0, kb=-1.0, a0=1.0, b0=0.0, a_extra=None, **kw) -> Master:
     a_start = {"x0": a0, "k": ka, **(a_extra or {})}
     units = [
-        Unit("A", fmus["integrator"], a_start),
-        Unit("B", fmus["integrator"], {"x0": b0, "k": kb}),
+        Unit("A", small_fmus["integrator"], a_start),
+        Unit("B", small_fmus["integrator"], {"x0": b0, "k": kb}),
     ]
     return Master(units, ["A.x -> B.u", "B.x -> A.u"], **kw)
 
 
 @pytest.fixture(scope="module")
-def loop(fmus):
-    with integrator_loop(fmus) as m:
+def loop(small_fmus):
+    with integrator_loop(small_fmus) as m:
         yield m
 
 
@@ -106,10 +94,10 @@ def test_jacobi_and_gauss_seidel_invariants(loop):
     assert np.max(np.abs(jac["A.x"] - gs["A.x"])) > 0.1
 
 
-def test_explicit_gauss_seidel_order(fmus):
+def test_explicit_gauss_seidel_order(small_fmus):
     """gs_order=["B", "A"]: B steps first with a_n held, A gets the fresh b_{n+1}."""
     h, n = 0.1, 20
-    with integrator_loop(fmus, gs_order=["B", "A"]) as m:
+    with integrator_loop(small_fmus, gs_order=["B", "A"]) as m:
         res = m.run(n * h, h, scheme="gauss-seidel", progress=False)
     b_ref, a_ref = recurrence("gauss-seidel", "zoh", [h] * n, ka=-1.0, kb=1.0, a0=0.0, b0=1.0)
     np.testing.assert_allclose(res["A.x"], a_ref, rtol=0, atol=1e-14)
@@ -129,29 +117,32 @@ def test_last_step_shortened_to_land_on_stop_time(loop):
     np.testing.assert_allclose(shifted["A.x"], a, rtol=0, atol=1e-14)
 
 
-def test_units_as_mapping(fmus):
-    units = {"A": (fmus["integrator"], {"x0": 1.0}), "B": (fmus["integrator"], {"k": -1.0})}
+def test_units_as_mapping(small_fmus):
+    units = {
+        "A": (small_fmus["integrator"], {"x0": 1.0}),
+        "B": (small_fmus["integrator"], {"k": -1.0}),
+    }
     with Master(units, [("A.x", "B.u"), ("B.x", "A.u")]) as m:
         res = m.run(1.0, 0.1, progress=False)
     a, b = recurrence("jacobi", "zoh", [0.1] * 10)
     np.testing.assert_allclose(res["A.x"], a, rtol=0, atol=1e-14)
     with pytest.raises(ValueError, match="listed under the name 'B'"):
-        Master({"B": Unit("A", fmus["integrator"])}, [])
+        Master({"B": Unit("A", small_fmus["integrator"])}, [])
 
 
 # -- initialization ----------------------------------------------------------------
 
 
-def test_initialization_propagates_through_feedthrough_chain(fmus):
+def test_initialization_propagates_through_feedthrough_chain(small_fmus):
     """I.x -> G1 (y = -u + 0.5) -> G2 (y = 3u) -> I.u, listed against dependency order.
 
     At t = 0: x = 2, G1.y = -1.5, G2.y = I.u = -4.5, so the first step gives
     x = 2 - 0.45 = 1.55. With I.u left at its default 0 it would stay 2; one pass in
     listing order would give G2.y = 0 * 3 as well."""
     units = [
-        Unit("G2", fmus["gain"], {"k": 3.0}),
-        Unit("G1", fmus["gain"], {"k": -1.0, "b": 0.5}),
-        Unit("I", fmus["integrator"], {"x0": 2.0}),
+        Unit("G2", small_fmus["gain"], {"k": 3.0}),
+        Unit("G1", small_fmus["gain"], {"k": -1.0, "b": 0.5}),
+        Unit("I", small_fmus["integrator"], {"x0": 2.0}),
     ]
     conns = ["G2.y -> I.u", "G1.y -> G2.u", "I.x -> G1.u"]
     with Master(units, conns) as m:
@@ -170,12 +161,18 @@ def test_initialization_propagates_through_feedthrough_chain(fmus):
 OSC = dict(m1=1.0, k1=10.0, m2=1.0, k2=30.0, kc=5.0, dc=2.0, x10=1.0, v10=0.0)
 
 
-def oscillator_master(fmus, p=OSC) -> Master:
+def oscillator_master(small_fmus, p=OSC) -> Master:
     units = [
         Unit(
-            "M1", fmus["oscillator"], {"m": p["m1"], "k": p["k1"], "x0": p["x10"], "v0": p["v10"]}
+            "M1",
+            small_fmus["oscillator"],
+            {"m": p["m1"], "k": p["k1"], "x0": p["x10"], "v0": p["v10"]},
         ),
-        Unit("M2", fmus["oscillator"], {"m": p["m2"], "k": p["k2"], "kc": p["kc"], "dc": p["dc"]}),
+        Unit(
+            "M2",
+            small_fmus["oscillator"],
+            {"m": p["m2"], "k": p["k2"], "kc": p["kc"], "dc": p["dc"]},
+        ),
     ]
     conns = ["M1.x -> M2.x_in", "M1.v -> M2.v_in", "M2.F_c -> M1.F_ext"]
     return Master(units, conns, record=["M2.x", "M2.v"])
@@ -203,8 +200,8 @@ def coupling_error(res) -> float:
 
 
 @pytest.fixture(scope="module")
-def osc(fmus):
-    with oscillator_master(fmus) as m:
+def osc(small_fmus):
+    with oscillator_master(small_fmus) as m:
         yield m
 
 
@@ -321,11 +318,11 @@ def test_adaptive_converges_with_tolerance(osc):
     ],
 )
 def test_fmu_failure_stops_cleanly_with_partial_results(
-    fmus, loop, adaptive, fault, status, text, tmp_path
+    small_fmus, loop, adaptive, fault, status, text, tmp_path
 ):
     h = 0.1
     control = StepControl(rtol=0, atol=10.0, h_min=h, h_max=h) if adaptive else None
-    with integrator_loop(fmus, a_extra={fault: 0.35}) as m:
+    with integrator_loop(small_fmus, a_extra={fault: 0.35}) as m:
         res = m.run(1.0, h, step_control=control, progress=False)
         again = m.run(0.3, h, progress=False)  # the failed run released its units
     assert not res.completed
@@ -347,8 +344,8 @@ def test_fmu_failure_stops_cleanly_with_partial_results(
 # -- validation ------------------------------------------------------------------------
 
 
-def test_validation_errors_name_the_culprit(fmus):
-    integ, gain = fmus["integrator"], fmus["gain"]
+def test_validation_errors_name_the_culprit(small_fmus):
+    integ, gain = small_fmus["integrator"], small_fmus["gain"]
     two = [Unit("A", integ), Unit("B", integ)]
     cases = [
         (two, ["A.x -> C.u"], "unknown unit 'C'"),
@@ -415,8 +412,8 @@ def test_csv_follows_cross_check_conventions(loop, tmp_path):
     res.to_csv(path)  # overwriting works
 
 
-def test_recorded_extra_variables_and_progress_bar(fmus, capsys):
-    with integrator_loop(fmus, record=["A.k", "B.k", "A.x"]) as m:
+def test_recorded_extra_variables_and_progress_bar(small_fmus, capsys):
+    with integrator_loop(small_fmus, record=["A.k", "B.k", "A.x"]) as m:
         assert m.columns == ("time", "A.x", "B.x", "B.u", "A.u", "A.k", "B.k")
         res = m.run(0.3, 0.1, progress=True)
     np.testing.assert_array_equal(res["A.k"], 1.0)
@@ -431,13 +428,15 @@ KNM = {"kN.m": 'kg="1" m="2" s="-2" factor="1000"', "N.m": 'kg="1" m="2" s="-2"'
 
 @pytest.mark.parametrize("scheme", ["jacobi", "gauss-seidel"])
 @pytest.mark.parametrize("extrapolation", ["zoh", "linear"])
-def test_connections_convert_between_units_of_one_dimension(fmus, tmp_path, scheme, extrapolation):
+def test_connections_convert_between_units_of_one_dimension(
+    small_fmus, tmp_path, scheme, extrapolation
+):
     """Integrators whose state is declared in kN.m and input in N.m: every connection multiplies
     by 1000, so the loop is the hand-written recurrence with both gains times 1000 (the fixed-step
     Jacobi run is the Python loop: the C loop does not convert), and the recorded inputs are in
     N.m."""
     declared = {"x": "kN.m", "u": "N.m"}
-    knm = tl.fmu_with_units(fmus["integrator"], tmp_path / "knm.fmu", declared, KNM)
+    knm = tl.fmu_with_units(small_fmus["integrator"], tmp_path / "knm.fmu", declared, KNM)
     units = [Unit("A", knm, {"x0": 1.0, "k": 1e-3}), Unit("B", knm, {"x0": 0.0, "k": -1e-3})]
     with Master(units, ["A.x -> B.u", "B.x -> A.u"]) as m:
         conv = {
@@ -460,10 +459,10 @@ def test_connections_convert_between_units_of_one_dimension(fmus, tmp_path, sche
     assert np.allclose(plain["B.x"], b, rtol=1e-13, atol=1e-15)
 
 
-def test_connections_of_different_dimensions_are_refused(fmus, tmp_path):
+def test_connections_of_different_dimensions_are_refused(small_fmus, tmp_path):
     defs = {"rad/s": 's="-1" rad="1"', "N.m": KNM["N.m"]}
     bad = tl.fmu_with_units(
-        fmus["integrator"], tmp_path / "bad.fmu", {"x": "rad/s", "u": "N.m"}, defs
+        small_fmus["integrator"], tmp_path / "bad.fmu", {"x": "rad/s", "u": "N.m"}, defs
     )
     with pytest.raises(
         ValueError,
@@ -475,5 +474,5 @@ def test_connections_of_different_dimensions_are_refused(fmus, tmp_path):
     ):
         Master([Unit("A", bad), Unit("B", bad)], ["A.x -> B.u", "B.x -> A.u"])  # fmt: skip
     # an end without a unit: nothing to check, nothing converted
-    with Master([Unit("A", bad), Unit("B", fmus["integrator"])], ["A.x -> B.u"]) as m:
+    with Master([Unit("A", bad), Unit("B", small_fmus["integrator"])], ["A.x -> B.u"]) as m:
         assert m.system.conversions == {}

@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -41,23 +39,13 @@ from drillstring.orchestration.master import Master, StepControl, Unit
 
 pytestmark = pytest.mark.fmu
 
-HERE = Path(__file__).resolve().parent
 TS = REFERENCE_RIG.t_star
 
 
-@pytest.fixture(scope="module")
-def small(tmp_path_factory) -> dict[str, Path]:
-    """The master's test FMUs (tests/fmus/)."""
-    spec = importlib.util.spec_from_file_location("_native_loop_fmus", HERE / "fmus" / "build.py")
-    build = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(build)
-    return build.build_test_fmus(tmp_path_factory.mktemp("native_loop_fmus"))
-
-
-def integrators(small, a_extra=None, **kw) -> Master:
+def integrators(small_fmus, a_extra=None, **kw) -> Master:
     units = [
-        Unit("A", small["integrator"], {"x0": 1.0, "k": 1.0, **(a_extra or {})}),
-        Unit("B", small["integrator"], {"x0": 0.0, "k": -1.0}),
+        Unit("A", small_fmus["integrator"], {"x0": 1.0, "k": 1.0, **(a_extra or {})}),
+        Unit("B", small_fmus["integrator"], {"x0": 0.0, "k": -1.0}),
     ]
     return Master(units, ["A.x -> B.u", "B.x -> A.u"], **kw)
 
@@ -175,11 +163,11 @@ def test_validity_stop_of_the_plant(built, variant, overrides, cause, monkeypatc
 @pytest.mark.parametrize("exchange", ["propagate", "simple"])
 @pytest.mark.parametrize("extrapolation", ["zoh", "linear"])
 @pytest.mark.parametrize("stop", [2.5, 2.5004], ids=["on-grid", "off-grid"])
-def test_every_grid_option(small, grid, exchange, extrapolation, stop, monkeypatch, spy):
+def test_every_grid_option(small_fmus, grid, exchange, extrapolation, stop, monkeypatch, spy):
     # 2500 steps from 0.1: the sum grid drifts from k*h, several chunks, a short last step (and
     # linear extrapolation over steps of different sizes)
     kw = dict(start_time=0.1, grid=grid, exchange=exchange, extrapolation=extrapolation)
-    with integrators(small, record=["A.k"]) as m:
+    with integrators(small_fmus, record=["A.k"]) as m:
         a, b = both(m, monkeypatch, spy, stop, 1e-3, **kw)
     assert a.completed and a.time[-1] == pytest.approx(stop, abs=1e-9)
     assert_same(a, b)
@@ -220,8 +208,8 @@ def test_grid_points_are_the_grids_step_by_step(t0, t_end, h, ns_grid, sum_grid)
 
 
 @pytest.mark.parametrize("fault, status", [("t_fail", "discard"), ("t_raise", "fatal")])
-def test_unit_failure_after_several_chunks(small, fault, status, monkeypatch, spy):
-    with integrators(small, a_extra={fault: 0.3505}, record=["B.k"]) as m:
+def test_unit_failure_after_several_chunks(small_fmus, fault, status, monkeypatch, spy):
+    with integrators(small_fmus, a_extra={fault: 0.3505}, record=["B.k"]) as m:
         a, b = both(m, monkeypatch, spy, 1.0, 1e-4)
     assert (a.failure.unit, a.failure.function, a.failure.status) == ("A", "fmi2DoStep", status)
     assert abs(a.stats.accepted - 3505) <= 1 and len(a.time) == a.stats.accepted + 1
@@ -277,10 +265,10 @@ def _failing(monkeypatch, unit: str, function: str, vr: int, after: int) -> None
     ids=["exchange-get", "recorder", "extrapolated-set", "exchange-set"],
 )
 def test_error_outside_do_step_after_several_chunks(
-    small, function, var, after, extrapolation, reported, step, time, monkeypatch, spy
+    small_fmus, function, var, after, extrapolation, reported, step, time, monkeypatch, spy
 ):
     unit, name = var.split(".")
-    with integrators(small, record=["A.k"]) as m:
+    with integrators(small_fmus, record=["A.k"]) as m:
         vr = m.system.variables["AB".index(unit)][name].vr
         _failing(monkeypatch, unit, function, vr, after)
         a, b = both(m, monkeypatch, spy, 0.3, 1e-4, extrapolation=extrapolation)
@@ -296,7 +284,7 @@ def test_error_outside_do_step_after_several_chunks(
 # -- progress, fallbacks, the cache --------------------------------------------------------------
 
 
-def test_progress_bar_advances_between_chunks(small, monkeypatch, spy):
+def test_progress_bar_advances_between_chunks(small_fmus, monkeypatch, spy):
     updates = []
 
     class Bar:
@@ -312,7 +300,7 @@ def test_progress_bar_advances_between_chunks(small, monkeypatch, spy):
 
     monkeypatch.setattr(master_module, "tqdm", Bar)
     monkeypatch.setattr(native_loop, "CHUNK", 40)
-    with integrators(small) as m:
+    with integrators(small_fmus) as m:
         res = m.run(1.0, 1e-2, progress=True)
     assert len(spy) == 1 and res.completed
     np.testing.assert_allclose(updates, [0.4, 0.8, 1.0], rtol=1e-12)
@@ -327,16 +315,16 @@ def test_progress_bar_advances_between_chunks(small, monkeypatch, spy):
     ],
     ids=["gauss-seidel", "gauss-seidel-linear", "step-control"],
 )
-def test_unsupported_runs_take_the_python_loop(small, kw, monkeypatch, spy):
+def test_unsupported_runs_take_the_python_loop(small_fmus, kw, monkeypatch, spy):
     monkeypatch.setenv(native_loop.ENV, "1")
-    with integrators(small) as m:
+    with integrators(small_fmus) as m:
         assert m.run(0.5, 0.01, progress=False, **kw).completed
     assert spy == []
 
 
 @pytest.mark.parametrize("cc", [None, "cc --no-such-option"], ids=["no-compiler", "bad-compile"])
 def test_without_a_working_compiler_the_python_loop_runs(
-    small, cc, tmp_path, monkeypatch, spy, caplog
+    small_fmus, cc, tmp_path, monkeypatch, spy, caplog
 ):
     monkeypatch.setenv(native_loop.ENV, "1")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
@@ -346,7 +334,7 @@ def test_without_a_working_compiler_the_python_loop_runs(
         monkeypatch.delenv("CC", raising=False)
     else:
         monkeypatch.setenv("CC", cc)
-    with integrators(small) as m, caplog.at_level("INFO", logger=native_loop.__name__):
+    with integrators(small_fmus) as m, caplog.at_level("INFO", logger=native_loop.__name__):
         ref = m.run(0.5, 0.01, progress=False)
     assert ref.completed and spy == []
     assert "the Python loop runs" in caplog.text
