@@ -1,23 +1,24 @@
 """Fixtures shared by the test modules.
 
-``built`` builds the FMUs and SSP packages once per test session with the real command
-(``build_fmus.py`` in a subprocess, see :func:`fmu_testlib.built_fmus`); every FMU test module
-uses the same build. Two more builds check what needs one: ``designed`` (the build without a
-gains file, :func:`fmu_testlib.designed_fmus`: the synthesis runs, and other gains give another
-closed loop) and the rebuild with a pinned SOURCE_DATE_EPOCH of the determinism test, which
-compares it with the session's build. ``small_fmus`` are the master's small test FMUs
-(``tests/fmus/``), built once for the three modules that use them. The autouse ``_sys_path``
-fixture puts ``sys.path`` back after each test: the FMUs promise to leave it alone (tested), this
-is a second line of defence so that one failing FMU test cannot make the next one import another
-copy of the package.
+``built`` designs the controller and builds the FMUs and SSP packages once per test session
+with the real command (``build_fmus.py`` in a subprocess without a gains file, so the synthesis
+runs first, see :func:`fmu_testlib.built_fmus`); every FMU test module uses this one build.
+Where a test needs a build of its own it builds only the FMUs it needs
+(:func:`fmu_testlib.build_only`): ``other_gains`` (a controller of other gains beside the
+session's plant: other gains give another closed loop) and the determinism test (the plant and
+the controller from the installed package, compared with the session's). ``small_fmus`` are the
+master's small test FMUs (``tests/fmus/``), built once for the three modules that use them. The
+autouse ``_sys_path`` fixture puts ``sys.path`` back after each test: the FMUs promise to leave
+it alone (tested), this is a second line of defence so that one failing FMU test cannot make the
+next one import another copy of the package.
 
 ``clean_home`` is the HOME of the hosts outside this process (the clean-environment hosts of
 ``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
 by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
 copies the package into its cache and compiles numba's kernel there, once for all of them; the
 test of the first compilation reads that run. Tests that use ``clean_home``, ``first_use`` or
-``designed`` are marked ``slow`` here (they need that compilation or a build of their own), and
-every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
+``other_gains`` are marked ``slow`` here (they need that compilation or a build of their own),
+and every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty
@@ -38,7 +39,7 @@ import fmu_testlib as tl
 import pytest
 
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
-SLOW_FIXTURES = {"clean_home", "first_use", "designed"}
+SLOW_FIXTURES = {"clean_home", "first_use", "other_gains"}
 #: Session fixtures of built FMUs.
 FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 
@@ -80,14 +81,15 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="session")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tl.Built:
-    """The FMUs of this session's build (both unit systems), their gains file and folder."""
+    """The FMUs of this session's build (both unit systems), their designed gains file and
+    folder."""
     return tl.built_fmus(tmp_path_factory)
 
 
 @pytest.fixture(scope="session")
-def designed(tmp_path_factory: pytest.TempPathFactory) -> tl.Designed:
-    """The session's second build: without a gains file, so the synthesis designs one first."""
-    return tl.designed_fmus(tmp_path_factory.mktemp("designed"))
+def other_gains(built: tl.Built, tmp_path_factory: pytest.TempPathFactory) -> tl.OtherGains:
+    """The session's plant and a controller built from other gains than the session's."""
+    return tl.other_gains_fmus(built, tmp_path_factory.mktemp("other_gains"))
 
 
 @pytest.fixture(scope="session")

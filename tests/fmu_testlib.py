@@ -1,8 +1,10 @@
 """Shared helpers of the FMU tests (``tests/test_fmu_*.py``; this module is not collected).
 
-* :func:`built_fmus` builds both FMUs once per test session with the real command
-  (``python build_fmus.py --gains ... --out ...`` in a subprocess, so the test process is not
-  touched by pythonfmu's builder) from a gains file made here;
+* :func:`built_fmus` designs the controller and builds the six FMUs and the four SSP packages
+  once per test session with the real command (``python build_fmus.py --gains ... --out ...`` in
+  a subprocess, so the test process is not touched by pythonfmu's builder; the gains file does
+  not exist yet, so the command designs it first); :func:`build_only` builds one or two FMUs
+  more where a test needs a build of its own (other gains, the installed package);
 * :func:`build_small_fmus` builds the master's small test FMUs of ``tests/fmus/``;
 * :class:`Slave` drives one FMU instance with fmpy, records its log messages (formatted as a C
   host formats them) and returns raw statuses;
@@ -53,9 +55,9 @@ from pythonfmu import FmuBuilder
 
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
-from drillstring.apps.export import build_fmus_into
+from drillstring.apps.export import build as builder
 from drillstring.controller.averaged import averaged_model
-from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.controller.gains import PAPER_F, GainsFile, read_gains, write_gains
 from drillstring.model.params import REFERENCE
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 
@@ -113,7 +115,10 @@ class Built:
     controller: Unit
     gains: Path
     out: Path
+    #: F, K0 and R_ff of the gains file
     gains_values: dict[str, Any] = field(default_factory=dict)
+    #: what the build command wrote to stderr
+    build_log: str = ""
     units: str = "scaled"
     feedback: tuple[str, ...] = FEEDBACK
     torque: str = "R_minus_R0"
@@ -162,11 +167,11 @@ def restore_sys_path() -> Iterator[None]:
         yield
 
 
-def make_gains_file(path: Path) -> dict[str, Any]:
+def make_gains_file(path: Path) -> Path:
     """A valid gains file: the paper's F with K0 and R_ff of (27), (31) at an assumed A.
 
-    The FMU tests need a consistent gains file, not a designed one (the synthesis has its own
-    tests); A = 0.45 and taubar_crit = 5 are merely admissible values.
+    Other gains than the session build's designed ones (:func:`other_gains_fmus`): a consistent
+    gains file, not a designed one; A = 0.45 and taubar_crit = 5 are merely admissible values.
     """
     model = averaged_model(REFERENCE, 0.45, 5.0)
     gains = GainsFile(
@@ -182,8 +187,7 @@ def make_gains_file(path: Path) -> dict[str, Any]:
         solver="none (test fixture)",
         solver_status="none",
     )
-    write_gains(gains, path)
-    return {"F": list(PAPER_F), "K0": model.K0, "R_ff": model.R_ff}
+    return write_gains(gains, path)
 
 
 def run_build(
@@ -203,29 +207,57 @@ def run_build(
     return proc
 
 
-@dataclass
-class Designed:
-    """The session's build without a gains file (:func:`designed_fmus`)."""
+def build_only(
+    models: tuple[str, ...],
+    out: str | os.PathLike[str],
+    gains: str | os.PathLike[str],
+    source_date_epoch: int | None = None,
+) -> dict[str, Path]:
+    """:func:`drillstring.apps.export.build.build_fmus` with only the FMUs ``models`` built (the
+    others and the SSP packages left out), in this process; returns {model identifier: path}.
 
-    #: the folder of the FMUs and SSP packages
+    The build proper is ``build_fmus``'s own: the gains file read (or designed when missing),
+    ``SOURCE_DATE_EPOCH`` from the environment unless ``source_date_epoch`` is given, each FMU's
+    build configuration; only the calls of ``build_fmu`` for other FMUs and of
+    ``build_packages`` are skipped. For the tests that need one or two FMUs of a build of their
+    own (the session builds every FMU once, :func:`built_fmus`); the determinism test runs it
+    in a Python that imports the installed package instead of the checkout.
+    """
+    real_fmu, real_packages = builder.build_fmu, builder.build_packages
+
+    def only(spec: Any, *args: Any, **kwargs: Any) -> Path | None:
+        return real_fmu(spec, *args, **kwargs) if spec.model in models else None
+
+    builder.build_fmu, builder.build_packages = only, lambda *args, **kwargs: {}
+    try:
+        built = builder.build_fmus(out, gains, source_date_epoch)
+    finally:
+        builder.build_fmu, builder.build_packages = real_fmu, real_packages
+    assert {m for m, path in built.items() if path is not None} == set(models), built
+    return {m: path for m, path in built.items() if path is not None}
+
+
+@dataclass
+class OtherGains:
+    """The session's plant (scaled) beside a controller built from other gains
+    (:func:`other_gains_fmus`)."""
+
+    #: the folder of the two FMUs
     out: Path
-    #: the gains file the synthesis wrote (absent before the build)
+    #: the gains file of its controller
     gains: Path
 
 
-def designed_fmus(root: Path) -> Designed:
-    """Build the FMUs with ``build_fmus.py --gains MISSING`` (through
-    :func:`drillstring.orchestration.closed_loop.build_fmus_into`): the controller is designed
-    first and its gains file written, then every FMU is built with it.
-
-    The session's second build (conftest's ``designed``; the third is the determinism test's
-    pinned rebuild): ``test_fmu_build`` checks that the synthesis ran and its gains are the
-    controller's, ``test_cosim_figures`` that these other gains give another closed loop, which
-    its monolithic twin follows."""
-    gains = root / "design" / "gains.json"
-    assert not gains.exists()
-    out = build_fmus_into(root / "build", gains)
-    return Designed(out, gains)
+def other_gains_fmus(built: Built, root: Path) -> OtherGains:
+    """``TorsionalController`` built (:func:`build_only`) from the gains of
+    :func:`make_gains_file` (the paper's F at an assumed A), beside a copy of the session's
+    ``DrillStringPlant``: the closed loop of other gains than the session's designed ones, for
+    ``test_cosim_figures`` (a build of its own, so its users are ``slow``)."""
+    gains = make_gains_file(root / "gains.json")
+    out = root / "build"
+    build_only((CONTROLLER,), out, gains)
+    shutil.copyfile(built.plant.fmu, out / built.plant.fmu.name)
+    return OtherGains(out, gains)
 
 
 #: Folder of the session's unpacked FMUs, which every in-process fmpy test uses: its file URI
@@ -244,19 +276,25 @@ def _unit(model: str, fmu: Path, root: Path) -> Unit:
 
 
 def built_fmus(tmp_path_factory: Any) -> Built:
-    """Build the FMUs once per session (cached across the FMU test modules)."""
+    """Design the controller and build the FMUs once per session (cached across the FMU test
+    modules): ``python build_fmus.py --gains GAINS --out OUT`` where GAINS does not exist yet,
+    so the command designs the controller first (the synthesis with its certificate) and writes
+    GAINS, then builds every FMU and SSP package with it."""
     if "built" not in _CACHE:
         root = Path(tmp_path_factory.mktemp("fmus"))
-        gains = root / "gains.json"
-        values = make_gains_file(gains)
+        gains = root / "design" / "gains.json"
+        assert not gains.exists()
         out = root / "build"
-        run_build(out, gains)
+        log = run_build(out, gains).stderr
+        designed = read_gains(gains)
+        values = {"F": list(designed.F), "K0": designed.K0, "R_ff": designed.R_ff}
         scaled = Built(
             plant=_unit(PLANT, out / f"{PLANT}.fmu", root),
             controller=_unit(CONTROLLER, out / f"{CONTROLLER}.fmu", root),
             gains=gains,
             out=out,
             gains_values=values,
+            build_log=log,
             ssp=out / "DrillStringClosedLoop.ssp",
             topdrive=_unit(TOPDRIVE, out / f"{TOPDRIVE}.fmu", root),
             topdrive_ssp=out / "DrillStringTopDrive.ssp",
@@ -267,6 +305,7 @@ def built_fmus(tmp_path_factory: Any) -> Built:
             gains=gains,
             out=out,
             gains_values=values,
+            build_log=log,
             units="si",
             feedback=FEEDBACK_SI,
             torque="table_torque",

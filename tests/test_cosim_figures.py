@@ -160,12 +160,12 @@ def test_twin_reads_the_gains_and_parameters_baked_into_the_fmus(built):
 
 
 @pytest.fixture(scope="module")
-def rebuilt(built, designed):
-    """The FMUs built from other gains: the session's build without a gains file, whose gains
-    the synthesis designed (conftest's ``designed``), and those gains."""
-    gains = read_gains(designed.gains)
+def rebuilt(built, other_gains):
+    """A controller FMU built from other gains than the session's (conftest's ``other_gains``,
+    beside the session's plant), and those gains."""
+    gains = read_gains(other_gains.gains)
     assert gains.F != read_gains(built.gains).F
-    return designed.out, gains
+    return other_gains.out, gains
 
 
 def test_build_gains_change_the_results_and_the_twin_follows(built, rebuilt):
@@ -177,7 +177,7 @@ def test_build_gains_change_the_results_and_the_twin_follows(built, rebuilt):
     change = float(np.max(np.abs(cos_b["plant.dphi"] - cos_a["plant.dphi"])))
     print(
         f"max |dphi change| from the gains: {change:.3e}; co-sim vs twin: "
-        f"{s_a['max_abs_diff_dphi']:.3e} (first build), {s_b['max_abs_diff_dphi']:.3e} (second)"
+        f"{s_a['max_abs_diff_dphi']:.3e} (session build), {s_b['max_abs_diff_dphi']:.3e} (other)"
     )
     assert change > 1e-2  # the build's --gains has an effect on the co-simulation ...
     # ... and the twin describes the same system: the coupling error stays as small as before,

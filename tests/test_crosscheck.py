@@ -9,7 +9,7 @@
   evaluated continuously): first order for zero-order hold, second for linear extrapolation.
 * The step-size-controlled master against the fixed-step one at equal accuracy.
 
-FMUs: built once per session by ``fmu_testlib.built_fmus`` (gains: paper's F, assumed A).
+FMUs: built once per session by ``fmu_testlib.built_fmus`` (gains: the synthesis's).
 """
 
 from __future__ import annotations

@@ -32,6 +32,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from drillstring.apps.export.archive import validate
+from drillstring.apps.export.build import build_packages
 from drillstring.apps.export.front_layer import compile_front_layer, find_compiler, model_header
 from drillstring.apps.export.python_runtime import python_record
 from drillstring.apps.export.specs import BuildError
@@ -377,9 +378,9 @@ def _archive(source: Path | io.BytesIO) -> tuple[list[tuple], set[tuple[int, ...
     Per entry, in the archive's order: the name, every header field the writer sets (compression,
     attributes, system, flags, extra field), the content and its compressed size, with
     generationDateAndTime taken out of a modelDescription.xml (whose compressed size then
-    differs), and an embedded FMU (in an SSP package) taken apart the same way. Two archives with
-    equal results and the same timestamps are the same byte for byte: the archive is written
-    from exactly these."""
+    differs), and an embedded FMU (in an SSP package) taken apart the same way, its timestamps
+    with its content. Two archives with equal results and the same timestamps are the same byte
+    for byte: the archive is written from exactly these."""
     entries, stamps = [], set()
     with zipfile.ZipFile(source) as z:
         for info in z.infolist():
@@ -388,8 +389,7 @@ def _archive(source: Path | io.BytesIO) -> tuple[list[tuple], set[tuple[int, ...
             if info.filename == "modelDescription.xml":
                 data, size = _STAMP.sub(b"", data), None
             elif info.filename.endswith(".fmu"):
-                (data, inner), size = _archive(io.BytesIO(data)), None
-                stamps |= inner
+                data, size = _archive(io.BytesIO(data)), None
             header = (info.compress_type, info.external_attr, info.create_system)
             header += (info.flag_bits, info.extra)
             entries.append((info.filename, header, data, size))
@@ -397,14 +397,40 @@ def _archive(source: Path | io.BytesIO) -> tuple[list[tuple], set[tuple[int, ...
     return entries, stamps
 
 
-@pytest.mark.slow  # a build of its own (the session's build is the first of the two)
+#: SOURCE_DATE_EPOCH of the pinned builds, and the entries' timestamp it gives
+_EPOCH, _EPOCH_STAMP = 1700000000, (2023, 11, 14, 22, 13, 20)
+_MODELS = (tl.PLANT, tl.CONTROLLER, tl.PLANT_SI, tl.CONTROLLER_SI, tl.TOPDRIVE, tl.TOPDRIVE_SI)
+_PACKAGES = (
+    "DrillStringClosedLoop.ssp",
+    "DrillStringClosedLoopSI.ssp",
+    "DrillStringTopDrive.ssp",
+    "DrillStringTopDriveSI.ssp",
+)
+
+
+def _same_but_the_time(pinned: Path, session: Path) -> None:
+    """``pinned`` (built with SOURCE_DATE_EPOCH) is the session's build ``session`` (without)
+    apart from generationDateAndTime and the entries' timestamps: those are SOURCE_DATE_EPOCH in
+    the one, a single fixed time in the other (not the files' times)."""
+    (entries, stamps), (expected, session_stamps) = _archive(pinned), _archive(session)
+    assert entries == expected, f"{pinned.name} differs between two builds"
+    assert stamps == {_EPOCH_STAMP}, (pinned.name, stamps)
+    assert len(session_stamps) == 1, (session.name, session_stamps)
+
+
+@pytest.mark.slow  # a pip install and two FMUs of a build of its own
 def test_rebuild_from_the_installed_package_is_deterministic(built, tmp_path):
-    """The session's build (from the checkout, build time not pinned) and a build with
-    SOURCE_DATE_EPOCH pinned by ``drillstring fmus`` of the package installed from it (a wheel,
-    not editable) in a folder outside the checkout: every FMU and SSP package is the same apart
-    from generationDateAndTime and the entries' timestamps, so two pinned builds are identical
-    byte for byte, and the builder needs nothing of the checkout (its sources are package
-    data)."""
+    """The plant and the LMI controller (one FMU of each script, with the session's gains)
+    built again with SOURCE_DATE_EPOCH pinned by the package installed from the checkout (a
+    wheel, not editable) in a folder outside it are the session's (built from the checkout,
+    build time not pinned) apart from generationDateAndTime and the entries' timestamps, so two
+    pinned builds are identical byte for byte, and the builder needs nothing of the checkout
+    (its sources are package data; every FMU is staged from the same files). The SSP packages
+    written again, pinned, from the session's FMUs are the session's packages the same way.
+
+    The pinned build is ``build_fmus`` restricted to the two FMUs (:func:`fmu_testlib.build_only`:
+    the other four, each a variant of one of the two scripts, and the packages are left out);
+    the installed ``drillstring fmus`` command is run for its help only."""
     site = tmp_path / "site"
     # setuptools builds in the source's build/ folder: install from a copy of the checkout;
     # pip's build tools may write into HOME (rustup's settings where it is on PATH): a HOME of
@@ -418,38 +444,42 @@ def test_rebuild_from_the_installed_package_is_deterministic(built, tmp_path):
          str(source)],
         check=True, capture_output=True, timeout=600, env=pip_env,
     )  # fmt: skip
+    env = {**os.environ, "SOURCE_DATE_EPOCH": str(_EPOCH), "PYTHONPATH": str(site)}
+    command = subprocess.run(
+        [sys.executable, str(site / "bin" / "drillstring"), "fmus", "--help"], env=env,
+        cwd=tmp_path, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert command.returncode == 0 and "--gains" in command.stdout, command
     pinned = tmp_path / "pinned"
-    env = {**os.environ, "SOURCE_DATE_EPOCH": "1700000000", "PYTHONPATH": str(site)}
-    probe = "import drillstring.apps.export as e; print(e.__file__)"
-    where = subprocess.run(
-        [sys.executable, "-c", probe], env=env, cwd=tmp_path, capture_output=True, text=True
+    models = (tl.PLANT, tl.CONTROLLER)
+    script = (
+        f"import sys; sys.path.append({str(tl.ROOT / 'tests')!r}); import fmu_testlib as tl; "
+        "import drillstring.apps.export.build as b; print(b.__file__); "
+        f"tl.build_only({models!r}, {str(pinned)!r}, {str(built.gains)!r})"
     )
-    assert where.stdout.startswith(str(site)), where  # the installed copy, not the checkout
-    command = [str(site / "bin" / "drillstring"), "fmus", "--gains", str(built.gains)]
     proc = subprocess.run(
-        [sys.executable, *command, "--out", str(pinned)], env=env, cwd=tmp_path,
-        capture_output=True, text=True, timeout=600,
+        [sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True,
+        timeout=600,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    models = (tl.PLANT, tl.CONTROLLER, tl.PLANT_SI, tl.CONTROLLER_SI, tl.TOPDRIVE, tl.TOPDRIVE_SI)
-    packages = (
-        "DrillStringClosedLoop.ssp",
-        "DrillStringClosedLoopSI.ssp",
-        "DrillStringTopDrive.ssp",
-        "DrillStringTopDriveSI.ssp",
-    )
-    for name in [f"{m}.fmu" for m in models] + list(packages):
-        (entries, stamps), (session, session_stamps) = (
-            _archive(pinned / name),
-            _archive(built.out / name),
-        )
-        assert entries == session, f"{name} differs between two builds"
-        assert stamps == {(2023, 11, 14, 22, 13, 20)}, (name, stamps)  # SOURCE_DATE_EPOCH
-        assert len(session_stamps) == 1, (name, session_stamps)  # fixed, not the files' times
+    assert proc.stdout.startswith(str(site)), proc.stdout  # the installed copy, not the checkout
+    assert sorted(p.name for p in pinned.iterdir()) == sorted(f"{m}.fmu" for m in models)
     for model in models:
+        _same_but_the_time(pinned / f"{model}.fmu", built.out / f"{model}.fmu")
         assert b'generationDateAndTime="2023-11-14T22:13:20Z"' in _xml(pinned / f"{model}.fmu")
-    guids = {read_model_description(str(pinned / f"{m}.fmu")).guid for m in models}
-    assert len(guids) == len(models)
+    packages = tmp_path / "packages"
+    packages.mkdir()
+    for model in _MODELS:
+        shutil.copyfile(built.out / f"{model}.fmu", packages / f"{model}.fmu")
+    assert sorted(build_packages(packages, _EPOCH)) == sorted(p[:-4] for p in _PACKAGES)
+    for name in _PACKAGES:
+        _same_but_the_time(packages / name, built.out / name)
+
+
+def test_guids_are_distinct(built):
+    """The content-derived GUIDs: one per FMU."""
+    guids = {read_model_description(str(built.out / f"{m}.fmu")).guid for m in _MODELS}
+    assert len(guids) == len(_MODELS)
 
 
 def test_validation_failure_fails_the_build(built, tmp_path):
@@ -476,15 +506,18 @@ def test_bad_gains_file_fails_loudly(tmp_path):
     assert not (tmp_path / "out").exists()  # nothing built
 
 
-def test_missing_gains_file_runs_the_synthesis(designed):
-    """The session's build without a gains file (conftest's ``designed``): the synthesis wrote
-    one where there was none, and the controller FMU's start values are its gains."""
-    designed_gains = read_gains(designed.gains)  # a valid gains file ...
-    md = read_model_description(str(designed.out / f"{tl.CONTROLLER}.fmu"))
+def test_missing_gains_file_runs_the_synthesis(built):
+    """The session's build had no gains file (:func:`fmu_testlib.built_fmus`): the command
+    designed the controller and wrote one, and the controller FMU's start values are its
+    gains."""
+    assert f"no gains file at {built.gains}: designing the controller" in built.build_log
+    designed = read_gains(built.gains)  # a valid gains file ...
+    assert designed.certificate and designed.solver != "none (test fixture)"
+    md = read_model_description(str(built.controller.fmu))
     starts = {v.name: float(v.start) for v in md.modelVariables if v.type == "Real" and v.start}
     # ... and the FMU's start values are its gains
-    assert [starts[f"F[{i}]"] for i in range(1, 5)] == list(designed_gains.F)
-    assert (starts["K0"], starts["R_ff"]) == (designed_gains.K0, designed_gains.R_ff)
+    assert [starts[f"F[{i}]"] for i in range(1, 5)] == list(designed.F)
+    assert (starts["K0"], starts["R_ff"]) == (designed.K0, designed.R_ff)
 
 
 def test_missing_compiler_fails_the_build_with_the_reason(tmp_path, monkeypatch):
