@@ -48,7 +48,7 @@ from drillstring.model.engine import (
 )
 from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, PhysicalParams, ScaledParams
-from drillstring.model.units import PLANT_SI, SIScaling
+from drillstring.model.units import PLANT_SI, SIScaling, si_scale
 
 SCALED, SI = units.SCALED, units.SI
 declare = units.declare
@@ -236,6 +236,14 @@ def _declarations() -> tuple[units.Declared, ...]:
 
 
 DECLARED = _declarations()
+#: The engine options among the FMU's variables and their dimension (the same name in both unit
+#: systems): the engine takes them scaled.
+_OPTION_DIMENSIONS = {d.scaled: d.dimension for d in DECLARED if d.scaled in ("h", "event_tol")}
+
+
+def _si_factor(scaling: SIScaling, dimension: str) -> float:
+    """The factor from scaled to SI values of ``dimension`` on the rig of ``scaling``."""
+    return si_scale(dimension, scaling.rig.C, scaling.t_star, scaling.L_star)
 
 
 def _validity(si: bool) -> tuple[str, str]:
@@ -310,36 +318,42 @@ class PlantFmu(fmu.FmuModel):
     def engine_setup(
         self, v: Mapping[str, Any]
     ) -> tuple[ScaledParams, EngineOptions, Mapping[str, float]]:
-        """The engine's parameters, options and initial perturbation from the FMU's values."""
+        """The engine's parameters, options and initial perturbation from the FMU's values.
+
+        The options ``h`` and ``event_tol`` are converted by the dimension their variables
+        declare (:data:`_OPTION_DIMENSIONS`, time: divided by t* of the FMU's rig in SI)."""
         on_invalid = ON_INVALID[v["on_invalid"] - 1][0]
         initial = {key: float(v[name]) for name, key, _, _ in _INITIAL}
+        scaling = None
         if self.UNIT_SYSTEM != SI:
             params = ScaledParams(n=v["n"], **{f: v[name] for name, f, *_ in _SCALED})
-            options = EngineOptions(
-                h=v["h"], torsional_stick=bool(v["torsional_stick_model"]),
-                on_invalid=on_invalid, event_tol=v["event_tol"], keep_events=False,
-            )  # fmt: skip
-            return params, options, initial
-        rig = PhysicalParams(n=v["n"], **{name: v[name] for name, *_ in _PHYSICAL})
-        scaling = SIScaling(rig)  # raises for a rig whose scaled set is invalid (beta > 1)
-        speed = rig.Omega0 + v["dphi0"]
-        if not speed > 0.0:
-            raise ValueError(
-                f"the initial bit speed Omega0 + dphi0 = {speed!r} rad/s is not > 0: the model "
-                "needs a rotating bit (torsional stick at t = 0)"
-            )
-        tol = scaling.tau(v["event_tol"])
-        if not tol <= _EVENT_TOL_MAX:
+        else:
+            rig = PhysicalParams(n=v["n"], **{name: v[name] for name, *_ in _PHYSICAL})
+            scaling = SIScaling(rig)  # raises for a rig whose scaled set is invalid (beta > 1)
+            speed = rig.Omega0 + v["dphi0"]
+            if not speed > 0.0:
+                raise ValueError(
+                    f"the initial bit speed Omega0 + dphi0 = {speed!r} rad/s is not > 0: the "
+                    "model needs a rotating bit (torsional stick at t = 0)"
+                )
+            params = scaling.scaled
+            initial = dataclasses.asdict(scaling.initial_to_scaled(initial))
+        scaled = {
+            name: v[name] if scaling is None else v[name] / _si_factor(scaling, dimension)
+            for name, dimension in _OPTION_DIMENSIONS.items()
+        }
+        if scaling is not None and not scaled["event_tol"] <= _EVENT_TOL_MAX:
             raise ValueError(
                 f"event_tol = {v['event_tol']!r} s is above 1e-10 t* = "
                 f"{_EVENT_TOL_MAX * scaling.t_star!r} s"
             )
         options = EngineOptions(
-            h=scaling.tau(v["h"]), torsional_stick=bool(v["torsional_stick_model"]),
-            on_invalid=on_invalid, event_tol=tol, keep_events=False,
+            **scaled, torsional_stick=bool(v["torsional_stick_model"]), on_invalid=on_invalid,
+            keep_events=False,
         )  # fmt: skip
-        self.scaling = scaling
-        return scaling.scaled, options, dataclasses.asdict(scaling.initial_to_scaled(initial))
+        if scaling is not None:
+            self.scaling = scaling
+        return params, options, initial
 
     def engine_input(self) -> float:
         """The engine's input R - R0 (scaled) from the FMU's input."""
