@@ -300,7 +300,8 @@ class Front(NamedTuple):
     """What the front layer gives the slave of one instance: the instance (its ``Component``) and
     the addresses of two C functions of the layer (``fmu_src/fmi_front``), to be called through
     ctypes with the GIL held: ``fast(component, descriptor, length)`` (``ds_front_fast``: the
-    native fast path) and ``log(component, status, category, message)`` (``ds_front_log``)."""
+    native fast path) and ``log(component, status, category, message, reached)``
+    (``ds_front_log``; ``reached``: NULL or the time a discarded step reached)."""
 
     component: int
     fast: int

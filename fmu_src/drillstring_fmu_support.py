@@ -22,13 +22,13 @@ which state, before anything reaches Python. This module checks *values*. It nev
 pythonfmu (that would be ``fmi2Fatal`` and destroy the instance): a rejected call logs a message
 with status ``fmi2Error``, applies nothing and returns normally; the layer learns the call's
 status from the log records of that call and returns ``fmi2Error`` from it. ``fmi2Warning`` and
-``fmi2Discard`` (the model left its validity inside a step) work the same way. After a discarded
-step an internal record (category :data:`RECORD_CATEGORY`, never shown to the host) tells the
-layer the time the FMU reached, for ``fmi2GetRealStatus(fmi2LastSuccessfulTime)``.
+``fmi2Discard`` (the model left its validity inside a step) work the same way; the message of a
+discarded step hands the layer the time the FMU reached with it, a double in the same typed call,
+for ``fmi2GetRealStatus(fmi2LastSuccessfulTime)``.
 
 **Typed calls into the layer.** At ``fmi2Instantiate`` the layer gives the slave it is making the
 addresses of two of its C functions (:class:`drillstring_fmu_boot.Front`); the slave calls them
-through ctypes: its log messages and records go to the layer directly (pythonfmu 0.7.0 keeps a
+through ctypes: its log messages go to the layer directly (pythonfmu 0.7.0 keeps a
 reference to every message that passes its log queue, so each would live forever), and at the
 end of each call while stepping it hands over the descriptor of its native fast path
 (:class:`FastPath`) with its length, which the layer checks before using it. At
@@ -72,7 +72,6 @@ from drillstring.validation import check_int, check_real
 
 CONFIG_FILE = "drillstring_fmu.json"
 #: Category of the records meant for the front layer only (never forwarded to the host).
-RECORD_CATEGORY = "drillstringRecord"
 #: Log categories of every drillstring FMU (modelDescription.xml ``LogCategories``).
 LOG_CATEGORIES: dict[str, str] = {
     "logStatusWarning": "Warnings (status fmi2Warning); always reported",
@@ -91,7 +90,6 @@ __all__ = [
     "FastPath",
     "FmuState",
     "LOG_CATEGORIES",
-    "RECORD_CATEGORY",
     "StepResult",
     "Variable",
     "enumeration",
@@ -299,7 +297,12 @@ _FAST_TYPES = {"Real": 0, "Integer": 1}
 #: The front layer's typed calls (:class:`drillstring_fmu_boot.Front`), called with the GIL held.
 _FAST_CALL = ctypes.PYFUNCTYPE(ctypes.c_int32, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t)
 _LOG_CALL = ctypes.PYFUNCTYPE(
-    ctypes.c_int32, ctypes.c_void_p, ctypes.c_int32, ctypes.c_char_p, ctypes.c_char_p
+    ctypes.c_int32,
+    ctypes.c_void_p,
+    ctypes.c_int32,
+    ctypes.c_char_p,
+    ctypes.c_char_p,
+    ctypes.POINTER(ctypes.c_double),
 )
 
 
@@ -498,9 +501,13 @@ class FmuModel(Fmi2Slave):
         status: Fmi2Status = Fmi2Status.ok,
         category: str | None = None,
         debug: Any = None,
+        *,
+        reached: float | None = None,
     ) -> None:
         """pythonfmu's ``log``, through the front layer's typed call when there is one (the
-        module docstring says why); ``category`` defaults to pythonfmu's choice."""
+        module docstring says why); ``category`` defaults to pythonfmu's choice; ``reached``: the
+        time the FMU reached in the step this message discards, for the layer's
+        ``fmi2LastSuccessfulTime`` (without a layer, nobody asks for it)."""
         call, front = self._log_call, self._front
         if call is None or front is None:
             super().log(msg, status, category, debug)
@@ -510,7 +517,8 @@ class FmuModel(Fmi2Slave):
             if category not in self.log_categories:
                 category = "logAll"
         text = msg.encode("utf-8", "backslashreplace")
-        call(front.component, int(status), category.encode("utf-8"), text)
+        time = None if reached is None else ctypes.byref(ctypes.c_double(reached))
+        call(front.component, int(status), category.encode("utf-8"), text, time)
 
     def _error(self, msg: str) -> None:
         self.log(msg, Fmi2Status.error, "logStatusError")
@@ -740,8 +748,8 @@ class FmuModel(Fmi2Slave):
                     f"{result.reached!r} and the outputs hold the state there",
                     Fmi2Status.discard,
                     "logStatusDiscard",
+                    reached=result.reached,
                 )
-                self.log(f"time {result.reached!r}", Fmi2Status.ok, RECORD_CATEGORY)
                 ok = False
         return ok
 

@@ -88,7 +88,6 @@ extern const char *const DS_LOG_CATEGORIES[DS_N_LOG_CATEGORIES + 1]; /* NULL-ter
 
 #define BOOT_MODULE "drillstring_fmu_boot"
 #define RUNTIME_FILE "drillstring_fmu_python.cfg"
-#define RECORD_CATEGORY "drillstringRecord"
 #define COMPONENT_MAGIC 0x44534649324d4f43ULL /* "COM2IFSD" */
 
 /* ---- states of the co-simulation state machine (FMI 2.0, section 4.2.4) ---------------------- */
@@ -160,8 +159,8 @@ typedef struct Component {
     int logging_on, logging_on_at_instantiation;
     unsigned char category_on[DS_N_LOG_CATEGORIES + 1];
     fmi2Status call_status; /* worst status logged during the current call */
-    int has_record;
-    double record_time;
+    int has_reached;  /* the slave told the time it reached in the current call's step ... */
+    double reached;   /* ... which it discarded (ds_front_log) */
     double last_time; /* fmi2LastSuccessfulTime */
     Fast fast;
 } Component;
@@ -179,9 +178,11 @@ void ds_emit(Component *c, fmi2Status status, const char *category, const char *
 /* Format, count into the call's status, forward. */
 __attribute__((format(printf, 3, 4))) void ds_logf(Component *c, fmi2Status status,
                                                    const char *fmt, ...);
-/* The slave's messages and records (the typed call the Python side makes through ctypes, see
-   runtime.c; status an fmi2Status): 0, 1 (not a message), -1 (not an instance). */
-int32_t ds_front_log(void *component, int32_t status, const char *category, const char *message);
+/* The slave's messages (the typed call the Python side makes through ctypes, see runtime.c;
+   status an fmi2Status); `reached` NULL, or the time the FMU reached in the step it discards with
+   this message (fmi2LastSuccessfulTime): 0, 1 (not a message), -1 (not an instance). */
+int32_t ds_front_log(void *component, int32_t status, const char *category, const char *message,
+                     const double *reached);
 /* The logger pythonfmu calls (its own messages; the slave's if it has no typed call). */
 void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                      fmi2String category, fmi2String message, ...);

@@ -363,7 +363,7 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPo
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2DoStep", MASK_DoStep)) return fmi2Error;
-    c->has_record = 0;
+    c->has_reached = 0;
     if (ds_fast_step(c, currentCommunicationPoint, communicationStepSize)) {
         c->last_time = currentCommunicationPoint + communicationStepSize;
         return fmi2OK;
@@ -374,7 +374,7 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPo
                                                    noSetFMUStatePriorToCurrentPoint));
     if (s == fmi2Discard) {
         c->state = ST_STEP_FAILED;
-        c->last_time = c->has_record ? c->record_time : currentCommunicationPoint;
+        c->last_time = c->has_reached ? c->reached : currentCommunicationPoint;
     } else if (s <= fmi2Warning) {
         c->last_time = currentCommunicationPoint + communicationStepSize;
     }

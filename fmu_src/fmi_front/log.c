@@ -4,8 +4,8 @@
  * Warnings, discards and errors always reach the host, info only when logging is on for its
  * category. The Python slave reports problems as log messages (it never raises into pythonfmu):
  * each message's status counts into the status of the call in which it is logged
- * (Component.call_status, see ds_finish in front.c). Records of the category RECORD_CATEGORY are
- * meant for the layer only and never forwarded.
+ * (Component.call_status, see ds_finish in front.c). The message of a discarded step comes with
+ * the time the FMU reached, as a double (for fmi2LastSuccessfulTime, see fmi2DoStep in front.c).
  */
 #include "drillstring_fmi2.h"
 
@@ -115,22 +115,16 @@ void ds_logf(Component *c, fmi2Status status, const char *fmt, ...)
     va_end(args);
 }
 
-int32_t ds_front_log(void *component, int32_t status, const char *category, const char *message)
+int32_t ds_front_log(void *component, int32_t status, const char *category, const char *message,
+                     const double *reached)
 {
     Component *c = component;
     if (!c || c->magic != COMPONENT_MAGIC) return -1;
     if (!message || status < (int32_t)fmi2OK || status > (int32_t)fmi2Pending) return 1;
     const fmi2Status st = (fmi2Status)status;
-    if (category && strcmp(category, RECORD_CATEGORY) == 0) {
-        char *end = NULL;
-        if (strncmp(message, "time ", 5) == 0) {
-            const double t = strtod(message + 5, &end);
-            if (end && *end == '\0') {
-                c->record_time = t;
-                c->has_record = 1;
-            }
-        }
-        return 0;
+    if (reached) {
+        c->reached = *reached;
+        c->has_reached = 1;
     }
     if (st > c->call_status && st != fmi2Pending) c->call_status = st;
     ds_emit(c, st, category, message);
@@ -143,5 +137,5 @@ void ds_slave_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Stat
                      fmi2String category, fmi2String message, ...)
 {
     (void)instance;
-    ds_front_log(env, (int32_t)status, category, message);
+    ds_front_log(env, (int32_t)status, category, message, NULL);
 }
