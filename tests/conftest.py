@@ -29,6 +29,16 @@ that this default applies. At the end of the session HOME must still be empty: a
 a path that would have gone into the user's real home; and that cache must hold no copy of the
 package (an FMU in this process uses the package already imported; a copy there is a host
 outside the process that compiled the kernel a second time instead of using ``clean_home``).
+
+One thing is written elsewhere, on purpose: numba's cache of what this process compiles (the
+kernel, the digital controller, the FMUs' entry points: ``*.nbi``/``*.nbc`` in the
+``__pycache__`` folders of ``drillstring/model``, ignored by git), where every use of the package
+from the checkout keeps it (``make demo``, the command line). numba keys that cache by the
+source's folder, and ``NUMBA_CACHE_DIR`` only moves it: in a folder of the session every session
+would compile again (``make test-fast`` took 193 s instead of 64 s on 2 shared cores); in a
+folder that outlives the session it would still be written outside pytest's folders, and the
+check that drops a stale kernel cache (:func:`drillstring.model.kernel.jit.refresh_cache`) knows
+the default place only.
 """
 
 from __future__ import annotations
