@@ -15,9 +15,18 @@ import math
 import numpy as np
 import pytest
 
-from drillstring.analysis.severity import severity_metrics
+from drillstring.analysis.severity import (
+    MIN_WINDOW_PERIODS,
+    SLOWEST_PERIOD,
+    axial_average,
+    axial_period,
+    severity_metrics,
+)
 from drillstring.apps.controllers import (
     COMPARISON_COLUMNS,
+    COMPARISON_TAU_END,
+    COMPARISON_WINDOW,
+    controller_map_spec,
     controllers_main,
     wob_range,
     write_controller_comparison,
@@ -34,6 +43,7 @@ from drillstring.apps.sweep.studies import (
     axial_design,
     evaluate_point,
     linear_boundary,
+    point_controllers,
 )
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import design_constrained
@@ -107,6 +117,7 @@ def _spec(paper, constrained, *, tau_end=20.0, sweep=None, **options):
                 "gains": str(paper[1]),
                 "gains_constrained": str(constrained[1]),
                 "window": 5.0,
+                "min_periods": 0.0,  # short runs: the mechanics, not the classification
                 **options,
             },
         }
@@ -191,6 +202,58 @@ def test_a_map_row_is_the_metrics_of_the_runs(serial_map, paper_gains, constrain
     assert row["best"] in MAP_CONTROLLERS
     assert float(row["lmi_gain_norm"]) == pytest.approx(math.hypot(*PAPER_F), rel=1e-12)
     assert float(row["V0"]) == rig.V0 and float(row["Omega0"]) == rig.Omega0
+
+
+def _late_period(run, params, t0):
+    """Median period of the bit speed averaged over the axial cycle over [t0, end]: the time
+    between its upward crossings of its mean (the torsional oscillation, stick-slip or not)."""
+    period = axial_period(run.events, t0, run.tau[-1], 2.0 * math.pi / params.eta)
+    ta, wa = axial_average(run.tau, params.omega0 + run.dphi, period)
+    late = ta >= t0
+    t, x = ta[late], wa[late] - np.mean(wa[late])
+    up = t[1:][(x[:-1] < 0.0) & (x[1:] >= 0.0)]
+    gaps = np.diff(up)
+    gaps = gaps[gaps > 2.0]  # crossings of the axial ripple's remainder within one period
+    assert len(gaps) >= 10, gaps
+    return float(np.median(gaps))
+
+
+def test_the_map_window_holds_five_periods_of_the_slowest_stick_slip(paper_gains, tmp_path):
+    """The default window holds MIN_WINDOW_PERIODS periods of the slowest oscillation the map
+    classifies: the stiff PI's stick-slip, measured at the map's slow corner (30 rpm, the top
+    of the default WOB range: the longest period over the map) and at the reference rig's own
+    point; a shorter window is refused naming its value, and the trend test's two windows fit
+    after the switch-on."""
+    spec = controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"])
+    window, tau_end = spec.options["window"], spec.tau_end
+    assert window == COMPARISON_WINDOW and 2.0 * window <= tau_end - spec.options["t_on"]
+    rig = REFERENCE_RIG
+    points = {"slow corner": {"rpm": 30.0, "W0_kN": wob_range(rig)[1]},
+              "reference": {"rpm": RPM0, "W0_kN": W0_KN}}  # fmt: skip
+    periods = {}
+    for label, values in points.items():
+        p = spec.params_at(values)
+        d = axial_design(p)
+        model = averaged_model(p, d.A, d.taubar_crit)
+        pi = point_controllers(p, model, spec.options, spec.physical_at(values))[0]["stiff-pi"]
+        r = simulate_sampled(
+            p, pi, tau_end, 1e-3, initial={"dphi": -0.5 * p.omega0},
+            options=EngineOptions(torsional_stick=True),
+        )  # fmt: skip
+        assert r.status.ok, (label, r.status)
+        periods[label] = _late_period(r, p, tau_end / 2.0)
+    # slower than the string with the table held (2 pi), within the bound the check uses
+    for label, T in periods.items():
+        assert 2.0 * math.pi < T <= SLOWEST_PERIOD, (label, T)
+        assert window / T >= MIN_WINDOW_PERIODS, (label, T, window / T)
+    assert periods["slow corner"] > periods["reference"]
+    # a window of 30 (4.3 periods) is refused, in the map and in the comparison
+    with pytest.raises(SweepSpecError, match=r"options.window = 30.0 holds 4.29 periods"):
+        controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"], window=30.0)
+    with pytest.raises(ValueError, match=r"window = 30.0 holds 4.29 periods"):
+        write_controller_comparison(tmp_path, paper_gains[0], window=30.0, log=None)
+    # the comparison's two windows follow Fig. 6's switch-on at tau = 25
+    assert 2.0 * COMPARISON_WINDOW <= COMPARISON_TAU_END - 25.0
 
 
 def test_the_derived_axes_by_hand():
@@ -365,7 +428,7 @@ def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
         ({"Ts": 1e-4}, "options.h = 0.0005 must not exceed options.Ts = 0.0001"),
         ({"dt_out": 0.0125, "Ts": 0.01}, "options.dt_out = 0.0125 is not a multiple"),
         ({"dphi0_rel": -1.0}, "options.dphi0_rel must be > -1, got -1.0"),
-        ({"t_on": 16.0}, r"options.t_on = 16.0 must lie in \[0, tau_end - window\]"),
+        ({"t_on": 11.0}, r"options.t_on = 11.0 must lie in \[0, tau_end - 2 window\] = \[0, 10"),
         ({"latch": "twist"}, "options.latch must be one of"),
         ({"tie": -0.1}, "options.tie must be >= 0"),
         ({"Ts": 0.007, "h": 1e-3, "dt_out": 0.007}, "tau_end = 20.0 is not a multiple"),
@@ -386,7 +449,12 @@ def test_the_constrained_gains_file_must_hold_a_constrained_design(paper_gains, 
     base = {"kind": "scaled", **REFERENCE.replace(psi=300.0).to_dict()}
     sweep = [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]
     data = {"study": "controllers", "base": base, "tau_end": 20.0, "sweep": sweep}
-    options = {"gains": str(paper_gains[1]), "controllers": ["soft-speed"], "window": 5.0}
+    options = {
+        "gains": str(paper_gains[1]),
+        "controllers": ["soft-speed"],
+        "window": 5.0,
+        "min_periods": 0.0,
+    }
     with pytest.raises(SweepSpecError, match="a scaled set of no known rig"):
         spec_from_dict({**data, "options": options})
     spec = spec_from_dict({**data, "options": {**options, "top_drive": "50R0"}})
@@ -436,7 +504,7 @@ def test_comparison_starts_every_controller_from_the_same_state(
 ):
     result = write_controller_comparison(
         tmp_path, paper_gains[0], designed_constrained, experiment=SHORT_FIG6, tau_end=8.0,
-        window=1.0, log=None,
+        window=1.0, min_periods=0.0, log=None,
     )  # fmt: skip
     names = [r["controller"] for r in result.rows]
     assert names == ["open-loop", *RIG_CONTROLLERS, "lmi-unlimited"]
@@ -473,7 +541,7 @@ def test_comparison_starts_every_controller_from_the_same_state(
 def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path):
     result = write_controller_comparison(
         tmp_path, paper_gains[0], experiment=SHORT_FIG6, tau_end=8.0, window=1.0,
-        top_drive="none", log=None,
+        min_periods=0.0, top_drive="none", log=None,
     )  # fmt: skip
     rows = {r["controller"]: r for r in result.rows}
     assert "lmi-constrained" not in rows  # no constrained design given
@@ -482,7 +550,8 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
     )
     with pytest.raises(ValueError, match="2 window = 4.0 reaches back before the switch-on"):
         write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
-                                    tau_end=8.0, window=2.0, log=None)  # fmt: skip
+                                    tau_end=8.0, window=2.0, min_periods=0.0,
+                                    log=None)  # fmt: skip
 
 
 def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
@@ -505,6 +574,8 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
         "2",
         "--window",
         "1",
+        "--min-periods",
+        "0",
         "--workers",
         "0",
         "--no-progress",

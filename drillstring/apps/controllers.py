@@ -33,13 +33,19 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.analysis.severity import OUTCOMES, severity_metrics
+from drillstring.analysis.severity import (
+    MIN_WINDOW_PERIODS,
+    OUTCOMES,
+    check_window,
+    severity_metrics,
+)
 from drillstring.apps.colors import CONTROLLER_COLORS
 from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
 from drillstring.apps.sweep.spec import (
     CONSTRAINED_CONTROLLERS,
     MAP_CONTROLLERS,
+    MAP_WINDOW,
     SweepSpec,
     SweepSpecError,
     spec_from_dict,
@@ -107,9 +113,11 @@ OPEN_LOOP = "open-loop"
 LMI_UNLIMITED = "lmi-unlimited"
 #: How each row measures (``sensing`` column).
 SENSING_TEXT = {OPEN_LOOP: "-", **SENSING, LMI_UNLIMITED: SENSING["lmi"]}
-#: The comparison's run: Fig. 6's switch-on at tau = 25, then 75 (13 torsional periods).
+#: The comparison's run: Fig. 6's switch-on at tau = 25, then 75 (12 torsional periods), the
+#: metrics over the last 35 (five periods of the slowest stick-slip, as the maps) and the trend
+#: test's window before it, both after the switch-on.
 COMPARISON_TAU_END = 100.0
-COMPARISON_WINDOW = 30.0
+COMPARISON_WINDOW = MAP_WINDOW
 
 
 def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
@@ -262,6 +270,7 @@ def write_controller_comparison(
     tau_end: float = COMPARISON_TAU_END,
     Ts: float = DEFAULT_TS,
     window: float = COMPARISON_WINDOW,
+    min_periods: float = MIN_WINDOW_PERIODS,
     top_drive: str = "tds-11sa",
     tuning: Tuning | None = None,
     rig: PhysicalParams | None = None,
@@ -295,6 +304,10 @@ def write_controller_comparison(
         Sample period of the digital controllers (scaled).
     window : float
         Late window of the metrics (scaled time).
+    min_periods : float
+        Periods of the slowest oscillation (:data:`~drillstring.analysis.severity.
+        SLOWEST_PERIOD`) the window must hold (:func:`~drillstring.analysis.severity.
+        check_window`; 0: none, for a quick run whose outcomes are not to be trusted).
     top_drive : str
         The drive of every controller (:func:`~drillstring.model.topdrive.top_drive_from_spec`,
         or "none").
@@ -309,11 +322,17 @@ def write_controller_comparison(
     Returns
     -------
     Comparison
+
+    Raises
+    ------
+    ValueError
+        A bad value (named), a window shorter than ``min_periods`` periods of the slowest
+        stick-slip or than the trend test needs after the switch-on, no rig for the gains.
     """
     g = _gains(gains)
     gc = None if constrained is None else _gains(constrained)
     Ts = check_real("Ts", Ts, lower=0.0)
-    window = check_real("window", window, lower=0.0)
+    window = check_window(window, periods=min_periods)
     tau_end = check_real("tau_end", tau_end, lower=0.0)
     t_on = experiment.t_on
     if 2.0 * window > tau_end - t_on:
@@ -502,7 +521,8 @@ def controller_map_spec(
     rpm: tuple[float, float] = MAP_RPM,
     wob_kN: tuple[float, float] | None = None,
     tau_end: float = 200.0,
-    window: float = 30.0,
+    window: float = MAP_WINDOW,
+    min_periods: float = MIN_WINDOW_PERIODS,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
 ) -> SweepSpec:
@@ -536,6 +556,7 @@ def controller_map_spec(
         "gains": str(Path(gains_path).resolve()),
         "feedforward": "point",
         "window": window,
+        "min_periods": min_periods,
         "Ts": Ts,
         "dphi0_rel": dphi0_rel,
     }
@@ -573,7 +594,8 @@ def write_controller_map(
     rpm: tuple[float, float] = MAP_RPM,
     wob_kN: tuple[float, float] | None = None,
     tau_end: float = 200.0,
-    window: float = 30.0,
+    window: float = MAP_WINDOW,
+    min_periods: float = MIN_WINDOW_PERIODS,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
     serial: bool = False,
@@ -614,9 +636,10 @@ def write_controller_map(
         Range of the surface speed [rpm].
     wob_kN : (float, float), optional
         Range of the nominal weight on bit [kN] (default: :func:`wob_range` of the rig).
-    tau_end, window, Ts, dphi0_rel : float
-        Run length, late window, sample period, initial bit speed as a fraction of omega0
-        (options of the study, :mod:`drillstring.apps.sweep.spec`).
+    tau_end, window, min_periods, Ts, dphi0_rel : float
+        Run length, late window, the periods of the slowest stick-slip the window must hold,
+        sample period, initial bit speed as a fraction of omega0 (options of the study,
+        :mod:`drillstring.apps.sweep.spec`).
     serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
@@ -644,6 +667,7 @@ def write_controller_map(
         wob_kN=wob_kN,
         tau_end=tau_end,
         window=window,
+        min_periods=min_periods,
         Ts=Ts,
         dphi0_rel=dphi0_rel,
     )
@@ -701,6 +725,19 @@ def _parser() -> argparse.ArgumentParser:
         )
         p.add_argument("--out", type=Path, required=True, help="output folder")
         p.add_argument("--Ts", type=float, default=DEFAULT_TS, help="sample period (scaled)")
+        p.add_argument(
+            "--window",
+            type=float,
+            default=MAP_WINDOW,
+            help=f"late window of the metrics (scaled; default {MAP_WINDOW:g})",
+        )
+        p.add_argument(
+            "--min-periods",
+            type=float,
+            default=MIN_WINDOW_PERIODS,
+            help="periods of the slowest stick-slip (7 in scaled time) the window must hold "
+            f"(default {MIN_WINDOW_PERIODS}; 0 for a quick run whose outcomes are not trusted)",
+        )
     c = sub.choices["compare"]
     c.add_argument(
         "--constrained",
@@ -715,15 +752,11 @@ def _parser() -> argparse.ArgumentParser:
         help="top drive of every controller: a rating (tds-11sa), 50R0, 52kNm, or none",
     )
     c.add_argument("--tau-end", type=float, default=COMPARISON_TAU_END, help="run length")
-    c.add_argument(
-        "--window", type=float, default=COMPARISON_WINDOW, help="late window of the metrics"
-    )
     m = sub.choices["map"]
     m.description = m.description + (
         ": surface speed [rpm] x nominal weight on bit [kN] on the design's rig, every controller "
         "under one top drive (feed: imposed rate of penetration chosen for the nominal WOB)"
     )
-    m.add_argument("--window", type=float, default=30.0, help="late window of the metrics")
     m.add_argument("--n", type=int, default=25, help="points per axis (default 25)")
     m.add_argument(
         "--rpm",
@@ -806,6 +839,7 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
                 constrained,
                 Ts=args.Ts,
                 window=args.window,
+                min_periods=args.min_periods,
                 tau_end=args.tau_end,
                 top_drive=args.top_drive,
             )
@@ -825,6 +859,7 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
             wob_kN=None if args.wob is None else tuple(args.wob),
             tau_end=args.tau_end,
             window=args.window,
+            min_periods=args.min_periods,
             Ts=args.Ts,
             serial=args.workers == 0,
             workers=args.workers or None,

@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from drillstring.analysis.limit_cycles import fast_params
+from drillstring.analysis.severity import MIN_WINDOW_PERIODS, SLOWEST_PERIOD, check_window
 from drillstring.apps.sweep.metrics import plottable
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.controller.lineup import FEEDFORWARD, RIG_CONTROLLERS
@@ -82,6 +83,7 @@ __all__ = [
     "FEED_FOR_WOB",
     "FEED_IMPOSED",
     "MAP_CONTROLLERS",
+    "MAP_WINDOW",
     "OPTION_DEFAULTS",
     "PHYSICAL_DERIVED",
     "STUDIES",
@@ -117,6 +119,10 @@ FEED_FOR_WOB = "feed: imposed rate of penetration (hook speed) chosen for the no
 #: The controllers a map runs by default (of :data:`~drillstring.controller.lineup.
 #: RIG_CONTROLLERS`).
 MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained")
+#: The late window of the controllers study's metrics (scaled time): :data:`~drillstring.
+#: analysis.severity.MIN_WINDOW_PERIODS` periods of the slowest oscillation it classifies
+#: (:data:`~drillstring.analysis.severity.SLOWEST_PERIOD`, the stick-slip): 35.
+MAP_WINDOW = MIN_WINDOW_PERIODS * SLOWEST_PERIOD
 #: The controllers with the input-constrained gain (option ``gains_constrained``).
 CONSTRAINED_CONTROLLERS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
 AXIAL_NAMES = ("gammabar", "etabar2", "taubar_n")
@@ -145,7 +151,9 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     # drive of every controller (a spec of top_drive_from_spec, or "none"); Ts: sample period
     # of the laws; dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch:
     # switch-on of every law; window: late window of the metrics (the trend test compares it
-    # with the window before); gains, gain_max, feedforward: the paper-style LMI gain as in the
+    # with the window before, both after t_on); min_periods: the periods of the slowest
+    # oscillation (the stick-slip, SLOWEST_PERIOD) the window must hold (0 for a quick run that
+    # is not to be classified); gains, gain_max, feedforward: the paper-style LMI gain as in the
     # closed-loop study (feedforward "point": K0 and R_ff of the point, shared by every law);
     # gains_constrained: the input-constrained design's gains file (F fixed, K0 and R_ff as
     # feedforward says); tie: severity difference treated as equal when ranking;
@@ -159,7 +167,8 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
         "dphi0_rel": -0.5,
         "t_on": 0.0,
         "latch": "angle",
-        "window": 30.0,
+        "window": MAP_WINDOW,
+        "min_periods": MIN_WINDOW_PERIODS,
         "gains": "design",
         "gains_constrained": None,
         "gain_max": None,
@@ -677,7 +686,7 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
         where = f"options.{key}"
         if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max", "Ts"):
             out[key] = _real(where, v, lower=0.0)
-        elif key in ("tie", "vibration_tol"):
+        elif key in ("tie", "vibration_tol", "min_periods"):
             out[key] = _real(where, v, lower=0.0, strict=False)
         elif key in ("dphi0", "t_on"):
             out[key] = _real(where, v)
@@ -874,10 +883,17 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
             sample_count(tau_end, options["Ts"], "tau_end")
         except ValueError as exc:
             raise SweepSpecError(str(exc)) from None
-        if not 0.0 <= options["t_on"] <= tau_end - options["window"]:
+        try:
+            check_window(options["window"], periods=options["min_periods"], where="options.window")
+        except ValueError as exc:
             raise SweepSpecError(
-                f"options.t_on = {options['t_on']!r} must lie in [0, tau_end - window] = "
-                f"[0, {tau_end - options['window']!r}]: the metrics' window follows the switch-on"
+                f"{exc} (options.min_periods = {options['min_periods']!r})"
+            ) from None
+        if not 0.0 <= options["t_on"] <= tau_end - 2.0 * options["window"]:
+            raise SweepSpecError(
+                f"options.t_on = {options['t_on']!r} must lie in [0, tau_end - 2 window] = "
+                f"[0, {tau_end - 2.0 * options['window']!r}]: the metrics' window and the one "
+                "before it (the trend test) follow the switch-on"
             )
 
     known = plottable(study)
