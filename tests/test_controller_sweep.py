@@ -435,6 +435,10 @@ def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
         ({"top_drive": "tds-12"}, "options.top_drive = 'tds-12': top drive 'tds-12'"),
         ({"top_drive": "-3R0"}, "options.top_drive = '-3r0'"),
         ({"gains_constrained": None}, "options.controllers has lmi-constrained: options.gains_co"),
+        ({"impedance": "wave"}, "options.impedance must be one of lumped, pipe, got 'wave'"),
+        ({"soft_speed": "stiff"}, "options.soft_speed must be one of two-mass, impedance"),
+        ({"z_matching": -0.5}, "options.z_matching must be >= 0, got -0.5"),
+        ({"min_periods": -1}, "options.min_periods must be >= 0, got -1"),
     ],
 )
 def test_controller_spec_errors(paper_gains, constrained_gains, options, message):
@@ -552,6 +556,60 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
         write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
                                     tau_end=8.0, window=2.0, min_periods=0.0,
                                     log=None)  # fmt: skip
+
+
+def test_the_tuning_choices_reach_the_map_and_the_comparison(
+    paper_gains, constrained_gains, tmp_path, capsys
+):
+    """The options impedance, soft_speed, z_matching (and --impedance, --soft-speed,
+    --z-matching) select the industrial rules: with the pipe's impedance of the point's rig
+    (the reference string: 296.5 N m s/rad over sqrt(235*200) = 216.8) and the field rule,
+    SoftSpeed's kp is that impedance and Z-Torque's gain a quarter of its inverse."""
+    Zp = 296.5 / math.sqrt(235.0 * 200.0)
+    choices = {"impedance": "pipe", "soft_speed": "impedance", "z_matching": 0.25}
+    spec = _spec(paper_gains, constrained_gains, **choices)
+    p = spec.point_params(3)
+    d = axial_design(p)
+    model = averaged_model(p, d.A, d.taubar_crit)
+    laws = point_controllers(p, model, spec.options, spec.point_scales(3))[0]
+    assert laws["soft-speed"].law.kp == pytest.approx(Zp, abs=2e-4)
+    assert laws["z-torque"].law.z_gain == pytest.approx(0.25 / Zp, rel=1e-3)
+    rig = spec.point_scales(3)
+    default = point_controllers(p, model, _spec(paper_gains, constrained_gains).options, rig)[0]
+    assert default["soft-speed"].law.kp == pytest.approx(2.0 * math.sqrt(5.0), rel=1e-12)
+    # a scaled base of no known rig has no pipe
+    base = {"kind": "scaled", **REFERENCE.replace(psi=300.0).to_dict()}
+    data = {"study": "controllers", "base": base, "tau_end": 20.0,
+            "sweep": [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]}  # fmt: skip
+    options = {"gains": str(paper_gains[1]), "controllers": ["soft-speed"], "window": 5.0,
+               "min_periods": 0.0, "top_drive": "50R0"}  # fmt: skip
+    assert spec_from_dict({**data, "options": options}).options["impedance"] == "lumped"
+    with pytest.raises(SweepSpecError, match="options.impedance = 'pipe' needs the rig's drill"):
+        spec_from_dict({**data, "options": {**options, "impedance": "pipe"}})
+    # the command line: compare (a short run: the switch-on at 25, windows of 1) and map
+    args = ["--gains", str(paper_gains[1]), "--window", "1", "--min-periods", "0",
+            "--impedance", "pipe", "--soft-speed", "impedance", "--z-matching", "0.25"]  # fmt: skip
+    out = tmp_path / "compare"
+    assert controllers_main(["compare", *args, "--tau-end", "27", "--out", str(out)]) == 0
+    summary = json.loads((out / "comparison.json").read_text())
+    assert summary["tuning"] == {**choices, "pipe": None}
+    assert summary["laws"]["soft-speed"]["scaled"]["kp"] == pytest.approx(Zp, abs=2e-4)
+    assert summary["laws"]["soft-speed"]["si"]["kp"] == pytest.approx(296.5, abs=0.05)
+    assert summary["laws"]["z-torque"]["scaled"]["z_gain"] == pytest.approx(0.25 / Zp, 1e-3)
+    capsys.readouterr()
+    bad = ["compare", *args, "--z-matching", "-1", "--out", str(out)]
+    assert controllers_main(bad) == 2
+    assert "Tuning.z_matching must be >= 0, got -1.0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        controllers_main(["map", *args, "--impedance", "wave", "--out", str(out)])
+    assert exc.value.code == 2 and "invalid choice: 'wave'" in capsys.readouterr().err
+    m = tmp_path / "map"
+    rc = controllers_main(["map", *args, "--gains-constrained", str(constrained_gains[1]),
+                           "--n", "2", "--tau-end", "2", "--controllers", "soft-speed",
+                           "--workers", "0", "--no-progress", "--out", str(m)])  # fmt: skip
+    assert rc == 0
+    written = json.loads((m / "spec.json").read_text())["options"]
+    assert {k: written[k] for k in choices} == choices
 
 
 def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):

@@ -61,6 +61,7 @@ from drillstring.controller.lineup import (
     rig_lineup,
     sensing_note,
 )
+from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES
 from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
@@ -151,6 +152,7 @@ class Comparison:
     Ts: float = DEFAULT_TS
     window: float = COMPARISON_WINDOW
     top_drive: str = "tds-11sa"
+    tuning: Tuning = field(default_factory=Tuning)
 
 
 def _row(
@@ -312,10 +314,12 @@ def write_controller_comparison(
         The drive of every controller (:func:`~drillstring.model.topdrive.top_drive_from_spec`,
         or "none").
     tuning : Tuning, optional
-        The industrial rules' choices.
+        The industrial rules' choices (default :class:`~drillstring.controller.lineup.Tuning`:
+        the lumped impedance, SoftSpeed's two-mass rule, full matching); ``"pipe"`` takes the
+        pipe of ``rig``.
     rig : PhysicalParams, optional
-        For the SI columns and the drive; default: a known rig whose scaled set is the gains'
-        (the reference rig for the reference set).
+        For the SI columns, the drive and the pipe; default: a known rig whose scaled set is the
+        gains' (the reference rig for the reference set).
     log : callable, optional
         Receives the printed table (None: silent).
 
@@ -346,6 +350,7 @@ def write_controller_comparison(
     rig = rig if rig is not None else _matching_rig(params)
     if rig is None:
         raise ValueError("no physical rig maps onto the gains' parameter set: give rig=")
+    tuning = Tuning() if tuning is None else tuning
     drive = None if top_drive == "none" else top_drive_from_spec(top_drive, params.R0, rig)
     model = averaged_model(params, g.A, g.taubar_crit)
     paper = lmi_gain(model, g, feedforward="file")
@@ -403,6 +408,7 @@ def write_controller_comparison(
         "Ts": Ts,
         "window": window,
         "top_drive": {"spec": top_drive, "limits": None if drive is None else drive.to_si(rig)},
+        "tuning": tuning.values(),
         "params": params.to_dict(),
         "rig": rig.to_dict(),
         "rows": rows,
@@ -420,6 +426,7 @@ def write_controller_comparison(
         Ts=Ts,
         window=window,
         top_drive=top_drive,
+        tuning=tuning,
     )
 
 
@@ -525,6 +532,7 @@ def controller_map_spec(
     min_periods: float = MIN_WINDOW_PERIODS,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
+    tuning: Tuning | None = None,
 ) -> SweepSpec:
     """The sweep of :func:`write_controller_map` (its parameters, same defaults).
 
@@ -550,6 +558,12 @@ def controller_map_spec(
         )
     wob = wob_range(rig) if wob_kN is None else wob_kN
     names = list(controllers)
+    tuning = Tuning() if tuning is None else tuning
+    if tuning.pipe is not None:
+        raise ValueError(
+            "the map's impedance 'pipe' is that of each point's rig (its known pipe): a given "
+            f"Tuning.pipe ({tuning.pipe!r}) is not an option of the sweep"
+        )
     options: dict[str, Any] = {
         "controllers": names,
         "top_drive": top_drive,
@@ -559,6 +573,9 @@ def controller_map_spec(
         "min_periods": min_periods,
         "Ts": Ts,
         "dphi0_rel": dphi0_rel,
+        "impedance": tuning.impedance,
+        "soft_speed": tuning.soft_speed,
+        "z_matching": tuning.z_matching,
     }
     if any(c in CONSTRAINED_CONTROLLERS for c in names):
         path = (
@@ -598,6 +615,7 @@ def write_controller_map(
     min_periods: float = MIN_WINDOW_PERIODS,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
+    tuning: Tuning | None = None,
     serial: bool = False,
     workers: int | None = None,
     client: Any = None,
@@ -640,6 +658,9 @@ def write_controller_map(
         Run length, late window, the periods of the slowest stick-slip the window must hold,
         sample period, initial bit speed as a fraction of omega0 (options of the study,
         :mod:`drillstring.apps.sweep.spec`).
+    tuning : Tuning, optional
+        The industrial rules' choices (options ``impedance``, ``soft_speed``, ``z_matching``;
+        ``"pipe"`` is each point's rig's pipe, so ``Tuning.pipe`` must be None).
     serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
@@ -670,6 +691,7 @@ def write_controller_map(
         min_periods=min_periods,
         Ts=Ts,
         dphi0_rel=dphi0_rel,
+        tuning=tuning,
     )
     report = run_sweep(
         spec,
@@ -737,6 +759,27 @@ def _parser() -> argparse.ArgumentParser:
             default=MIN_WINDOW_PERIODS,
             help="periods of the slowest stick-slip (7 in scaled time) the window must hold "
             f"(default {MIN_WINDOW_PERIODS}; 0 for a quick run whose outcomes are not trusted)",
+        )
+        p.add_argument(
+            "--impedance",
+            choices=IMPEDANCES,
+            default="lumped",
+            help="string impedance Z of the industrial rules: the lumped sqrt(C*I1) or the "
+            "rig's drill pipe J*sqrt(G*rho_steel) (default lumped)",
+        )
+        p.add_argument(
+            "--soft-speed",
+            choices=SOFT_SPEED_RULES,
+            default="two-mass",
+            help="SoftSpeed's kp: 2*sqrt(rho)*Z (two-mass) or Z (impedance, the field rule; "
+            "default two-mass)",
+        )
+        p.add_argument(
+            "--z-matching",
+            type=float,
+            default=1.0,
+            help="Z-Torque's fraction of full impedance matching, >= 0 (default 1; "
+            "Simulator4nDOF: 0.25)",
         )
     c = sub.choices["compare"]
     c.add_argument(
@@ -828,6 +871,9 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     prog = f"drillstring controllers {args.job}"
     try:
+        tuning = Tuning(
+            impedance=args.impedance, soft_speed=args.soft_speed, z_matching=args.z_matching
+        )
         if args.job == "compare":
             constrained = args.constrained
             if constrained is None:
@@ -842,6 +888,7 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
                 min_periods=args.min_periods,
                 tau_end=args.tau_end,
                 top_drive=args.top_drive,
+                tuning=tuning,
             )
             print(f"wrote {', '.join(str(p) for p in result.files.values())}")
             return 0
@@ -861,6 +908,7 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
             window=args.window,
             min_periods=args.min_periods,
             Ts=args.Ts,
+            tuning=tuning,
             serial=args.workers == 0,
             workers=args.workers or None,
             resume=args.resume,

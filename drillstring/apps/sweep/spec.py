@@ -60,7 +60,8 @@ from drillstring.analysis.limit_cycles import fast_params
 from drillstring.analysis.severity import MIN_WINDOW_PERIODS, SLOWEST_PERIOD, check_window
 from drillstring.apps.sweep.metrics import plottable
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
-from drillstring.controller.lineup import FEEDFORWARD, RIG_CONTROLLERS
+from drillstring.controller.lineup import FEEDFORWARD, INDUSTRIAL, RIG_CONTROLLERS
+from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES, impedance
 from drillstring.fileio import load_table
 from drillstring.model.control import LATCH_MODES
 from drillstring.model.params import (
@@ -157,7 +158,10 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     # closed-loop study (feedforward "point": K0 and R_ff of the point, shared by every law);
     # gains_constrained: the input-constrained design's gains file (F fixed, K0 and R_ff as
     # feedforward says); tie: severity difference treated as equal when ranking;
-    # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing
+    # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing;
+    # impedance, soft_speed, z_matching: the industrial rules' choices (Tuning: the string
+    # impedance "lumped" or "pipe" of the point's rig, SoftSpeed's "two-mass" or "impedance"
+    # rule, Z-Torque's fraction of full matching)
     "controllers": {
         "controllers": MAP_CONTROLLERS,
         "top_drive": "tds-11sa",
@@ -176,6 +180,9 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
         "tie": 0.02,
         "vibration_tol": 0.05,
         "on_invalid": "stop",
+        "impedance": "lumped",
+        "soft_speed": "two-mass",
+        "z_matching": 1.0,
     },
 }
 
@@ -686,7 +693,7 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
         where = f"options.{key}"
         if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max", "Ts"):
             out[key] = _real(where, v, lower=0.0)
-        elif key in ("tie", "vibration_tol", "min_periods"):
+        elif key in ("tie", "vibration_tol", "min_periods", "z_matching"):
             out[key] = _real(where, v, lower=0.0, strict=False)
         elif key in ("dphi0", "t_on"):
             out[key] = _real(where, v)
@@ -700,6 +707,10 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             out[key] = _str(where, v, LATCH_MODES)
         elif key == "on_invalid":
             out[key] = _str(where, v, ("stop", "continue"))
+        elif key == "impedance":
+            out[key] = _str(where, v, IMPEDANCES)
+        elif key == "soft_speed":
+            out[key] = _str(where, v, SOFT_SPEED_RULES)
         elif key == "gains":
             out[key] = _str(where, v)
         elif key == "gains_constrained":
@@ -777,6 +788,17 @@ def _check_top_drive(spec: SweepSpec) -> None:
             "options.controllers has lmi-telemetry, whose frames are timed in seconds: the "
             f"base {spec.base_label!r} is a scaled set of no known rig (give a physical base)"
         )
+    industrial = [c for c in spec.options["controllers"] if c in INDUSTRIAL]
+    if spec.options["impedance"] == "pipe" and industrial:
+        if scales is None:
+            raise SweepSpecError(
+                "options.impedance = 'pipe' needs the rig's drill pipe: the base "
+                f"{spec.base_label!r} is a scaled set of no known rig (give a physical base)"
+            )
+        try:
+            impedance("pipe", scales)  # the points share the base's string (C, I1)
+        except ValueError as exc:
+            raise SweepSpecError(f"options.impedance = 'pipe': {exc}") from None
 
 
 def _controllers(where: str, value: Any) -> tuple[str, ...]:
