@@ -36,7 +36,7 @@ from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import ScaledParams, known_rig
 from drillstring.model.sensing import Sensing
 from drillstring.model.tables import Scales, scales_of
-from drillstring.model.topdrive import TopDrive
+from drillstring.model.topdrive import RPM, TopDrive
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
@@ -45,7 +45,10 @@ __all__ = [
     "INDUSTRIAL",
     "LmiGain",
     "MUD_PULSE_LATENCY_S",
+    "MUD_PULSE_NOISE_DEG",
+    "MUD_PULSE_NOISE_RPM",
     "MUD_PULSE_PERIOD_S",
+    "MUD_PULSE_SEED",
     "RIG_CONTROLLERS",
     "SENSING",
     "Tuning",
@@ -69,6 +72,13 @@ RIG_CONTROLLERS = (*INDUSTRIAL, "lmi", "lmi-constrained", "lmi-telemetry", "lmi-
 #: it was taken (a few bits per second, seconds of latency; ``docs/controllers.md``).
 MUD_PULSE_PERIOD_S = 2.0
 MUD_PULSE_LATENCY_S = 4.0
+#: The noise (standard deviations) of the transmitted bit angle [deg] and speed [rpm]: the
+#: angle to the 2 degrees MWD tools resolve their tool face in, the speed to 1 rpm (a value of
+#: 8 bits over 0-255 rpm, the sensor's error besides; ``docs/controllers.md``, "Sensing").
+MUD_PULSE_NOISE_DEG = 2.0
+MUD_PULSE_NOISE_RPM = 1.0
+#: The seed of the telemetry noise: fixed, so that the comparison and the maps repeat exactly.
+MUD_PULSE_SEED = 1
 #: What each controller of :data:`RIG_CONTROLLERS` measures (:func:`rig_lineup`): the notes of
 #: the maps and tables: the table speed, the string torque from the motor torque and the table's
 #: acceleration, the bit angle and speed "exact downhole" (the paper's idealisation: no rig
@@ -310,8 +320,10 @@ def rig_lineup(
     assumption; ``lmi-constrained`` the input-constrained design
     (:mod:`drillstring.controller.constrained`) with exact measurements, ``lmi-telemetry`` with
     the bit angle and speed by mud-pulse telemetry (:data:`MUD_PULSE_PERIOD_S`,
-    :data:`MUD_PULSE_LATENCY_S`), ``lmi-observer`` with them estimated from the table speed and
-    the motor torque (:func:`~drillstring.controller.estimation.design_observer`). The LMI laws
+    :data:`MUD_PULSE_LATENCY_S`, the noise of :data:`MUD_PULSE_NOISE_DEG` and
+    :data:`MUD_PULSE_NOISE_RPM` seeded with :data:`MUD_PULSE_SEED`), ``lmi-observer`` with them
+    estimated from the table speed and the motor torque
+    (:func:`~drillstring.controller.estimation.design_observer`). The LMI laws
     hold their bit angle while the drive saturates (``on_saturation = "freeze-angle"``).
 
     Parameters
@@ -369,6 +381,9 @@ def rig_lineup(
                     downhole="telemetry",
                     period=MUD_PULSE_PERIOD_S / t_star,
                     latency=MUD_PULSE_LATENCY_S / t_star,
+                    noise_phi=math.radians(MUD_PULSE_NOISE_DEG),
+                    noise_dphi=MUD_PULSE_NOISE_RPM * RPM * t_star,
+                    seed=MUD_PULSE_SEED,
                 )
             else:
                 observer = design_observer(model, Ts)

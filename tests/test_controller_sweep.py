@@ -434,7 +434,7 @@ def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
         ({"Ts": 0.007, "h": 1e-3, "dt_out": 0.007}, "tau_end = 20.0 is not a multiple"),
         ({"top_drive": "tds-12"}, "options.top_drive = 'tds-12': top drive 'tds-12'"),
         ({"top_drive": "-3R0"}, "options.top_drive = '-3r0'"),
-        ({"gains_constrained": None}, "options.controllers has lmi-constrained: options.gains_co"),
+        ({"gains_constrained": None}, "options.controllers has lmi-constrained, lmi-telemetry: "),
         ({"impedance": "wave"}, "options.impedance must be one of lumped, pipe, got 'wave'"),
         ({"soft_speed": "stiff"}, "options.soft_speed must be one of two-mass, impedance"),
         ({"z_matching": -0.5}, "options.z_matching must be >= 0, got -0.5"),
@@ -540,6 +540,25 @@ def test_comparison_starts_every_controller_from_the_same_state(
             assert rows[name]["peak_torque_kNm"] <= rating * (1 + 1e-12), name
     assert rows["lmi-unlimited"]["peak_torque_over_R0"] > 500.0
     assert rows["lmi"]["top_drive"] == "tds-11sa" and rows["lmi-unlimited"]["top_drive"] == "none"
+    # the late window's torque (tau in [7, 8]), by hand from the rows: the RMS of R0 + (R - R0)
+    # there, the peak at least the rows' largest (it is sample-exact) and at most the peak from
+    # the switch-on on
+    C = rig.C / 1e3
+    checked = 0
+    for name in ("open-loop", *RIG_CONTROLLERS, "lmi-unlimited"):
+        r, row = result.runs[name], rows[name]
+        if not r.status.ok:
+            assert math.isnan(row["peak_torque_late_kNm"]) and math.isnan(
+                row["rms_torque_late_kNm"]
+            )
+            continue
+        late = r.tau >= 8.0 - 1.0 - 1e-9
+        R = REFERENCE.R0 + r.R_minus_R0[late]
+        assert row["rms_torque_late_kNm"] == pytest.approx(C * np.sqrt(np.mean(R**2)), rel=1e-12)
+        assert C * np.max(R) <= row["peak_torque_late_kNm"] * (1 + 1e-12)
+        assert row["peak_torque_late_kNm"] <= row["peak_torque_kNm"] * (1 + 1e-12)
+        checked += 1
+    assert checked >= 5
 
 
 def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path):
@@ -675,6 +694,11 @@ def test_the_sensing_labels_say_what_each_controller_measures(paper_gains, const
         if s.downhole == "telemetry":
             period, latency = s.period * rig.t_star, s.latency * rig.t_star
             assert label == f"mud pulse {period:.3g} s, {latency:.3g} s late", label
+            # noisy frames: 2 degrees on the angle, 1 rpm on the speed, a fixed seed
+            si = s.to_si(rig)
+            assert si["noise_phi"] == pytest.approx(2.0 * math.pi / 180.0, rel=1e-12)
+            assert si["noise_dphi"] == pytest.approx(2.0 * math.pi / 60.0, rel=1e-12)
+            assert s.seed == 1
         assert (label == "observer (surface)") == (s.downhole == "observer")
         # the torque from the motor where a law uses the string torque (Z-Torque, the observer)
         assert ("motor" in label) == (name == "z-torque")

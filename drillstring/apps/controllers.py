@@ -99,6 +99,7 @@ COMPARISON_COLUMNS = (
     "stick_fraction",
     "peak_torque_over_R0",
     "peak_torque_kNm",
+    "peak_torque_late_kNm",
     "rms_torque_late_kNm",
     "peak_power_kW",
     "saturated_fraction",
@@ -182,6 +183,7 @@ def _row(
         "stick_fraction": s.stick_fraction,
         "peak_torque_over_R0": s.peak_torque / p.R0,
         "peak_torque_kNm": s.peak_torque * C / 1e3,
+        "peak_torque_late_kNm": s.peak_torque_late * C / 1e3,
         "rms_torque_late_kNm": s.rms_torque_late * C / 1e3,
         "peak_power_kW": s.peak_power * C / t_star / 1e3,
         "saturated_fraction": s.saturated_fraction,
@@ -213,7 +215,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
     """
     head = (
         f"{'controller':<16} {'sensing':<25} {'outcome':<16} {'sev.':>6} {'stick':>5} "
-        f"{'peak R/R0':>9} {'peak kN m':>9} {'rms kN m':>8} {'kW':>6} {'sat.':>5} "
+        f"{'peak R/R0':>9} {'peak kN m':>9} {'late pk':>8} {'late rms':>8} {'kW':>6} {'sat.':>5} "
         f"{'min rpm':>7} {'settle s':>8}"
     )
     lines = [head, "-" * len(head)]
@@ -226,6 +228,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
             f"{r['controller']:<16} {r['sensing']:<25} {r['outcome']:<16} "
             f"{num(r['severity'], '6.3f'):>6} {num(r['stick_fraction'], '5.3f'):>5} "
             f"{num(r['peak_torque_over_R0'], '9.1f'):>9} {num(r['peak_torque_kNm'], '9.3g'):>9} "
+            f"{num(r['peak_torque_late_kNm'], '8.3g'):>8} "
             f"{num(r['rms_torque_late_kNm'], '8.3g'):>8} {num(r['peak_power_kW'], '6.0f'):>6} "
             f"{num(r['saturated_fraction'], '5.3f'):>5} {num(r['min_table_speed_rpm'], '7.1f'):>7} "
             f"{num(r['settling_time_s'], '8.1f'):>8}"

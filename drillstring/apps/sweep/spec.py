@@ -118,8 +118,9 @@ FEED_IMPOSED = "feed: imposed rate of penetration (hook speed)"
 #: ... and, with a W0_kN axis, that speed is the one whose nominal weight on bit is W0.
 FEED_FOR_WOB = "feed: imposed rate of penetration (hook speed) chosen for the nominal WOB"
 #: The controllers a map runs by default (of :data:`~drillstring.controller.lineup.
-#: RIG_CONTROLLERS`).
-MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained")
+#: RIG_CONTROLLERS`): the constrained LMI law with mud-pulse telemetry too (it ends in reverse
+#: rotation early, 4 % of a point's time; the observer's row, a full run, is left to the option).
+MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained", "lmi-telemetry")
 #: The late window of the controllers study's metrics (scaled time): :data:`~drillstring.
 #: analysis.severity.MIN_WINDOW_PERIODS` periods of the slowest oscillation it classifies
 #: (:data:`~drillstring.analysis.severity.SLOWEST_PERIOD`, the stick-slip): 35.
