@@ -605,6 +605,12 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
     assert spec_from_dict({**data, "options": options}).options["impedance"] == "lumped"
     with pytest.raises(SweepSpecError, match="options.impedance = 'pipe' needs the rig's drill"):
         spec_from_dict({**data, "options": {**options, "impedance": "pipe"}})
+    # nor a point whose string (C) is of no known rig
+    other = {"study": "controllers", "base": RIG, "tau_end": 20.0,
+             "sweep": [{"param": "C", "start": 235.0, "stop": 470.0, "num": 2}]}  # fmt: skip
+    options = {**options, "top_drive": "tds-11sa", "impedance": "pipe"}
+    with pytest.raises(SweepSpecError, match=r"point 1 \(C = 470.0\) is invalid: options.imp"):
+        spec_from_dict({**other, "options": options})
     # the command line: compare (a short run: the switch-on at 25, windows of 1) and map
     args = ["--gains", str(paper_gains[1]), "--window", "1", "--min-periods", "0",
             "--impedance", "pipe", "--soft-speed", "impedance", "--z-matching", "0.25"]  # fmt: skip

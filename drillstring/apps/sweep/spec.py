@@ -796,10 +796,6 @@ def _check_top_drive(spec: SweepSpec) -> None:
                 "options.impedance = 'pipe' needs the rig's drill pipe: the base "
                 f"{spec.base_label!r} is a scaled set of no known rig (give a physical base)"
             )
-        try:
-            impedance("pipe", scales)  # the points share the base's string (C, I1)
-        except ValueError as exc:
-            raise SweepSpecError(f"options.impedance = 'pipe': {exc}") from None
 
 
 def _controllers(where: str, value: Any) -> tuple[str, ...]:
@@ -954,6 +950,12 @@ def _check_points(spec: SweepSpec) -> None:
                 fast_params(g, e2, tb, spec.options["lam_over_vbar0"])
             elif spec.study == "controllers":
                 spec.point_params(index)
+                pipe = spec.options["impedance"] == "pipe"
+                if pipe and any(c in INDUSTRIAL for c in spec.options["controllers"]):
+                    try:  # the pipe of the point's string (an axis may change C or I1)
+                        impedance("pipe", spec.point_scales(index))
+                    except ValueError as exc:
+                        raise ValueError(f"options.impedance = 'pipe': {exc}") from None
             else:
                 p = spec.point_params(index)
                 if p.omega0 + spec.options["dphi0"] <= 0.0:
