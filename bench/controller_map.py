@@ -2,7 +2,7 @@
 
 The map is ``drillstring controllers map``'s (:func:`drillstring.apps.controllers.
 controller_map_spec`: rpm x nominal WOB on the design's rig, every controller under the
-TDS-11SA, tau_end = 200, window 30, sample period 1e-3, h = 5e-4, output every 1e-2).
+TDS-11SA, tau_end = 200, window 35, sample period 1e-3, h = 5e-4, output every 1e-2).
 
 1. Per map point and controller, in this process: the study's point function with that
    controller alone (setup, the sampled run of the compiled digital controller, the severity
@@ -32,10 +32,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from drillstring.analysis.severity import OUTCOMES
+from drillstring.analysis.severity import OUTCOMES, SLOWEST_PERIOD
 from drillstring.apps.controllers import controller_map_spec
 from drillstring.apps.sweep.runner import kernel_warmup, run_sweep
-from drillstring.apps.sweep.spec import spec_from_dict
+from drillstring.apps.sweep.spec import MAP_WINDOW, spec_from_dict
 from drillstring.apps.sweep.studies import axial_design, evaluate_point
 from drillstring.controller.averaged import averaged_model
 from drillstring.model.engine import EngineOptions
@@ -54,6 +54,7 @@ def single(spec, controller):
             "gains",
             "gains_constrained",
             "window",
+            "min_periods",
             "Ts",
             "dphi0_rel",
             "feedforward",
@@ -168,8 +169,10 @@ def main() -> None:
     ap.add_argument("--project", type=int, default=30, help="points per axis of 3. (30)")
     args = ap.parse_args()
     logging.getLogger("distributed").setLevel(logging.WARNING)
-    window = min(30.0, args.tau_end / 4.0)
-    spec = controller_map_spec(args.gains, n=args.n, tau_end=args.tau_end, window=window)
+    window = min(MAP_WINDOW, args.tau_end / 4.0)
+    # a shorter run times the points, it does not classify: its window may hold fewer periods
+    periods = {"window": window, "min_periods": min(5.0, window / SLOWEST_PERIOD)}
+    spec = controller_map_spec(args.gains, n=args.n, tau_end=args.tau_end, **periods)
     names = spec.options["controllers"]
     print(
         f"map: {args.n} x {args.n} over {spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
@@ -209,7 +212,7 @@ def main() -> None:
               f"run on average, {statistics.median(all_ratios):.2f} median, "
               f"{max(all_ratios):.2f} at most ({len(all_ratios)} runs)")  # fmt: skip
 
-    small = controller_map_spec(args.gains, n=args.dask_n, tau_end=args.tau_end, window=window)
+    small = controller_map_spec(args.gains, n=args.dask_n, tau_end=args.tau_end, **periods)
     print()
     print(f"2. the {args.dask_n} x {args.dask_n} map with every controller on 1 and 2 workers:")
     clusters = {}

@@ -108,7 +108,9 @@ def design_constrained(
     experiment : Experiment
         The switch-on (default Fig. 6's, with its latch).
     decay : float
-        Required decay rate of the certificate (1/tau), >= 0.
+        Required decay rate of the certificate (1/tau), >= 0 (default
+        :data:`~drillstring.controller.constrained.DEFAULT_DECAY`: half-life three torsional
+        periods).
     label : str
         How the drive was named (for the gains file).
     alphas : sequence of float, optional
@@ -152,6 +154,10 @@ def design_constrained(
             "top_drive": label,
             "states": int(len(states)),
             "experiment": experiment.name,
+            # the ellipsoid E = {x^T S^-1 x <= 1} and the states in it: the certificate can be
+            # checked again from the file (constrained.recheck_constrained)
+            "S": [[float(v) for v in row] for row in result.S],
+            "switch_on_states": [[float(v) for v in row] for row in result.states],
         },
     )
     return ConstrainedDesign(result=result, gains=gains, top_drive=top_drive, label=label)

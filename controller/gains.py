@@ -9,14 +9,20 @@ JSON layout (``format_version`` 1)::
       "certificate": {"lmi32_max_eig": ..., ...}, "spectral_abscissa": ...,
       "solver": "CLARABEL", "solver_status": "optimal",
       "constraint": null | {"u_max": ..., "peak_torque": ..., "decay": ..., "tau_max": ...,
-                            "torque_limit": ..., "top_drive": "<rating>", "states": <count>}
+                            "torque_limit": ..., "top_drive": "<rating>", "states": <count>,
+                            "experiment": "fig6", "S": [4 x 4], "switch_on_states": [k x 4]}
     }
 
 ``constraint`` (optional) records an input-constrained design
 (:mod:`drillstring.controller.constrained`): the feedback torque budget ``u_max`` (units of C),
 the certified peak feedback torque from the switch-on states, the required decay, the largest
-delay covered, the drive's torque limit and rating; ``certificate`` then holds that design's
-margins.
+delay covered, the drive's torque limit and rating, and the ellipsoid ``S`` of the certificate
+(E = {x : x^T S^-1 x <= 1}) with the switch-on states it holds, so that the certificate can be
+checked again from the file (:func:`~drillstring.controller.constrained.recheck_constrained`);
+``certificate`` then holds that design's margins. Reading checks that ``S`` is a finite,
+symmetric, positive definite 4 x 4 matrix, the states finite rows of 4 (as many as ``states``
+says) and, with ``S``, that the certificate's peak torque is sqrt(F S F^T); a file without
+``S`` (written before it was recorded) is read, but cannot be re-checked.
 
 ``x = [phi, dphi/dtau, phi - theta - K0, dtheta/dtau]`` and ``R - R0 = R_ff + F x`` (31).
 ``params_sha256`` is the SHA-256 of the canonical JSON (sorted keys, no spaces) of the parameter
@@ -36,6 +42,8 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from drillstring.controller.averaged import averaged_model
 from drillstring.fileio import write_text
@@ -113,6 +121,61 @@ def _real(name: str, value: Any) -> float:
     return check_real(f"gains file: {name}", value, error=GainsFileError)
 
 
+def _matrix(name: str, value: Any, cols: int) -> list[list[float]]:
+    """Rows of ``cols`` finite numbers (a JSON list of lists)."""
+    if not isinstance(value, list | tuple) or not value:
+        raise GainsFileError(f"gains file: constraint[{name!r}] must be a list of rows: {value!r}")
+    rows = []
+    for i, row in enumerate(value):
+        if not isinstance(row, list | tuple) or len(row) != cols:
+            raise GainsFileError(
+                f"gains file: constraint[{name!r}][{i}] must be a row of {cols} numbers: {row!r}"
+            )
+        rows.append([_real(f"constraint[{name!r}][{i}][{j}]", v) for j, v in enumerate(row)])
+    return rows
+
+
+def _ellipsoid(value: Any, F: tuple[float, ...], peak: float | None) -> list[list[float]]:
+    """The ellipsoid matrix S of a constrained design: 4 x 4, symmetric, positive definite;
+    sqrt(F S F^T) is the certificate's peak torque (when recorded)."""
+    S = _matrix("S", value, 4)
+    if len(S) != 4:
+        raise GainsFileError(f"gains file: constraint['S'] must be 4 x 4, got {len(S)} rows")
+    for i in range(4):
+        for j in range(i):
+            a, b = S[i][j], S[j][i]
+            if not math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12 * abs(S[i][i] * S[j][j]) ** 0.5):
+                raise GainsFileError(
+                    f"gains file: constraint['S'] is not symmetric: S[{i}][{j}] = {a!r}, "
+                    f"S[{j}][{i}] = {b!r}"
+                )
+    smallest = float(np.linalg.eigvalsh(np.asarray(S))[0])
+    if not smallest > 0.0:
+        raise GainsFileError(
+            f"gains file: constraint['S'] is not positive definite (smallest eigenvalue "
+            f"{smallest!r})"
+        )
+    if peak is not None:
+        Fv = np.asarray(F)
+        found = math.sqrt(max(float(Fv @ np.asarray(S) @ Fv), 0.0))
+        if not math.isclose(found, peak, rel_tol=1e-9):
+            raise GainsFileError(
+                f"gains file: sqrt(F S F^T) = {found!r} is not the certificate's peak torque "
+                f"{peak!r}: S or F was changed"
+            )
+    return S
+
+
+def _states(value: Any, count: Any) -> list[list[float]]:
+    """The switch-on states of a constrained design: rows of 4, ``count`` of them if given."""
+    rows = _matrix("switch_on_states", value, 4)
+    if count is not None and count != len(rows):
+        raise GainsFileError(
+            f"gains file: constraint['states'] = {count!r} but {len(rows)} switch-on states"
+        )
+    return rows
+
+
 @dataclass(frozen=True)
 class GainsFile:
     """Content of a gains file (see the module docstring for the JSON layout).
@@ -168,7 +231,14 @@ class GainsFile:
                     "gains file: the constraint's peak torque is above its u_max: the design "
                     "does not meet its own limit"
                 )
-            object.__setattr__(self, "constraint", dict(self.constraint))
+            record = dict(self.constraint)
+            if "S" in record:
+                record["S"] = _ellipsoid(record["S"], F, cert.get("peak_torque"))
+            if "switch_on_states" in record:
+                record["switch_on_states"] = _states(
+                    record["switch_on_states"], record.get("states")
+                )
+            object.__setattr__(self, "constraint", record)
         if not math.isclose(self.R_ff, -self.K0, rel_tol=1e-12, abs_tol=1e-15):
             raise GainsFileError(f"gains file: R_ff = {self.R_ff!r} is not -K0 = {-self.K0!r} (31)")
         try:

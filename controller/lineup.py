@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from drillstring.controller.synthesis import synthesize
 from drillstring.controller.tuning import (
     IMPEDANCES,
     SOFT_SPEED_RULES,
+    Pipe,
     impedance,
     soft_speed,
     stiff_pi,
@@ -31,10 +33,10 @@ from drillstring.controller.tuning import (
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
-from drillstring.model.params import ScaledParams
+from drillstring.model.params import ScaledParams, known_rig
 from drillstring.model.sensing import Sensing
 from drillstring.model.tables import Scales, scales_of
-from drillstring.model.topdrive import TopDrive
+from drillstring.model.topdrive import RPM, TopDrive
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
@@ -43,7 +45,10 @@ __all__ = [
     "INDUSTRIAL",
     "LmiGain",
     "MUD_PULSE_LATENCY_S",
+    "MUD_PULSE_NOISE_DEG",
+    "MUD_PULSE_NOISE_RPM",
     "MUD_PULSE_PERIOD_S",
+    "MUD_PULSE_SEED",
     "RIG_CONTROLLERS",
     "SENSING",
     "Tuning",
@@ -67,6 +72,13 @@ RIG_CONTROLLERS = (*INDUSTRIAL, "lmi", "lmi-constrained", "lmi-telemetry", "lmi-
 #: it was taken (a few bits per second, seconds of latency; ``docs/controllers.md``).
 MUD_PULSE_PERIOD_S = 2.0
 MUD_PULSE_LATENCY_S = 4.0
+#: The noise (standard deviations) of the transmitted bit angle [deg] and speed [rpm]: the
+#: angle to the 2 degrees MWD tools resolve their tool face in, the speed to 1 rpm (a value of
+#: 8 bits over 0-255 rpm, the sensor's error besides; ``docs/controllers.md``, "Sensing").
+MUD_PULSE_NOISE_DEG = 2.0
+MUD_PULSE_NOISE_RPM = 1.0
+#: The seed of the telemetry noise: fixed, so that the comparison and the maps repeat exactly.
+MUD_PULSE_SEED = 1
 #: What each controller of :data:`RIG_CONTROLLERS` measures (:func:`rig_lineup`): the notes of
 #: the maps and tables: the table speed, the string torque from the motor torque and the table's
 #: acceleration, the bit angle and speed "exact downhole" (the paper's idealisation: no rig
@@ -100,29 +112,51 @@ class Tuning:
     Parameters
     ----------
     impedance : str
-        The string impedance Z of the rules: ``"lumped"`` (sqrt(C*I1), the model's) or
-        ``"pipe"`` (the reference rig's drill pipe, J*sqrt(G*rho_steel)), :func:`~drillstring.
-        controller.tuning.impedance`.
+        The string impedance Z of the rules (:data:`~drillstring.controller.tuning.IMPEDANCES`):
+        ``"lumped"`` (sqrt(C*I1), the model's) or ``"pipe"`` (the simulated rig's drill pipe,
+        J*sqrt(G*rho_steel)), :func:`~drillstring.controller.tuning.impedance`.
     soft_speed : str
-        SoftSpeed's proportional gain: ``"two-mass"`` (2*sqrt(rho)*Z) or ``"impedance"`` (Z).
+        SoftSpeed's proportional gain (:data:`~drillstring.controller.tuning.SOFT_SPEED_RULES`):
+        ``"two-mass"`` (2*sqrt(rho)*Z) or ``"impedance"`` (Z).
     z_matching : float
         Z-Torque's fraction of full impedance matching (1; Simulator4nDOF: 0.25), >= 0.
+    pipe : Pipe, optional
+        The drill pipe of ``"pipe"`` (default: the known pipe of the simulated rig's string,
+        :func:`~drillstring.controller.tuning.rig_pipe`).
     """
 
     impedance: str = "lumped"
     soft_speed: str = "two-mass"
     z_matching: float = 1.0
+    pipe: Pipe | None = None
 
     def __post_init__(self) -> None:
         check_choice("Tuning.impedance", self.impedance, IMPEDANCES)
         check_choice("Tuning.soft_speed", self.soft_speed, SOFT_SPEED_RULES)
         value = check_real("Tuning.z_matching", self.z_matching, lower=0.0, strict=False)
         object.__setattr__(self, "z_matching", value)
+        if self.pipe is not None and not isinstance(self.pipe, Pipe):
+            raise TypeError(f"Tuning.pipe must be a Pipe or None, got {self.pipe!r}")
 
-    @property
-    def Z(self) -> float:  # noqa: N802 - the rules' symbol
-        """The impedance, scaled (units of sqrt(C*I1))."""
-        return impedance(self.impedance)
+    def Z(self, rig: Scales | None = None) -> float:  # noqa: N802 - the rules' symbol
+        """The impedance on the simulated ``rig``, scaled (units of its sqrt(C*I1)).
+
+        Raises
+        ------
+        ValueError
+            ``"pipe"`` without a rig, or for a rig whose pipe is neither given nor known.
+        """
+        return impedance(self.impedance, rig, self.pipe)
+
+    def values(self) -> dict[str, Any]:
+        """The choices by name (the pipe as its od, id, G and density, or None)."""
+        pipe = None if self.pipe is None else dict(vars(self.pipe))
+        return {
+            "impedance": self.impedance,
+            "soft_speed": self.soft_speed,
+            "z_matching": self.z_matching,
+            "pipe": pipe,
+        }
 
 
 @dataclass(frozen=True)
@@ -212,7 +246,12 @@ def controller_lineup(
 
 
 def industrial_lineup(
-    params: ScaledParams, *, tuning: Tuning | None = None, R_ff: float = 0.0, t_on: float = 0.0
+    params: ScaledParams,
+    *,
+    tuning: Tuning | None = None,
+    R_ff: float = 0.0,
+    t_on: float = 0.0,
+    rig: Scales | None = None,
 ) -> dict[str, SpeedPI | ZTorque]:
     """The industrial controllers of :data:`INDUSTRIAL` at ``params``, tuned by the rules of
     :mod:`drillstring.controller.tuning` with the ``tuning`` choices (default: the lumped
@@ -227,15 +266,30 @@ def industrial_lineup(
         The rules' choices.
     R_ff, t_on : float
         Feed-forward (31) and switch-on time of every law.
+    rig : PhysicalParams or any object with C and t_star, optional
+        The simulated rig, for the pipe's impedance (default: the known rig whose scaled set is
+        ``params``, if any).
 
     Returns
     -------
     dict
         Name -> law, in the order of :data:`INDUSTRIAL`.
+
+    Raises
+    ------
+    ValueError
+        ``tuning.impedance = "pipe"`` and no rig, or a rig whose pipe is not known.
     """
     tuning = Tuning() if tuning is None else tuning
     common = {"R_ff": R_ff, "t_on": t_on}
-    Z = tuning.Z
+    if tuning.impedance == "pipe" and rig is None:
+        rig = known_rig(params)
+        if rig is None:
+            raise ValueError(
+                "Tuning.impedance = 'pipe': the parameter set is of no known rig; give the "
+                "simulated rig (rig=) for its pipe's impedance"
+            )
+    Z = tuning.Z(rig)
     return {
         "stiff-pi": stiff_pi(params, **common),
         "soft-speed": soft_speed(params, rule=tuning.soft_speed, Z=Z, **common),
@@ -266,8 +320,10 @@ def rig_lineup(
     assumption; ``lmi-constrained`` the input-constrained design
     (:mod:`drillstring.controller.constrained`) with exact measurements, ``lmi-telemetry`` with
     the bit angle and speed by mud-pulse telemetry (:data:`MUD_PULSE_PERIOD_S`,
-    :data:`MUD_PULSE_LATENCY_S`), ``lmi-observer`` with them estimated from the table speed and
-    the motor torque (:func:`~drillstring.controller.estimation.design_observer`). The LMI laws
+    :data:`MUD_PULSE_LATENCY_S`, the noise of :data:`MUD_PULSE_NOISE_DEG` and
+    :data:`MUD_PULSE_NOISE_RPM` seeded with :data:`MUD_PULSE_SEED`), ``lmi-observer`` with them
+    estimated from the table speed and the motor torque
+    (:func:`~drillstring.controller.estimation.design_observer`). The LMI laws
     hold their bit angle while the drive saturates (``on_saturation = "freeze-angle"``).
 
     Parameters
@@ -281,7 +337,7 @@ def rig_lineup(
     top_drive : TopDrive or None
         The limits of every controller.
     scales : PhysicalParams or any object with C and t_star
-        The rig's scales, to convert the telemetry's seconds.
+        The simulated rig's scales: the telemetry's seconds, the pipe's impedance.
     Ts : float
         Sample period of every controller (the observer is discretised with it).
     tuning : Tuning, optional
@@ -301,7 +357,11 @@ def rig_lineup(
         raise ValueError(f"unknown controller(s) {unknown} (known: {', '.join(RIG_CONTROLLERS)})")
     _, t_star = scales_of(scales)
     surface = Sensing(torque="motor")
-    laws = industrial_lineup(params, tuning=tuning, R_ff=paper.R_ff, t_on=t_on)
+    laws = (
+        industrial_lineup(params, tuning=tuning, R_ff=paper.R_ff, t_on=t_on, rig=scales)
+        if any(name in INDUSTRIAL for name in names)
+        else {}
+    )
     out: dict[str, DigitalController] = {}
 
     def lmi(gain: LmiGain) -> SampledAffine:
@@ -321,6 +381,9 @@ def rig_lineup(
                     downhole="telemetry",
                     period=MUD_PULSE_PERIOD_S / t_star,
                     latency=MUD_PULSE_LATENCY_S / t_star,
+                    noise_phi=math.radians(MUD_PULSE_NOISE_DEG),
+                    noise_dphi=MUD_PULSE_NOISE_RPM * RPM * t_star,
+                    seed=MUD_PULSE_SEED,
                 )
             else:
                 observer = design_observer(model, Ts)

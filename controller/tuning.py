@@ -22,9 +22,10 @@ per speed in units of C*t*); the rules below are written with them.
   (corner 0.3*omega_s) and low-pass (10*omega_s) filtered.
 
 The impedance Z (:func:`impedance`) is the lumped string's, ``sqrt(C*I1) = 1`` in scaled units,
-or the pipe's characteristic impedance ``J*sqrt(G*rho_steel)`` of the rig's drill pipe
+or the pipe's characteristic impedance ``J*sqrt(G*rho_steel)`` of the simulated rig's drill pipe
 (:class:`Pipe`; 296 N m s/rad for the reference rig's 5-in pipe, 1.37 times the lumped 217):
-what a field engineer computes from the pipe tables.
+what a field engineer computes from the pipe tables. A rig's pipe is given, or known for the
+string of a known rig (:data:`KNOWN_PIPES`, :func:`rig_pipe`); scaled by that rig's sqrt(C*I1).
 
 :func:`linear_closed_loop` builds the closed loop of the linearised torsional model (13), (27)
 (:func:`~drillstring.controller.averaged.linearised_ode_matrix`) with a law, in continuous time,
@@ -41,11 +42,13 @@ from numpy.typing import NDArray
 
 from drillstring.controller.averaged import AveragedModel, linearised_ode_matrix
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
-from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
+from drillstring.model.params import KNOWN_PHYSICAL, ScaledParams
+from drillstring.model.tables import Scales, scales_of
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
     "IMPEDANCES",
+    "KNOWN_PIPES",
     "OMEGA_S",
     "REFERENCE_PIPE",
     "SOFT_SPEED_RULES",
@@ -54,6 +57,7 @@ __all__ = [
     "damping_ratios",
     "impedance",
     "linear_closed_loop",
+    "rig_pipe",
     "soft_speed",
     "soft_speed_damping",
     "stiff_pi",
@@ -110,32 +114,87 @@ class Pipe:
 #: The reference rig's drill pipe: 5-in 19.5 lb/ft, OD 127.0 mm, ID 108.6 mm
 #: (``docs/reference_rig.md``).
 REFERENCE_PIPE = Pipe(od=0.1270, id=0.1086)
+#: The drill pipe of each known rig of :data:`~drillstring.model.params.KNOWN_PHYSICAL` whose
+#: pipe is documented, by the rig's name.
+KNOWN_PIPES: dict[str, Pipe] = {"reference-rig": REFERENCE_PIPE}
 
 
-def impedance(choice: str = "lumped", rig: PhysicalParams | None = None, pipe: Pipe | None = None):
+def rig_pipe(rig: Scales) -> Pipe:
+    """The drill pipe of a rig's string: that of the known rig with the same string.
+
+    The string is the torsional stiffness C and the bit-end inertia I1 = C*t*^2 (eqs. (2)-(3));
+    a rig that differs from a known one only in its operating point (Omega0, V0: a point of a
+    map) has its string, and so its pipe.
+
+    Parameters
+    ----------
+    rig : PhysicalParams or any object with C and t_star
+        The simulated rig.
+
+    Returns
+    -------
+    Pipe
+
+    Raises
+    ------
+    ValueError
+        No known rig with a known pipe has that string (the message names C and I1).
+    """
+    C, t_star = scales_of(rig)
+    I1 = C * t_star * t_star
+    for name, known in KNOWN_PHYSICAL.items():
+        if name in KNOWN_PIPES and (
+            math.isclose(C, known.C, rel_tol=1e-9) and math.isclose(I1, known.I1, rel_tol=1e-9)
+        ):
+            return KNOWN_PIPES[name]
+    known_strings = ", ".join(
+        f"{n}: C = {KNOWN_PHYSICAL[n].C:g} N m/rad, I1 = {KNOWN_PHYSICAL[n].I1:g} kg m^2"
+        for n in KNOWN_PIPES
+    )
+    raise ValueError(
+        f"impedance 'pipe': no drill pipe is known for the string of the simulated rig (C = "
+        f"{C:.6g} N m/rad, I1 = {I1:.6g} kg m^2; known: {known_strings}); give the pipe "
+        "(Tuning(pipe=Pipe(od, id)), impedance(..., pipe=...)) or use the lumped impedance"
+    )
+
+
+def impedance(choice: str = "lumped", rig: Scales | None = None, pipe: Pipe | None = None) -> float:
     """The string impedance Z of the tuning rules, scaled (units of C*t* = sqrt(C*I1)).
 
     Parameters
     ----------
     choice : str
         One of :data:`IMPEDANCES`: ``"lumped"``, sqrt(C*I1) (1, the model's own); ``"pipe"``,
-        the pipe's J*sqrt(G*rho_steel) on the rig.
-    rig : PhysicalParams, optional
-        The rig (default the reference rig) for ``"pipe"``.
+        the pipe's J*sqrt(G*rho_steel) over the simulated rig's sqrt(C*I1).
+    rig : PhysicalParams or any object with C and t_star
+        The simulated rig; needed for ``"pipe"``.
     pipe : Pipe, optional
-        The pipe (default :data:`REFERENCE_PIPE`) for ``"pipe"``.
+        The rig's drill pipe for ``"pipe"`` (default :func:`rig_pipe` of ``rig``).
 
     Returns
     -------
     float
-        Z in units of sqrt(C*I1).
+        Z in units of sqrt(C*I1) of ``rig``.
+
+    Raises
+    ------
+    ValueError
+        ``choice`` unknown; ``"pipe"`` without a rig, or for a rig whose pipe is neither given
+        nor known (:func:`rig_pipe`).
     """
     check_choice("impedance", choice, IMPEDANCES)
     if choice == "lumped":
         return Z_STRING
-    rig = REFERENCE_RIG if rig is None else rig
-    pipe = REFERENCE_PIPE if pipe is None else pipe
-    return pipe.impedance / math.sqrt(rig.C * rig.I1)
+    if rig is None:
+        raise ValueError(
+            "impedance 'pipe' needs the simulated rig (its C and t*): the pipe's impedance is "
+            "scaled by that rig's sqrt(C*I1)"
+        )
+    C, t_star = scales_of(rig)
+    pipe = rig_pipe(rig) if pipe is None else pipe
+    if not isinstance(pipe, Pipe):
+        raise TypeError(f"pipe must be a Pipe, got {pipe!r}")
+    return pipe.impedance / (C * t_star)
 
 
 def _rho(params: ScaledParams) -> float:

@@ -7,23 +7,34 @@ drillstring.controller.estimation) against what they claim.
   design of the same model saturates the drive and the run ends in reverse rotation;
 * a limit below the least peak torque is refused with that peak named; a gain the certificate
   did not come from fails it;
+* the default required decay (half-life three torsional periods) is met, and the certificate is
+  checked again from the gains file alone (its ellipsoid S and switch-on states), which fails
+  for a changed S;
 * the observer on the linearised model it was designed for: the bit-speed estimate converges to
   the truth from the measured table speed and string torque alone, the angle integrates it.
 """
 
 from __future__ import annotations
 
+import json
+import math
+
 import numpy as np
 import pytest
 
+from drillstring.apps.design import design_main
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.constrained import (
+    DEFAULT_DECAY,
     check_constrained,
+    recheck_constrained,
     switch_on_states,
     synthesize_constrained,
     torque_budget,
 )
+from drillstring.controller.design import design_constrained
 from drillstring.controller.estimation import OBSERVED, design_observer
+from drillstring.controller.gains import GainsFileError, read_gains, write_gains
 from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital import sense
@@ -66,6 +77,84 @@ def test_the_constrained_certificate_holds_and_is_checked_without_the_solver(des
     # a gain of three times the size breaks it (peak or Lemma 1)
     bad = check_constrained(MODEL, 3.0 * F, S, design.alpha, design.states, design.u_max)
     assert not bad.passed
+
+
+def test_the_default_decay_halves_a_deviation_in_three_torsional_periods(design):
+    # three periods of the string with the table held (omega_s = 1): exp(-sigma 6 pi) = 1/2
+    assert math.exp(-DEFAULT_DECAY * 6.0 * math.pi) == pytest.approx(0.5, rel=1e-12)
+    assert design.sigma == DEFAULT_DECAY > 0.03
+    c = design.certificate
+    # the closed loop decays at least that fast at tau_n0 and over the delay sweep
+    assert c.passed and c.abscissa_nominal <= -DEFAULT_DECAY
+    assert np.all(c.abscissa <= -DEFAULT_DECAY)
+    # stability alone (sigma = 0) asks for less torque: the decay is what costs it
+    zero = synthesize_constrained(MODEL, design.states, design.u_max, sigma=0.0, alphas=ALPHAS,
+                                  refine=0)  # fmt: skip
+    assert zero.peak_torque < design.peak_torque <= design.u_max
+
+
+@pytest.fixture(scope="module")
+def constrained_file(tmp_path_factory):
+    d = design_constrained(REFERENCE, MODEL, DRIVE, alphas=ALPHAS, label="tds-11sa")
+    return d, write_gains(d.gains, tmp_path_factory.mktemp("design") / "gains_constrained.json")
+
+
+def test_the_certificate_is_checked_again_from_the_gains_file(constrained_file):
+    d, path = constrained_file
+    g = read_gains(path)
+    assert g.constraint["decay"] == DEFAULT_DECAY
+    S = np.array(g.constraint["S"])
+    assert S.shape == (4, 4) and np.array_equal(S, d.result.S)
+    assert np.array_equal(np.array(g.constraint["switch_on_states"]), d.result.states)
+    again = recheck_constrained(g)
+    assert again.passed
+    assert again.margins() == d.result.certificate.margins()  # the same numbers, from the file
+    assert design_main(["--check", str(path)]) == 0  # drillstring design --check FILE
+    assert design_main(["--check", str(path.with_name("none.json"))]) == 2
+
+
+def _tampered(path, tmp_path, change):
+    data = json.loads(path.read_text())
+    change(data["constraint"])
+    out = tmp_path / "tampered.json"
+    out.write_text(json.dumps(data))
+    return out
+
+
+def test_a_changed_ellipsoid_fails_the_check_from_the_file(constrained_file, tmp_path):
+    d, path = constrained_file
+    S, F = np.array(d.result.S), np.array(d.gains.F)
+    # S halved: sqrt(F S F^T) is no longer the recorded peak, refused on reading
+    with pytest.raises(GainsFileError, match="is not the certificate's peak torque"):
+        read_gains(_tampered(path, tmp_path, lambda c: c.update(S=(0.5 * S).tolist())))
+
+    def with_peak(k):  # S scaled by k and the certificate's peak made to agree with it
+        data = json.loads(path.read_text())
+        data["constraint"]["S"] = (k * S).tolist()
+        data["certificate"]["peak_torque"] = float(np.sqrt(F @ (k * S) @ F))
+        out = tmp_path / f"S_times_{k:g}.json"
+        out.write_text(json.dumps(data))
+        return recheck_constrained(read_gains(out))
+
+    # halved: read, but the switch-on states leave the ellipsoid (x^T S^-1 x up to 2)
+    half = with_peak(0.5)
+    assert not half.passed and half.state_max > 1.9
+    assert design_main(["--check", str(tmp_path / "S_times_0.5.json")]) == 1
+    # doubled: the states inside, the peak sqrt(2) times the certified one, above u_max
+    double = with_peak(2.0)
+    assert not double.passed and double.state_max <= 0.5 + 1e-9
+    assert double.peak_torque > double.u_max
+    # not symmetric, not positive definite: refused on reading
+    bad = S.copy()
+    bad[0, 1] *= 1.001
+    with pytest.raises(GainsFileError, match=r"constraint\['S'\] is not symmetric"):
+        read_gains(_tampered(path, tmp_path, lambda c: c.update(S=bad.tolist())))
+    with pytest.raises(GainsFileError, match="is not positive definite"):
+        read_gains(_tampered(path, tmp_path, lambda c: c.update(S=(-S).tolist())))
+    # a file without the ellipsoid is read, but cannot be checked again
+    old = read_gains(_tampered(path, tmp_path, lambda c: c.pop("S")))
+    with pytest.raises(GainsFileError, match="lacks S: the certificate cannot be checked"):
+        recheck_constrained(old)
 
 
 def _fig6(F, sensing=None):

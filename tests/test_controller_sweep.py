@@ -15,9 +15,18 @@ import math
 import numpy as np
 import pytest
 
-from drillstring.analysis.severity import severity_metrics
+from drillstring.analysis.severity import (
+    MIN_WINDOW_PERIODS,
+    SLOWEST_PERIOD,
+    axial_average,
+    axial_period,
+    severity_metrics,
+)
 from drillstring.apps.controllers import (
     COMPARISON_COLUMNS,
+    COMPARISON_TAU_END,
+    COMPARISON_WINDOW,
+    controller_map_spec,
     controllers_main,
     wob_range,
     write_controller_comparison,
@@ -34,6 +43,7 @@ from drillstring.apps.sweep.studies import (
     axial_design,
     evaluate_point,
     linear_boundary,
+    point_controllers,
 )
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import design_constrained
@@ -107,6 +117,7 @@ def _spec(paper, constrained, *, tau_end=20.0, sweep=None, **options):
                 "gains": str(paper[1]),
                 "gains_constrained": str(constrained[1]),
                 "window": 5.0,
+                "min_periods": 0.0,  # short runs: the mechanics, not the classification
                 **options,
             },
         }
@@ -191,6 +202,58 @@ def test_a_map_row_is_the_metrics_of_the_runs(serial_map, paper_gains, constrain
     assert row["best"] in MAP_CONTROLLERS
     assert float(row["lmi_gain_norm"]) == pytest.approx(math.hypot(*PAPER_F), rel=1e-12)
     assert float(row["V0"]) == rig.V0 and float(row["Omega0"]) == rig.Omega0
+
+
+def _late_period(run, params, t0):
+    """Median period of the bit speed averaged over the axial cycle over [t0, end]: the time
+    between its upward crossings of its mean (the torsional oscillation, stick-slip or not)."""
+    period = axial_period(run.events, t0, run.tau[-1], 2.0 * math.pi / params.eta)
+    ta, wa = axial_average(run.tau, params.omega0 + run.dphi, period)
+    late = ta >= t0
+    t, x = ta[late], wa[late] - np.mean(wa[late])
+    up = t[1:][(x[:-1] < 0.0) & (x[1:] >= 0.0)]
+    gaps = np.diff(up)
+    gaps = gaps[gaps > 2.0]  # crossings of the axial ripple's remainder within one period
+    assert len(gaps) >= 10, gaps
+    return float(np.median(gaps))
+
+
+def test_the_map_window_holds_five_periods_of_the_slowest_stick_slip(paper_gains, tmp_path):
+    """The default window holds MIN_WINDOW_PERIODS periods of the slowest oscillation the map
+    classifies: the stiff PI's stick-slip, measured at the map's slow corner (30 rpm, the top
+    of the default WOB range: the longest period over the map) and at the reference rig's own
+    point; a shorter window is refused naming its value, and the trend test's two windows fit
+    after the switch-on."""
+    spec = controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"])
+    window, tau_end = spec.options["window"], spec.tau_end
+    assert window == COMPARISON_WINDOW and 2.0 * window <= tau_end - spec.options["t_on"]
+    rig = REFERENCE_RIG
+    points = {"slow corner": {"rpm": 30.0, "W0_kN": wob_range(rig)[1]},
+              "reference": {"rpm": RPM0, "W0_kN": W0_KN}}  # fmt: skip
+    periods = {}
+    for label, values in points.items():
+        p = spec.params_at(values)
+        d = axial_design(p)
+        model = averaged_model(p, d.A, d.taubar_crit)
+        pi = point_controllers(p, model, spec.options, spec.physical_at(values))[0]["stiff-pi"]
+        r = simulate_sampled(
+            p, pi, tau_end, 1e-3, initial={"dphi": -0.5 * p.omega0},
+            options=EngineOptions(torsional_stick=True),
+        )  # fmt: skip
+        assert r.status.ok, (label, r.status)
+        periods[label] = _late_period(r, p, tau_end / 2.0)
+    # slower than the string with the table held (2 pi), within the bound the check uses
+    for label, T in periods.items():
+        assert 2.0 * math.pi < T <= SLOWEST_PERIOD, (label, T)
+        assert window / T >= MIN_WINDOW_PERIODS, (label, T, window / T)
+    assert periods["slow corner"] > periods["reference"]
+    # a window of 30 (4.3 periods) is refused, in the map and in the comparison
+    with pytest.raises(SweepSpecError, match=r"options.window = 30.0 holds 4.29 periods"):
+        controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"], window=30.0)
+    with pytest.raises(ValueError, match=r"window = 30.0 holds 4.29 periods"):
+        write_controller_comparison(tmp_path, paper_gains[0], window=30.0, log=None)
+    # the comparison's two windows follow Fig. 6's switch-on at tau = 25
+    assert 2.0 * COMPARISON_WINDOW <= COMPARISON_TAU_END - 25.0
 
 
 def test_the_derived_axes_by_hand():
@@ -365,13 +428,17 @@ def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
         ({"Ts": 1e-4}, "options.h = 0.0005 must not exceed options.Ts = 0.0001"),
         ({"dt_out": 0.0125, "Ts": 0.01}, "options.dt_out = 0.0125 is not a multiple"),
         ({"dphi0_rel": -1.0}, "options.dphi0_rel must be > -1, got -1.0"),
-        ({"t_on": 16.0}, r"options.t_on = 16.0 must lie in \[0, tau_end - window\]"),
+        ({"t_on": 11.0}, r"options.t_on = 11.0 must lie in \[0, tau_end - 2 window\] = \[0, 10"),
         ({"latch": "twist"}, "options.latch must be one of"),
         ({"tie": -0.1}, "options.tie must be >= 0"),
         ({"Ts": 0.007, "h": 1e-3, "dt_out": 0.007}, "tau_end = 20.0 is not a multiple"),
         ({"top_drive": "tds-12"}, "options.top_drive = 'tds-12': top drive 'tds-12'"),
         ({"top_drive": "-3R0"}, "options.top_drive = '-3r0'"),
-        ({"gains_constrained": None}, "options.controllers has lmi-constrained: options.gains_co"),
+        ({"gains_constrained": None}, "options.controllers has lmi-constrained, lmi-telemetry: "),
+        ({"impedance": "wave"}, "options.impedance must be one of lumped, pipe, got 'wave'"),
+        ({"soft_speed": "stiff"}, "options.soft_speed must be one of two-mass, impedance"),
+        ({"z_matching": -0.5}, "options.z_matching must be >= 0, got -0.5"),
+        ({"min_periods": -1}, "options.min_periods must be >= 0, got -1"),
     ],
 )
 def test_controller_spec_errors(paper_gains, constrained_gains, options, message):
@@ -386,7 +453,12 @@ def test_the_constrained_gains_file_must_hold_a_constrained_design(paper_gains, 
     base = {"kind": "scaled", **REFERENCE.replace(psi=300.0).to_dict()}
     sweep = [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]
     data = {"study": "controllers", "base": base, "tau_end": 20.0, "sweep": sweep}
-    options = {"gains": str(paper_gains[1]), "controllers": ["soft-speed"], "window": 5.0}
+    options = {
+        "gains": str(paper_gains[1]),
+        "controllers": ["soft-speed"],
+        "window": 5.0,
+        "min_periods": 0.0,
+    }
     with pytest.raises(SweepSpecError, match="a scaled set of no known rig"):
         spec_from_dict({**data, "options": options})
     spec = spec_from_dict({**data, "options": {**options, "top_drive": "50R0"}})
@@ -436,7 +508,7 @@ def test_comparison_starts_every_controller_from_the_same_state(
 ):
     result = write_controller_comparison(
         tmp_path, paper_gains[0], designed_constrained, experiment=SHORT_FIG6, tau_end=8.0,
-        window=1.0, log=None,
+        window=1.0, min_periods=0.0, log=None,
     )  # fmt: skip
     names = [r["controller"] for r in result.rows]
     assert names == ["open-loop", *RIG_CONTROLLERS, "lmi-unlimited"]
@@ -468,12 +540,31 @@ def test_comparison_starts_every_controller_from_the_same_state(
             assert rows[name]["peak_torque_kNm"] <= rating * (1 + 1e-12), name
     assert rows["lmi-unlimited"]["peak_torque_over_R0"] > 500.0
     assert rows["lmi"]["top_drive"] == "tds-11sa" and rows["lmi-unlimited"]["top_drive"] == "none"
+    # the late window's torque (tau in [7, 8]), by hand from the rows: the RMS of R0 + (R - R0)
+    # there, the peak at least the rows' largest (it is sample-exact) and at most the peak from
+    # the switch-on on
+    C = rig.C / 1e3
+    checked = 0
+    for name in ("open-loop", *RIG_CONTROLLERS, "lmi-unlimited"):
+        r, row = result.runs[name], rows[name]
+        if not r.status.ok:
+            assert math.isnan(row["peak_torque_late_kNm"]) and math.isnan(
+                row["rms_torque_late_kNm"]
+            )
+            continue
+        late = r.tau >= 8.0 - 1.0 - 1e-9
+        R = REFERENCE.R0 + r.R_minus_R0[late]
+        assert row["rms_torque_late_kNm"] == pytest.approx(C * np.sqrt(np.mean(R**2)), rel=1e-12)
+        assert C * np.max(R) <= row["peak_torque_late_kNm"] * (1 + 1e-12)
+        assert row["peak_torque_late_kNm"] <= row["peak_torque_kNm"] * (1 + 1e-12)
+        checked += 1
+    assert checked >= 5
 
 
 def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path):
     result = write_controller_comparison(
         tmp_path, paper_gains[0], experiment=SHORT_FIG6, tau_end=8.0, window=1.0,
-        top_drive="none", log=None,
+        min_periods=0.0, top_drive="none", log=None,
     )  # fmt: skip
     rows = {r["controller"]: r for r in result.rows}
     assert "lmi-constrained" not in rows  # no constrained design given
@@ -482,7 +573,68 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
     )
     with pytest.raises(ValueError, match="2 window = 4.0 reaches back before the switch-on"):
         write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
-                                    tau_end=8.0, window=2.0, log=None)  # fmt: skip
+                                    tau_end=8.0, window=2.0, min_periods=0.0,
+                                    log=None)  # fmt: skip
+
+
+def test_the_tuning_choices_reach_the_map_and_the_comparison(
+    paper_gains, constrained_gains, tmp_path, capsys
+):
+    """The options impedance, soft_speed, z_matching (and --impedance, --soft-speed,
+    --z-matching) select the industrial rules: with the pipe's impedance of the point's rig
+    (the reference string: 296.5 N m s/rad over sqrt(235*200) = 216.8) and the field rule,
+    SoftSpeed's kp is that impedance and Z-Torque's gain a quarter of its inverse."""
+    Zp = 296.5 / math.sqrt(235.0 * 200.0)
+    choices = {"impedance": "pipe", "soft_speed": "impedance", "z_matching": 0.25}
+    spec = _spec(paper_gains, constrained_gains, **choices)
+    p = spec.point_params(3)
+    d = axial_design(p)
+    model = averaged_model(p, d.A, d.taubar_crit)
+    laws = point_controllers(p, model, spec.options, spec.point_scales(3))[0]
+    assert laws["soft-speed"].law.kp == pytest.approx(Zp, abs=2e-4)
+    assert laws["z-torque"].law.z_gain == pytest.approx(0.25 / Zp, rel=1e-3)
+    rig = spec.point_scales(3)
+    default = point_controllers(p, model, _spec(paper_gains, constrained_gains).options, rig)[0]
+    assert default["soft-speed"].law.kp == pytest.approx(2.0 * math.sqrt(5.0), rel=1e-12)
+    # a scaled base of no known rig has no pipe
+    base = {"kind": "scaled", **REFERENCE.replace(psi=300.0).to_dict()}
+    data = {"study": "controllers", "base": base, "tau_end": 20.0,
+            "sweep": [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]}  # fmt: skip
+    options = {"gains": str(paper_gains[1]), "controllers": ["soft-speed"], "window": 5.0,
+               "min_periods": 0.0, "top_drive": "50R0"}  # fmt: skip
+    assert spec_from_dict({**data, "options": options}).options["impedance"] == "lumped"
+    with pytest.raises(SweepSpecError, match="options.impedance = 'pipe' needs the rig's drill"):
+        spec_from_dict({**data, "options": {**options, "impedance": "pipe"}})
+    # nor a point whose string (C) is of no known rig
+    other = {"study": "controllers", "base": RIG, "tau_end": 20.0,
+             "sweep": [{"param": "C", "start": 235.0, "stop": 470.0, "num": 2}]}  # fmt: skip
+    options = {**options, "top_drive": "tds-11sa", "impedance": "pipe"}
+    with pytest.raises(SweepSpecError, match=r"point 1 \(C = 470.0\) is invalid: options.imp"):
+        spec_from_dict({**other, "options": options})
+    # the command line: compare (a short run: the switch-on at 25, windows of 1) and map
+    args = ["--gains", str(paper_gains[1]), "--window", "1", "--min-periods", "0",
+            "--impedance", "pipe", "--soft-speed", "impedance", "--z-matching", "0.25"]  # fmt: skip
+    out = tmp_path / "compare"
+    assert controllers_main(["compare", *args, "--tau-end", "27", "--out", str(out)]) == 0
+    summary = json.loads((out / "comparison.json").read_text())
+    assert summary["tuning"] == {**choices, "pipe": None}
+    assert summary["laws"]["soft-speed"]["scaled"]["kp"] == pytest.approx(Zp, abs=2e-4)
+    assert summary["laws"]["soft-speed"]["si"]["kp"] == pytest.approx(296.5, abs=0.05)
+    assert summary["laws"]["z-torque"]["scaled"]["z_gain"] == pytest.approx(0.25 / Zp, 1e-3)
+    capsys.readouterr()
+    bad = ["compare", *args, "--z-matching", "-1", "--out", str(out)]
+    assert controllers_main(bad) == 2
+    assert "Tuning.z_matching must be >= 0, got -1.0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        controllers_main(["map", *args, "--impedance", "wave", "--out", str(out)])
+    assert exc.value.code == 2 and "invalid choice: 'wave'" in capsys.readouterr().err
+    m = tmp_path / "map"
+    rc = controllers_main(["map", *args, "--gains-constrained", str(constrained_gains[1]),
+                           "--n", "2", "--tau-end", "2", "--controllers", "soft-speed",
+                           "--workers", "0", "--no-progress", "--out", str(m)])  # fmt: skip
+    assert rc == 0
+    written = json.loads((m / "spec.json").read_text())["options"]
+    assert {k: written[k] for k in choices} == choices
 
 
 def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
@@ -505,6 +657,8 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
         "2",
         "--window",
         "1",
+        "--min-periods",
+        "0",
         "--workers",
         "0",
         "--no-progress",
@@ -546,6 +700,11 @@ def test_the_sensing_labels_say_what_each_controller_measures(paper_gains, const
         if s.downhole == "telemetry":
             period, latency = s.period * rig.t_star, s.latency * rig.t_star
             assert label == f"mud pulse {period:.3g} s, {latency:.3g} s late", label
+            # noisy frames: 2 degrees on the angle, 1 rpm on the speed, a fixed seed
+            si = s.to_si(rig)
+            assert si["noise_phi"] == pytest.approx(2.0 * math.pi / 180.0, rel=1e-12)
+            assert si["noise_dphi"] == pytest.approx(2.0 * math.pi / 60.0, rel=1e-12)
+            assert s.seed == 1
         assert (label == "observer (surface)") == (s.downhole == "observer")
         # the torque from the motor where a law uses the string torque (Z-Torque, the observer)
         assert ("motor" in label) == (name == "z-torque")

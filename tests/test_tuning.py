@@ -37,7 +37,7 @@ from drillstring.controller.tuning import (
 )
 from drillstring.model.control import AffineFeedback
 from drillstring.model.laws import SampledAffine, SpeedPI, ZTorque
-from drillstring.model.params import REFERENCE
+from drillstring.model.params import REFERENCE, REFERENCE_RIG
 
 A_REF, TAUBAR_CRIT_REF = 0.38541455958349763, 2.3927883571184694  # the reference design
 
@@ -165,7 +165,8 @@ def test_pipe_impedance_of_the_reference_rig_by_hand():
     assert REFERENCE_PIPE.impedance == pytest.approx(J * math.sqrt(79.3e9 * 7850.0), rel=1e-14)
     assert REFERENCE_PIPE.impedance == pytest.approx(296.5, abs=0.05)
     assert impedance("lumped") == 1.0
-    assert impedance("pipe") == pytest.approx(296.5 / math.sqrt(235.0 * 200.0), abs=1e-3)
+    Zp = impedance("pipe", REFERENCE_RIG)
+    assert Zp == pytest.approx(296.5 / math.sqrt(235.0 * 200.0), abs=1e-3)
     with pytest.raises(ValueError, match="impedance must be one of"):
         impedance("wave")
     with pytest.raises(ValueError, match="Pipe: id = 0.2 is not below od = 0.1"):
@@ -177,7 +178,7 @@ def test_tuning_choices_select_the_rules():
     lumped = industrial_lineup(REFERENCE)
     assert lumped["soft-speed"].kp == 2.0 * math.sqrt(rho)  # the two-mass optimum, Z = 1
     field = industrial_lineup(REFERENCE, tuning=Tuning(impedance="pipe", soft_speed="impedance"))
-    Zp = impedance("pipe")
+    Zp = impedance("pipe", REFERENCE_RIG)
     assert field["soft-speed"].kp == pytest.approx(Zp)  # the field rule: kp = Z of the pipe
     assert field["soft-speed"].ki == lumped["soft-speed"].ki == rho  # inertia cancelled
     assert field["z-torque"].z_gain == pytest.approx(1.0 / Zp)
@@ -187,6 +188,34 @@ def test_tuning_choices_select_the_rules():
     assert lumped["soft-speed"].kp / Zp == pytest.approx(3.27, abs=0.01)
     with pytest.raises(ValueError, match="Tuning.soft_speed must be one of"):
         Tuning(soft_speed="stiff")
+
+
+def test_the_pipe_impedance_is_that_of_the_simulated_rig():
+    """Z = J sqrt(G rho_steel) over the simulated rig's sqrt(C I1): a rig with a stiffer string
+    (C = 470 N m/rad, a 2 km string of the same pipe) scales the same 296.5 N m s/rad by
+    sqrt(470*200) = 306.6, not by the reference rig's 216.8; a map point (another speed and
+    feed) keeps the reference string and its pipe; a string of no known pipe is refused."""
+    short = REFERENCE_RIG.replace(C=470.0)
+    with pytest.raises(ValueError, match=r"no drill pipe is known .* \(C = 470 N m/rad"):
+        impedance("pipe", short)
+    with pytest.raises(ValueError, match="impedance 'pipe' needs the simulated rig"):
+        impedance("pipe")
+    Z = impedance("pipe", short, REFERENCE_PIPE)
+    assert Z == pytest.approx(296.5 / math.sqrt(470.0 * 200.0), abs=1e-3)
+    assert Z == pytest.approx(0.967, abs=1e-3) and impedance("pipe", REFERENCE_RIG) > 1.36
+    point = REFERENCE_RIG.replace(Omega0=2.0 * REFERENCE_RIG.Omega0, V0=3.0 * REFERENCE_RIG.V0)
+    assert impedance("pipe", point) == impedance("pipe", REFERENCE_RIG)
+    # the lineups: the rig given or, for a known rig's set, found; else refused
+    field = Tuning(impedance="pipe", soft_speed="impedance", pipe=REFERENCE_PIPE)
+    laws = industrial_lineup(short.to_scaled(), tuning=field, rig=short)
+    assert laws["soft-speed"].kp == pytest.approx(Z, rel=1e-12)
+    assert laws["z-torque"].z_gain == pytest.approx(1.0 / Z, rel=1e-12)
+    with pytest.raises(ValueError, match="the parameter set is of no known rig"):
+        industrial_lineup(short.to_scaled(), tuning=Tuning(impedance="pipe"))
+    with pytest.raises(ValueError, match="no drill pipe is known"):
+        industrial_lineup(short.to_scaled(), tuning=Tuning(impedance="pipe"), rig=short)
+    with pytest.raises(TypeError, match="Tuning.pipe must be a Pipe"):
+        Tuning(impedance="pipe", pipe=(0.127, 0.1086))
 
 
 def test_lineup_shares_feedforward_and_switch_on():

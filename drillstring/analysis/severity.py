@@ -40,13 +40,16 @@ from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
 
 __all__ = [
+    "MIN_WINDOW_PERIODS",
     "OUTCOMES",
+    "SLOWEST_PERIOD",
     "ActuatorDemand",
     "Severity",
     "actuator_demand",
     "axial_average",
     "axial_period",
     "best_controller",
+    "check_window",
     "outcome",
     "severity_metrics",
     "speed_severity",
@@ -60,7 +63,55 @@ OUTCOMES = ("steady", "settling", "vibration", "stick-slip", "stall")
 #: A decay counts as "settling" when the last window's amplitude is at most this fraction of
 #: the window's before.
 SETTLING_RATIO = 0.5
+#: Periods of the slowest oscillation the late window must hold for its outcome (and the trend
+#: test's comparison with the window before) to classify the run (``docs/controllers.md``,
+#: "Maps").
+MIN_WINDOW_PERIODS = 5
+#: The slowest oscillation the outcome must classify (scaled time): the torsional stick-slip
+#: under a stiff speed loop, slower than the string's period with the table held, 2*pi/omega_s
+#: = 2*pi (omega_s = sqrt(C/I1) = 1 scaled, eqs. (12)-(13)). Measured over the default map
+#: (30-150 rpm x 17.3-23.1 kN nominal WOB on the reference rig, the stiff PI under the
+#: TDS-11SA, tau in [100, 200]): 6.34 to 6.96, longest at low speed and high WOB; rounded up.
+SLOWEST_PERIOD = 7.0
 _TSTICK = "torsional_stick"
+
+
+def check_window(
+    window: float, *, periods: float = MIN_WINDOW_PERIODS, where: str = "window"
+) -> float:
+    """``window`` if it holds ``periods`` periods of :data:`SLOWEST_PERIOD`, else an error.
+
+    Parameters
+    ----------
+    window : float
+        Length of the late window of :func:`severity_metrics` (scaled time), > 0.
+    periods : float
+        Periods it must hold, >= 0 (0: no requirement, for a run that is not to be classified,
+        e.g. a quick test).
+    where : str
+        How the error names the window (e.g. ``"options.window"``).
+
+    Returns
+    -------
+    float
+        The window.
+
+    Raises
+    ------
+    ValueError
+        ``window`` is not > 0, ``periods`` not >= 0, or the window is shorter than ``periods *
+        SLOWEST_PERIOD``; the message names the value and the periods it holds.
+    """
+    window = check_real(where, window, lower=0.0)
+    periods = check_real("periods", periods, lower=0.0, strict=False)
+    if window < periods * SLOWEST_PERIOD:
+        raise ValueError(
+            f"{where} = {window!r} holds {window / SLOWEST_PERIOD:.2f} periods of the slowest "
+            f"oscillation the outcome classifies (the stick-slip, up to {SLOWEST_PERIOD:g} in "
+            f"scaled time): at least {periods:g} are needed, a window of "
+            f"{periods * SLOWEST_PERIOD:g} or more"
+        )
+    return window
 
 
 def utr(omega_bit: ArrayLike, omega0: float) -> float:

@@ -33,13 +33,19 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.analysis.severity import OUTCOMES, severity_metrics
+from drillstring.analysis.severity import (
+    MIN_WINDOW_PERIODS,
+    OUTCOMES,
+    check_window,
+    severity_metrics,
+)
 from drillstring.apps.colors import CONTROLLER_COLORS
 from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
 from drillstring.apps.sweep.spec import (
     CONSTRAINED_CONTROLLERS,
     MAP_CONTROLLERS,
+    MAP_WINDOW,
     SweepSpec,
     SweepSpecError,
     spec_from_dict,
@@ -55,6 +61,7 @@ from drillstring.controller.lineup import (
     rig_lineup,
     sensing_note,
 )
+from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES
 from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
@@ -92,6 +99,7 @@ COMPARISON_COLUMNS = (
     "stick_fraction",
     "peak_torque_over_R0",
     "peak_torque_kNm",
+    "peak_torque_late_kNm",
     "rms_torque_late_kNm",
     "peak_power_kW",
     "saturated_fraction",
@@ -107,9 +115,11 @@ OPEN_LOOP = "open-loop"
 LMI_UNLIMITED = "lmi-unlimited"
 #: How each row measures (``sensing`` column).
 SENSING_TEXT = {OPEN_LOOP: "-", **SENSING, LMI_UNLIMITED: SENSING["lmi"]}
-#: The comparison's run: Fig. 6's switch-on at tau = 25, then 75 (13 torsional periods).
+#: The comparison's run: Fig. 6's switch-on at tau = 25, then 75 (12 torsional periods), the
+#: metrics over the last 35 (five periods of the slowest stick-slip, as the maps) and the trend
+#: test's window before it, both after the switch-on.
 COMPARISON_TAU_END = 100.0
-COMPARISON_WINDOW = 30.0
+COMPARISON_WINDOW = MAP_WINDOW
 
 
 def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
@@ -143,6 +153,7 @@ class Comparison:
     Ts: float = DEFAULT_TS
     window: float = COMPARISON_WINDOW
     top_drive: str = "tds-11sa"
+    tuning: Tuning = field(default_factory=Tuning)
 
 
 def _row(
@@ -172,6 +183,7 @@ def _row(
         "stick_fraction": s.stick_fraction,
         "peak_torque_over_R0": s.peak_torque / p.R0,
         "peak_torque_kNm": s.peak_torque * C / 1e3,
+        "peak_torque_late_kNm": s.peak_torque_late * C / 1e3,
         "rms_torque_late_kNm": s.rms_torque_late * C / 1e3,
         "peak_power_kW": s.peak_power * C / t_star / 1e3,
         "saturated_fraction": s.saturated_fraction,
@@ -203,7 +215,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
     """
     head = (
         f"{'controller':<16} {'sensing':<25} {'outcome':<16} {'sev.':>6} {'stick':>5} "
-        f"{'peak R/R0':>9} {'peak kN m':>9} {'rms kN m':>8} {'kW':>6} {'sat.':>5} "
+        f"{'peak R/R0':>9} {'peak kN m':>9} {'late pk':>8} {'late rms':>8} {'kW':>6} {'sat.':>5} "
         f"{'min rpm':>7} {'settle s':>8}"
     )
     lines = [head, "-" * len(head)]
@@ -216,6 +228,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
             f"{r['controller']:<16} {r['sensing']:<25} {r['outcome']:<16} "
             f"{num(r['severity'], '6.3f'):>6} {num(r['stick_fraction'], '5.3f'):>5} "
             f"{num(r['peak_torque_over_R0'], '9.1f'):>9} {num(r['peak_torque_kNm'], '9.3g'):>9} "
+            f"{num(r['peak_torque_late_kNm'], '8.3g'):>8} "
             f"{num(r['rms_torque_late_kNm'], '8.3g'):>8} {num(r['peak_power_kW'], '6.0f'):>6} "
             f"{num(r['saturated_fraction'], '5.3f'):>5} {num(r['min_table_speed_rpm'], '7.1f'):>7} "
             f"{num(r['settling_time_s'], '8.1f'):>8}"
@@ -262,6 +275,7 @@ def write_controller_comparison(
     tau_end: float = COMPARISON_TAU_END,
     Ts: float = DEFAULT_TS,
     window: float = COMPARISON_WINDOW,
+    min_periods: float = MIN_WINDOW_PERIODS,
     top_drive: str = "tds-11sa",
     tuning: Tuning | None = None,
     rig: PhysicalParams | None = None,
@@ -295,25 +309,37 @@ def write_controller_comparison(
         Sample period of the digital controllers (scaled).
     window : float
         Late window of the metrics (scaled time).
+    min_periods : float
+        Periods of the slowest oscillation (:data:`~drillstring.analysis.severity.
+        SLOWEST_PERIOD`) the window must hold (:func:`~drillstring.analysis.severity.
+        check_window`; 0: none, for a quick run whose outcomes are not to be trusted).
     top_drive : str
         The drive of every controller (:func:`~drillstring.model.topdrive.top_drive_from_spec`,
         or "none").
     tuning : Tuning, optional
-        The industrial rules' choices.
+        The industrial rules' choices (default :class:`~drillstring.controller.lineup.Tuning`:
+        the lumped impedance, SoftSpeed's two-mass rule, full matching); ``"pipe"`` takes the
+        pipe of ``rig``.
     rig : PhysicalParams, optional
-        For the SI columns and the drive; default: a known rig whose scaled set is the gains'
-        (the reference rig for the reference set).
+        For the SI columns, the drive and the pipe; default: a known rig whose scaled set is the
+        gains' (the reference rig for the reference set).
     log : callable, optional
         Receives the printed table (None: silent).
 
     Returns
     -------
     Comparison
+
+    Raises
+    ------
+    ValueError
+        A bad value (named), a window shorter than ``min_periods`` periods of the slowest
+        stick-slip or than the trend test needs after the switch-on, no rig for the gains.
     """
     g = _gains(gains)
     gc = None if constrained is None else _gains(constrained)
     Ts = check_real("Ts", Ts, lower=0.0)
-    window = check_real("window", window, lower=0.0)
+    window = check_window(window, periods=min_periods)
     tau_end = check_real("tau_end", tau_end, lower=0.0)
     t_on = experiment.t_on
     if 2.0 * window > tau_end - t_on:
@@ -327,6 +353,7 @@ def write_controller_comparison(
     rig = rig if rig is not None else _matching_rig(params)
     if rig is None:
         raise ValueError("no physical rig maps onto the gains' parameter set: give rig=")
+    tuning = Tuning() if tuning is None else tuning
     drive = None if top_drive == "none" else top_drive_from_spec(top_drive, params.R0, rig)
     model = averaged_model(params, g.A, g.taubar_crit)
     paper = lmi_gain(model, g, feedforward="file")
@@ -384,6 +411,7 @@ def write_controller_comparison(
         "Ts": Ts,
         "window": window,
         "top_drive": {"spec": top_drive, "limits": None if drive is None else drive.to_si(rig)},
+        "tuning": tuning.values(),
         "params": params.to_dict(),
         "rig": rig.to_dict(),
         "rows": rows,
@@ -401,6 +429,7 @@ def write_controller_comparison(
         Ts=Ts,
         window=window,
         top_drive=top_drive,
+        tuning=tuning,
     )
 
 
@@ -502,9 +531,11 @@ def controller_map_spec(
     rpm: tuple[float, float] = MAP_RPM,
     wob_kN: tuple[float, float] | None = None,
     tau_end: float = 200.0,
-    window: float = 30.0,
+    window: float = MAP_WINDOW,
+    min_periods: float = MIN_WINDOW_PERIODS,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
+    tuning: Tuning | None = None,
 ) -> SweepSpec:
     """The sweep of :func:`write_controller_map` (its parameters, same defaults).
 
@@ -530,14 +561,24 @@ def controller_map_spec(
         )
     wob = wob_range(rig) if wob_kN is None else wob_kN
     names = list(controllers)
+    tuning = Tuning() if tuning is None else tuning
+    if tuning.pipe is not None:
+        raise ValueError(
+            "the map's impedance 'pipe' is that of each point's rig (its known pipe): a given "
+            f"Tuning.pipe ({tuning.pipe!r}) is not an option of the sweep"
+        )
     options: dict[str, Any] = {
         "controllers": names,
         "top_drive": top_drive,
         "gains": str(Path(gains_path).resolve()),
         "feedforward": "point",
         "window": window,
+        "min_periods": min_periods,
         "Ts": Ts,
         "dphi0_rel": dphi0_rel,
+        "impedance": tuning.impedance,
+        "soft_speed": tuning.soft_speed,
+        "z_matching": tuning.z_matching,
     }
     if any(c in CONSTRAINED_CONTROLLERS for c in names):
         path = (
@@ -573,9 +614,11 @@ def write_controller_map(
     rpm: tuple[float, float] = MAP_RPM,
     wob_kN: tuple[float, float] | None = None,
     tau_end: float = 200.0,
-    window: float = 30.0,
+    window: float = MAP_WINDOW,
+    min_periods: float = MIN_WINDOW_PERIODS,
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
+    tuning: Tuning | None = None,
     serial: bool = False,
     workers: int | None = None,
     client: Any = None,
@@ -614,9 +657,13 @@ def write_controller_map(
         Range of the surface speed [rpm].
     wob_kN : (float, float), optional
         Range of the nominal weight on bit [kN] (default: :func:`wob_range` of the rig).
-    tau_end, window, Ts, dphi0_rel : float
-        Run length, late window, sample period, initial bit speed as a fraction of omega0
-        (options of the study, :mod:`drillstring.apps.sweep.spec`).
+    tau_end, window, min_periods, Ts, dphi0_rel : float
+        Run length, late window, the periods of the slowest stick-slip the window must hold,
+        sample period, initial bit speed as a fraction of omega0 (options of the study,
+        :mod:`drillstring.apps.sweep.spec`).
+    tuning : Tuning, optional
+        The industrial rules' choices (options ``impedance``, ``soft_speed``, ``z_matching``;
+        ``"pipe"`` is each point's rig's pipe, so ``Tuning.pipe`` must be None).
     serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
@@ -644,8 +691,10 @@ def write_controller_map(
         wob_kN=wob_kN,
         tau_end=tau_end,
         window=window,
+        min_periods=min_periods,
         Ts=Ts,
         dphi0_rel=dphi0_rel,
+        tuning=tuning,
     )
     report = run_sweep(
         spec,
@@ -701,6 +750,40 @@ def _parser() -> argparse.ArgumentParser:
         )
         p.add_argument("--out", type=Path, required=True, help="output folder")
         p.add_argument("--Ts", type=float, default=DEFAULT_TS, help="sample period (scaled)")
+        p.add_argument(
+            "--window",
+            type=float,
+            default=MAP_WINDOW,
+            help=f"late window of the metrics (scaled; default {MAP_WINDOW:g})",
+        )
+        p.add_argument(
+            "--min-periods",
+            type=float,
+            default=MIN_WINDOW_PERIODS,
+            help="periods of the slowest stick-slip (7 in scaled time) the window must hold "
+            f"(default {MIN_WINDOW_PERIODS}; 0 for a quick run whose outcomes are not trusted)",
+        )
+        p.add_argument(
+            "--impedance",
+            choices=IMPEDANCES,
+            default="lumped",
+            help="string impedance Z of the industrial rules: the lumped sqrt(C*I1) or the "
+            "rig's drill pipe J*sqrt(G*rho_steel) (default lumped)",
+        )
+        p.add_argument(
+            "--soft-speed",
+            choices=SOFT_SPEED_RULES,
+            default="two-mass",
+            help="SoftSpeed's kp: 2*sqrt(rho)*Z (two-mass) or Z (impedance, the field rule; "
+            "default two-mass)",
+        )
+        p.add_argument(
+            "--z-matching",
+            type=float,
+            default=1.0,
+            help="Z-Torque's fraction of full impedance matching, >= 0 (default 1; "
+            "Simulator4nDOF: 0.25)",
+        )
     c = sub.choices["compare"]
     c.add_argument(
         "--constrained",
@@ -715,15 +798,11 @@ def _parser() -> argparse.ArgumentParser:
         help="top drive of every controller: a rating (tds-11sa), 50R0, 52kNm, or none",
     )
     c.add_argument("--tau-end", type=float, default=COMPARISON_TAU_END, help="run length")
-    c.add_argument(
-        "--window", type=float, default=COMPARISON_WINDOW, help="late window of the metrics"
-    )
     m = sub.choices["map"]
     m.description = m.description + (
         ": surface speed [rpm] x nominal weight on bit [kN] on the design's rig, every controller "
         "under one top drive (feed: imposed rate of penetration chosen for the nominal WOB)"
     )
-    m.add_argument("--window", type=float, default=30.0, help="late window of the metrics")
     m.add_argument("--n", type=int, default=25, help="points per axis (default 25)")
     m.add_argument(
         "--rpm",
@@ -795,6 +874,9 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     prog = f"drillstring controllers {args.job}"
     try:
+        tuning = Tuning(
+            impedance=args.impedance, soft_speed=args.soft_speed, z_matching=args.z_matching
+        )
         if args.job == "compare":
             constrained = args.constrained
             if constrained is None:
@@ -806,8 +888,10 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
                 constrained,
                 Ts=args.Ts,
                 window=args.window,
+                min_periods=args.min_periods,
                 tau_end=args.tau_end,
                 top_drive=args.top_drive,
+                tuning=tuning,
             )
             print(f"wrote {', '.join(str(p) for p in result.files.values())}")
             return 0
@@ -825,7 +909,9 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
             wob_kN=None if args.wob is None else tuple(args.wob),
             tau_end=args.tau_end,
             window=args.window,
+            min_periods=args.min_periods,
             Ts=args.Ts,
+            tuning=tuning,
             serial=args.workers == 0,
             workers=args.workers or None,
             resume=args.resume,

@@ -21,14 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from drillstring.controller.averaged import AveragedModel, ode_poles, open_loop_roots
-from drillstring.controller.constrained import DEFAULT_DECAY
+from drillstring.controller.constrained import DEFAULT_DECAY, recheck_constrained
 from drillstring.controller.design import (
     CONSTRAINED_FILE,
     Design,
     design_controller,
     write_design,
 )
-from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F
+from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F, GainsFileError, read_gains
 from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
 from drillstring.model.params import KNOWN_PHYSICAL, ParameterError, ScaledParams, params_from_spec
 from drillstring.model.topdrive import top_drive_from_spec
@@ -99,7 +99,17 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
         "--decay",
         type=float,
         default=DEFAULT_DECAY,
-        help=f"required decay rate of the constrained design (1/tau; default {DEFAULT_DECAY:g})",
+        help="required decay rate of the constrained design (1/tau; default "
+        f"{DEFAULT_DECAY:.4g}: a deviation halves in three torsional periods)",
+    )
+    ap.add_argument(
+        "--check",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help=f"only check the certificate of a constrained design again from its gains file "
+        f"({CONSTRAINED_FILE}: the ellipsoid S and the switch-on states are in it); exit 0 if it "
+        "passes, 1 if not",
     )
     return ap
 
@@ -250,6 +260,8 @@ def design_main(argv: Sequence[str] | None = None) -> int:
         The exit code.
     """
     args = build_parser().parse_args(argv)
+    if args.check is not None:
+        return _check_main(args.check)
     try:
         params: ScaledParams = params_from_spec(args.params)
         drive = None
@@ -281,6 +293,23 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     for path in paths.values():
         print(f"Wrote {path}")
     return 0
+
+
+def _check_main(path: Path) -> int:
+    """``--check FILE``: the constrained certificate from the file alone; 0 passed, 1 failed, 2
+    the file cannot be checked."""
+    try:
+        cert = recheck_constrained(read_gains(path))
+    except GainsFileError as exc:
+        print(f"drillstring design --check: {exc}", file=sys.stderr)
+        return 2
+    for name, value in cert.margins().items():
+        print(f"  {name}: {value:.6g}")
+    print(
+        f"  u_max {cert.u_max:.6g}, decay {cert.sigma:.6g}: certificate "
+        f"{'PASSED' if cert.passed else 'FAILED'} (checked from {path})"
+    )
+    return 0 if cert.passed else 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -163,12 +163,13 @@ def simulate_sampled(
             *engine.kernel_arrays(), block, k, n, Ts, every, rows, i, acc, keep
         )
         st = int(st)
+        # the event log drained into the engine's events on every return, the end of the run
+        # too (the events since the last full log or history buffer were lost otherwise)
+        status = engine.finish(st)
         if st == 0:
-            status = Status("ok", "", engine.tau)  # the run reached tau_end
-            break
+            break  # the run reached tau_end: status "ok" at tau_end
         # what needs Python (a buffer to drain or grow, or the stop's status): then the engine
         # finishes the advance of sample k, and the loop goes on from k + 1
-        status = engine.finish(st)
         if status is None:
             status = engine.advance(k * Ts + Ts)
         if not status.ok:

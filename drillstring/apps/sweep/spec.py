@@ -57,9 +57,11 @@ from typing import Any
 import numpy as np
 
 from drillstring.analysis.limit_cycles import fast_params
+from drillstring.analysis.severity import MIN_WINDOW_PERIODS, SLOWEST_PERIOD, check_window
 from drillstring.apps.sweep.metrics import plottable
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
-from drillstring.controller.lineup import FEEDFORWARD, RIG_CONTROLLERS
+from drillstring.controller.lineup import FEEDFORWARD, INDUSTRIAL, RIG_CONTROLLERS
+from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES, impedance
 from drillstring.fileio import load_table
 from drillstring.model.control import LATCH_MODES
 from drillstring.model.params import (
@@ -82,6 +84,7 @@ __all__ = [
     "FEED_FOR_WOB",
     "FEED_IMPOSED",
     "MAP_CONTROLLERS",
+    "MAP_WINDOW",
     "OPTION_DEFAULTS",
     "PHYSICAL_DERIVED",
     "STUDIES",
@@ -115,8 +118,13 @@ FEED_IMPOSED = "feed: imposed rate of penetration (hook speed)"
 #: ... and, with a W0_kN axis, that speed is the one whose nominal weight on bit is W0.
 FEED_FOR_WOB = "feed: imposed rate of penetration (hook speed) chosen for the nominal WOB"
 #: The controllers a map runs by default (of :data:`~drillstring.controller.lineup.
-#: RIG_CONTROLLERS`).
-MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained")
+#: RIG_CONTROLLERS`): the constrained LMI law with mud-pulse telemetry too (it ends in reverse
+#: rotation early, 4 % of a point's time; the observer's row, a full run, is left to the option).
+MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained", "lmi-telemetry")
+#: The late window of the controllers study's metrics (scaled time): :data:`~drillstring.
+#: analysis.severity.MIN_WINDOW_PERIODS` periods of the slowest oscillation it classifies
+#: (:data:`~drillstring.analysis.severity.SLOWEST_PERIOD`, the stick-slip): 35.
+MAP_WINDOW = MIN_WINDOW_PERIODS * SLOWEST_PERIOD
 #: The controllers with the input-constrained gain (option ``gains_constrained``).
 CONSTRAINED_CONTROLLERS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
 AXIAL_NAMES = ("gammabar", "etabar2", "taubar_n")
@@ -145,11 +153,16 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     # drive of every controller (a spec of top_drive_from_spec, or "none"); Ts: sample period
     # of the laws; dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch:
     # switch-on of every law; window: late window of the metrics (the trend test compares it
-    # with the window before); gains, gain_max, feedforward: the paper-style LMI gain as in the
+    # with the window before, both after t_on); min_periods: the periods of the slowest
+    # oscillation (the stick-slip, SLOWEST_PERIOD) the window must hold (0 for a quick run that
+    # is not to be classified); gains, gain_max, feedforward: the paper-style LMI gain as in the
     # closed-loop study (feedforward "point": K0 and R_ff of the point, shared by every law);
     # gains_constrained: the input-constrained design's gains file (F fixed, K0 and R_ff as
     # feedforward says); tie: severity difference treated as equal when ranking;
-    # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing
+    # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing;
+    # impedance, soft_speed, z_matching: the industrial rules' choices (Tuning: the string
+    # impedance "lumped" or "pipe" of the point's rig, SoftSpeed's "two-mass" or "impedance"
+    # rule, Z-Torque's fraction of full matching)
     "controllers": {
         "controllers": MAP_CONTROLLERS,
         "top_drive": "tds-11sa",
@@ -159,7 +172,8 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
         "dphi0_rel": -0.5,
         "t_on": 0.0,
         "latch": "angle",
-        "window": 30.0,
+        "window": MAP_WINDOW,
+        "min_periods": MIN_WINDOW_PERIODS,
         "gains": "design",
         "gains_constrained": None,
         "gain_max": None,
@@ -167,6 +181,9 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
         "tie": 0.02,
         "vibration_tol": 0.05,
         "on_invalid": "stop",
+        "impedance": "lumped",
+        "soft_speed": "two-mass",
+        "z_matching": 1.0,
     },
 }
 
@@ -677,7 +694,7 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
         where = f"options.{key}"
         if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max", "Ts"):
             out[key] = _real(where, v, lower=0.0)
-        elif key in ("tie", "vibration_tol"):
+        elif key in ("tie", "vibration_tol", "min_periods", "z_matching"):
             out[key] = _real(where, v, lower=0.0, strict=False)
         elif key in ("dphi0", "t_on"):
             out[key] = _real(where, v)
@@ -691,6 +708,10 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             out[key] = _str(where, v, LATCH_MODES)
         elif key == "on_invalid":
             out[key] = _str(where, v, ("stop", "continue"))
+        elif key == "impedance":
+            out[key] = _str(where, v, IMPEDANCES)
+        elif key == "soft_speed":
+            out[key] = _str(where, v, SOFT_SPEED_RULES)
         elif key == "gains":
             out[key] = _str(where, v)
         elif key == "gains_constrained":
@@ -768,6 +789,13 @@ def _check_top_drive(spec: SweepSpec) -> None:
             "options.controllers has lmi-telemetry, whose frames are timed in seconds: the "
             f"base {spec.base_label!r} is a scaled set of no known rig (give a physical base)"
         )
+    industrial = [c for c in spec.options["controllers"] if c in INDUSTRIAL]
+    if spec.options["impedance"] == "pipe" and industrial:
+        if scales is None:
+            raise SweepSpecError(
+                "options.impedance = 'pipe' needs the rig's drill pipe: the base "
+                f"{spec.base_label!r} is a scaled set of no known rig (give a physical base)"
+            )
 
 
 def _controllers(where: str, value: Any) -> tuple[str, ...]:
@@ -874,10 +902,17 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
             sample_count(tau_end, options["Ts"], "tau_end")
         except ValueError as exc:
             raise SweepSpecError(str(exc)) from None
-        if not 0.0 <= options["t_on"] <= tau_end - options["window"]:
+        try:
+            check_window(options["window"], periods=options["min_periods"], where="options.window")
+        except ValueError as exc:
             raise SweepSpecError(
-                f"options.t_on = {options['t_on']!r} must lie in [0, tau_end - window] = "
-                f"[0, {tau_end - options['window']!r}]: the metrics' window follows the switch-on"
+                f"{exc} (options.min_periods = {options['min_periods']!r})"
+            ) from None
+        if not 0.0 <= options["t_on"] <= tau_end - 2.0 * options["window"]:
+            raise SweepSpecError(
+                f"options.t_on = {options['t_on']!r} must lie in [0, tau_end - 2 window] = "
+                f"[0, {tau_end - 2.0 * options['window']!r}]: the metrics' window and the one "
+                "before it (the trend test) follow the switch-on"
             )
 
     known = plottable(study)
@@ -915,6 +950,12 @@ def _check_points(spec: SweepSpec) -> None:
                 fast_params(g, e2, tb, spec.options["lam_over_vbar0"])
             elif spec.study == "controllers":
                 spec.point_params(index)
+                pipe = spec.options["impedance"] == "pipe"
+                if pipe and any(c in INDUSTRIAL for c in spec.options["controllers"]):
+                    try:  # the pipe of the point's string (an axis may change C or I1)
+                        impedance("pipe", spec.point_scales(index))
+                    except ValueError as exc:
+                        raise ValueError(f"options.impedance = 'pipe': {exc}") from None
             else:
                 p = spec.point_params(index)
                 if p.omega0 + spec.options["dphi0"] <= 0.0:

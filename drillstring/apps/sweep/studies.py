@@ -43,7 +43,7 @@ from drillstring.controller.averaged import (
     linearised_ode_matrix,
     open_loop_roots,
 )
-from drillstring.controller.lineup import LmiGain, lmi_gain, rig_lineup
+from drillstring.controller.lineup import LmiGain, Tuning, lmi_gain, rig_lineup
 from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.controller.tuning import linear_closed_loop
 from drillstring.model.control import AffineFeedback
@@ -71,6 +71,7 @@ __all__ = [
     "open_loop_metrics",
     "point_controllers",
     "rightmost_nonzero_root",
+    "study_tuning",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -422,9 +423,11 @@ def point_controllers(
 
     :func:`~drillstring.controller.lineup.rig_lineup` of the option ``controllers`` (or
     ``names``), every one under the top drive of the option ``top_drive``
-    (:func:`map_top_drive`), the paper-style LMI gain from ``gains`` (or designed at the point)
-    and the constrained one from ``gains_constrained``, their K0 and R_ff as ``feedforward``
-    says. A failed design at the point leaves ``lmi`` out (the error is returned).
+    (:func:`map_top_drive`), the industrial rules' choices of the options ``impedance``,
+    ``soft_speed`` and ``z_matching`` (:func:`study_tuning`), the paper-style LMI gain from
+    ``gains`` (or designed at the point) and the constrained one from ``gains_constrained``,
+    their K0 and R_ff as ``feedforward`` says. A failed design at the point leaves ``lmi`` out
+    (the error is returned).
 
     Parameters
     ----------
@@ -461,11 +464,30 @@ def point_controllers(
         top_drive=map_top_drive(opts["top_drive"], params, scales),
         scales=scales if scales is not None else _NO_RIG,
         Ts=opts["Ts"],
+        tuning=study_tuning(opts),
         t_on=opts["t_on"],
         latch=opts["latch"],
         names=wanted,
     )
     return controllers, paper, constrained, error
+
+
+def study_tuning(opts: SweepOptions) -> Tuning:
+    """The industrial rules' choices of the controllers study (options ``impedance``,
+    ``soft_speed``, ``z_matching``; the pipe of ``"pipe"`` is the point's rig's).
+
+    Parameters
+    ----------
+    opts : SweepOptions
+        The controllers study's options.
+
+    Returns
+    -------
+    Tuning
+    """
+    return Tuning(
+        impedance=opts["impedance"], soft_speed=opts["soft_speed"], z_matching=opts["z_matching"]
+    )
 
 
 @dataclass(frozen=True)
