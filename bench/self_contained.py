@@ -49,6 +49,7 @@ class Runner:
 
     def __init__(self, unit: tl.Unit, work: Path, isolated: bool) -> None:
         self.unit, self.work, self.isolated = unit, work, isolated
+        work.mkdir(parents=True)
         self.exe = tl.compile_c_host(work)
         self.n = 0
         self.unpack_times: list[float] = []
@@ -72,7 +73,7 @@ class Runner:
         cmd = [str(self.exe), str(folder / "host.cfg")]
         if self.isolated:
             hidden = [*isolation.python_installations(), isolation.ROOT]
-            cmd = isolation.isolated(cmd, folder, [*hidden, *isolation.user_caches(self.home)])
+            cmd = isolation.isolated(cmd, folder, [*hidden, *isolation.user_caches()])
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, env=tl.clean_env(home))
         elapsed = time.perf_counter() - t0
@@ -114,6 +115,8 @@ def main(argv: list[str] | None = None) -> int:
         }
         first = runners["normal"].run(COLD_STEPS, fresh_home=False, may_compile=True)
         print(f"normal plant, first run on this machine (compiles the kernel): {first:.1f} s")
+        for steps in (args.n1, args.n2):  # the Python path's step too (the normal FMU compiles)
+            runners["normal"].run(steps, fresh_home=False, may_compile=True)
         runners["self-contained"].run(COLD_STEPS, fresh_home=False)  # fills its HOME's cache
         rows = {"normal": [], "self-contained, new machine": [], "self-contained, later run": []}
         slope: dict[str, list[float]] = {"normal": [], "self-contained": []}
