@@ -29,6 +29,11 @@ The layer then hands each instance the addresses of its typed calls (:func:`begi
    build finds the same folder and numba's cache in it. ``<cache>`` is ``$DRILLSTRING_FMU_CACHE``,
    else ``$XDG_CACHE_HOME/drillstring``, else ``~/.cache/drillstring``. If the package is
    already imported (a Python host that uses the project itself), that one is used.
+   A self-contained FMU (``build_fmus.py --self-contained``) carries numba's compiled kernel
+   for a generic x86-64 CPU in its package's ``__pycache__`` folders: its package is cached
+   under ``<cache>/pkg-<sha256>-<cpu>/`` with those files, and in the interpreter its front layer
+   starts, ``NUMBA_CPU_NAME`` is set to that CPU (unless already set) before numba is imported,
+   so that numba finds the compiled kernel instead of compiling it.
 2. **A resources path pythonfmu can take.** pythonfmu 0.7.0 turns every ``%20`` of the location
    it is given into a space; a folder whose name really contains ``%20`` is given to it through a
    symbolic link in ``<cache>/links/``.
@@ -87,6 +92,11 @@ def _package_files(root: Path) -> list[Path]:
     return files
 
 
+def _compiled_files(root: Path) -> list[Path]:
+    """The files of the package's ``__pycache__`` folders (bytecode, numba's cache)."""
+    return [p.relative_to(root) for p in sorted(root.rglob("__pycache__/*")) if p.is_file()]
+
+
 def package_digest(root: Path) -> str:
     """SHA-256 over the relative names and contents of the package's files."""
     digest = hashlib.sha256()
@@ -96,31 +106,38 @@ def package_digest(root: Path) -> str:
     return digest.hexdigest()
 
 
-def _copy_package(source: Path, dest_parent: Path) -> None:
-    """Copy the package into ``dest_parent/drillstring`` with fixed modification times."""
+def _copy_package(source: Path, dest_parent: Path, compiled: bool = False) -> None:
+    """Copy the package into ``dest_parent/drillstring`` with fixed modification times (and the
+    files of its ``__pycache__`` folders if ``compiled``)."""
     target = dest_parent / PACKAGE
     for rel in _package_files(source):
         out = target / rel
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_bytes((source / rel).read_bytes())
         os.utime(out, (FIXED_MTIME, FIXED_MTIME))
+    for rel in _compiled_files(source) if compiled else ():
+        out = target / rel
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes((source / rel).read_bytes())
     for folder in sorted({p for p in target.rglob("*") if p.is_dir()} | {target}):
         os.utime(folder, (FIXED_MTIME, FIXED_MTIME))
 
 
-def cached_package(source: Path, root: Path) -> tuple[Path, bool]:
+def cached_package(source: Path, root: Path, cpu: str = "") -> tuple[Path, bool]:
     """The cache folder holding a copy of ``source`` (created if needed); True if created now.
 
+    ``cpu``: the CPU of the numba cache the package carries in its ``__pycache__`` folders (a
+    self-contained FMU): copied with it into a folder of its own, ``pkg-<sha256>-<cpu>``.
     A folder whose files do not match its name (edited, half deleted) is replaced.
     """
     digest = package_digest(source)
-    final = root / f"pkg-{digest[:24]}"
+    final = root / (f"pkg-{digest[:24]}-{cpu}" if cpu else f"pkg-{digest[:24]}")
     if final.is_dir() and package_digest(final / PACKAGE) == digest:
         return final, False
     root.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".pkg-{digest[:24]}-", dir=root))
     try:
-        _copy_package(source, tmp)
+        _copy_package(source, tmp, compiled=bool(cpu))
         if package_digest(tmp / PACKAGE) != digest:
             raise OSError(f"the copy of {source} in {tmp} does not match its source")
         if final.exists():  # stale: move it away first, then take its place
@@ -166,15 +183,26 @@ def pythonfmu_safe_path(resources: str, root: str) -> str:
     return link
 
 
+def _record_lines(resources: str) -> list[list[str]]:
+    with open(os.path.join(resources, RUNTIME_RECORD), encoding="utf-8") as f:
+        return [line.split() for line in f if line.strip() and not line.startswith("#")]
+
+
 def recorded_modules(resources: str) -> dict[str, str | None]:
     """The ``require NAME VERSION`` lines of the FMU's record (VERSION "none": None)."""
     found: dict[str, str | None] = {}
-    with open(os.path.join(resources, RUNTIME_RECORD), encoding="utf-8") as f:
-        for line in f:
-            parts = line.split()
-            if len(parts) == 3 and parts[0] == "require":
-                found[parts[1]] = None if parts[2] == "none" else parts[2]
+    for parts in _record_lines(resources):
+        if len(parts) == 3 and parts[0] == "require":
+            found[parts[1]] = None if parts[2] == "none" else parts[2]
     return found
+
+
+def recorded_cpu(resources: str) -> str:
+    """The CPU of the numba cache a self-contained FMU carries (``numba-cpu`` line), else \"\"."""
+    for parts in _record_lines(resources):
+        if len(parts) == 2 and parts[0] == "numba-cpu":
+            return parts[1]
+    return ""
 
 
 def imported_version(name: str) -> tuple[str | None, str]:
@@ -223,7 +251,7 @@ def module_mismatch(resources: str, borrowed: bool) -> str | None:
     )
 
 
-def _import_package(resources: str, records: list[Record]) -> None:
+def _import_package(resources: str, records: list[Record], cpu: str) -> None:
     loaded = sys.modules.get(PACKAGE)
     if loaded is not None:
         where = list(getattr(loaded, "__path__", [])) or [getattr(loaded, "__file__", "?")]
@@ -232,7 +260,7 @@ def _import_package(resources: str, records: list[Record]) -> None:
     source = Path(resources) / PACKAGE  # once per process
     root = cache_root()
     try:
-        folder, created = cached_package(source, root)
+        folder, created = cached_package(source, root, cpu)
     except OSError as exc:
         records.append(
             (
@@ -260,13 +288,16 @@ def prepare(resources: str, module: str, borrowed: int = 0) -> tuple[str | None,
     records: list[Record] = []
     step = "checking the resources folder"
     try:
+        cpu = recorded_cpu(resources)
+        if cpu and not borrowed and "numba" not in sys.modules:
+            os.environ.setdefault("NUMBA_CPU_NAME", cpu)  # read by numba when first imported
         step = "checking the versions of numpy and numba"
         mismatch = module_mismatch(resources, bool(borrowed))
         if mismatch is not None:
             records.append((ERROR, "logStatusError", mismatch))
             return None, _printable(records)
         step = f"importing the {PACKAGE} package"
-        _import_package(resources, records)
+        _import_package(resources, records, cpu)
         step = f"importing the FMU's module {module}"
         sys.path.insert(0, resources)
         importlib.import_module(module)

@@ -14,6 +14,11 @@
  *    naming both, before any of the FMU's Python code runs in it. The modules the FMU computes
  *    with (numpy, numba) are checked against the versions recorded there by
  *    drillstring_fmu_boot.prepare;
+ *  - a self-contained FMU (build_fmus.py --self-contained) records "self-contained 1": its Python
+ *    is bundled in resources/ (the record's paths are relative to it, the DRILLSTRING_FMU_*
+ *    overrides do not apply), the machine's glibc must be at least the recorded one, and the
+ *    libraries outside glibc that the bundle needs are the system's where it has them, else the
+ *    FMU's copies ("fallback" lines), loaded before libpython;
  *  - nothing per instance: sys.path is restored after each instantiation, and the reference that
  *    pythonfmu 0.7.0 drops on each instantiation (it releases a borrowed reference to the entry
  *    module's dictionary) is given back;
@@ -26,6 +31,7 @@
 
 #include <dlfcn.h>
 #include <errno.h>
+#include <gnu/libc-version.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -93,6 +99,14 @@ typedef struct {
     char *abi; /* the SOABI of the extension modules, NULL: not recorded (an older build) */
     char **sites;
     int n_sites;
+    /* a self-contained FMU (build_fmus.py --self-contained): the Python is bundled in resources/
+       (relative paths), the environment's overrides do not apply, the machine's glibc must be at
+       least `glibc`, and each `fallbacks` library is loaded from the bundle if the system has no
+       library of its name */
+    int bundled;
+    char *glibc;
+    char **fallbacks;
+    int n_fallbacks;
 } Runtime;
 
 static void runtime_free(Runtime *rt)
@@ -104,6 +118,9 @@ static void runtime_free(Runtime *rt)
     free(rt->abi);
     for (int i = 0; i < rt->n_sites; ++i) free(rt->sites[i]);
     free(rt->sites);
+    free(rt->glibc);
+    for (int i = 0; i < rt->n_fallbacks; ++i) free(rt->fallbacks[i]);
+    free(rt->fallbacks);
     free(rt);
 }
 
@@ -117,14 +134,31 @@ static int set_text(char **field, const char *value, size_t len)
     return 0;
 }
 
+/* value[0..len) appended to the list (*items)[0..*n) on the heap; 0, or -1: out of memory. */
+static int add_item(char ***items, int *n, const char *value, size_t len)
+{
+    char **grown = realloc(*items, (size_t)(*n + 1) * sizeof *grown);
+    if (!grown) return -1;
+    *items = grown;
+    grown[*n] = NULL;
+    if (set_text(&grown[*n], value, len) != 0) return -1;
+    ++*n;
+    return 0;
+}
+
 static int add_site(Runtime *rt, const char *value, size_t len)
 {
-    char **sites = realloc(rt->sites, (size_t)(rt->n_sites + 1) * sizeof *sites);
-    if (!sites) return -1;
-    rt->sites = sites;
-    rt->sites[rt->n_sites] = NULL;
-    if (set_text(&rt->sites[rt->n_sites], value, len) != 0) return -1;
-    ++rt->n_sites;
+    return add_item(&rt->sites, &rt->n_sites, value, len);
+}
+
+/* A path of the record relative to the resources folder made absolute; 0, or -1: out of memory. */
+static int absolute(char **field, const char *resources)
+{
+    if (!*field || (*field)[0] == '/') return 0;
+    char *path = ds_strf("%s/%s", resources, *field);
+    if (!path) return -1;
+    free(*field);
+    *field = path;
     return 0;
 }
 
@@ -163,20 +197,31 @@ static Runtime *read_runtime(const char *resources, char *err, size_t errn)
         else if (strcmp(line, "home") == 0) bad = set_text(&rt->home, value, n);
         else if (strcmp(line, "abi") == 0) bad = set_text(&rt->abi, value, n);
         else if (strcmp(line, "site") == 0) bad = add_site(rt, value, n);
+        else if (strcmp(line, "self-contained") == 0) rt->bundled = strcmp(value, "1") == 0;
+        else if (strcmp(line, "glibc") == 0) bad = set_text(&rt->glibc, value, n);
+        else if (strcmp(line, "fallback") == 0)
+            bad = add_item(&rt->fallbacks, &rt->n_fallbacks, value, n);
     }
     fclose(fp);
     const char *env;
-    if (!bad && (env = getenv("DRILLSTRING_FMU_LIBPYTHON")) && env[0])
+    /* a self-contained FMU runs its own Python, whatever the environment says */
+    if (!bad && !rt->bundled && (env = getenv("DRILLSTRING_FMU_LIBPYTHON")) && env[0])
         bad = set_text(&rt->libpython, env, strlen(env));
-    if (!bad && (env = getenv("DRILLSTRING_FMU_PYTHONHOME")) && env[0])
+    if (!bad && !rt->bundled && (env = getenv("DRILLSTRING_FMU_PYTHONHOME")) && env[0])
         bad = set_text(&rt->home, env, strlen(env));
-    if (!bad && (env = getenv("DRILLSTRING_FMU_SITE_PACKAGES")) && env[0]) {
+    if (!bad && !rt->bundled && (env = getenv("DRILLSTRING_FMU_SITE_PACKAGES")) && env[0]) {
         clear_sites(rt);
         for (const char *p = env; *p && !bad; ) {
             const size_t len = strcspn(p, ":");
             if (len > 0) bad = add_site(rt, p, len);
             p += len + (p[len] == ':');
         }
+    }
+    if (rt->bundled) { /* its paths are relative to the resources folder */
+        bad = bad || absolute(&rt->libpython, resources) || absolute(&rt->home, resources);
+        for (int i = 0; i < rt->n_sites && !bad; ++i) bad = absolute(&rt->sites[i], resources);
+        for (int i = 0; i < rt->n_fallbacks && !bad; ++i)
+            bad = absolute(&rt->fallbacks[i], resources);
     }
     if (bad) {
         ds_format(err, errn, "out of memory reading %s", path);
@@ -252,6 +297,11 @@ static int start_python(const Runtime *rt, const char *lib, char *err, size_t er
     char *dynload = ds_strf("%s/lib/python%s/lib-dynload", rt->home, rt->version);
     if (!nodots || !stdlib || !probe || !exe || !zip || !dynload) {
         ds_format(err, errn, "out of memory");
+        goto done;
+    }
+    if (access(probe, R_OK) != 0 && rt->bundled) {
+        ds_format(err, errn, "the FMU's bundled Python '%s' has no standard library (%s is "
+                  "missing: unpack the whole FMU)", rt->home, probe);
         goto done;
     }
     if (access(probe, R_OK) != 0) {
@@ -348,11 +398,13 @@ static int check_interpreter(const Runtime *rt, int borrowed, const char *lib,
                   "against that Python's headers, and the numpy and numba it was built with "
                   "exist for that ABI only). Run the host on a Python %s with the packages of "
                   "%s/requirements.txt (pip install -r that file), or run the FMU from a host "
-                  "that does not run Python: there it starts the Python recorded in "
-                  "%s/" RUNTIME_FILE " (DRILLSTRING_FMU_LIBPYTHON, DRILLSTRING_FMU_PYTHONHOME and "
-                  "DRILLSTRING_FMU_SITE_PACKAGES override that record)", vlen, version,
+                  "that does not run Python: there it starts %s%s", vlen, version,
                   abi ? abi : "unknown", exe && exe[0] ? exe : "executable unknown", rt->version,
-                  rt->abi ? rt->abi : "not recorded", rt->version, resources, resources);
+                  rt->abi ? rt->abi : "not recorded", rt->version, resources,
+                  rt->bundled ? "the Python bundled in " : "the Python recorded in ",
+                  rt->bundled ? resources
+                              : RUNTIME_FILE " (DRILLSTRING_FMU_LIBPYTHON, DRILLSTRING_FMU_"
+                                "PYTHONHOME and DRILLSTRING_FMU_SITE_PACKAGES override it)");
     else if (!ok)
         ds_format(err, errn, "%s is Python %.*s (ABI %s), but the FMU was built with Python %s "
                   "(ABI %s): set DRILLSTRING_FMU_LIBPYTHON and DRILLSTRING_FMU_PYTHONHOME to a "
@@ -373,6 +425,59 @@ static char *joined_sites(const Runtime *rt)
     *q = '\0';
     for (int i = 0; i < rt->n_sites; ++i) q += sprintf(q, "%s%s", i ? ":" : "", rt->sites[i]);
     return out;
+}
+
+/* "2.36" as a number (2036), -1 if it is not of that form. */
+static long glibc_number(const char *version)
+{
+    char *end = NULL;
+    const long major = strtol(version, &end, 10);
+    if (end == version || *end != '.') return -1;
+    const char *minor_text = end + 1;
+    const long minor = strtol(minor_text, &end, 10);
+    if (end == minor_text) return -1;
+    return major * 1000 + minor;
+}
+
+/* A self-contained FMU's bundle needs the machine's glibc to be at least the recorded version
+   (the newest symbol version its binaries ask for); 0, or -1 with the reason in err. */
+static int check_glibc(const Runtime *rt, char *err, size_t errn)
+{
+    if (!rt->glibc) return 0;
+    const char *here = gnu_get_libc_version();
+    const long need = glibc_number(rt->glibc), have = glibc_number(here);
+    if (need < 0) {
+        ds_format(err, errn, "the FMU's record asks for glibc '%s', which is not a version",
+                  rt->glibc);
+        return -1;
+    }
+    if (have >= 0 && have < need) {
+        ds_format(err, errn, "this machine's glibc %s is older than glibc %s, the oldest the "
+                  "self-contained FMU's bundled Python runs on (its binaries use symbols of glibc "
+                  "%s)", here, rt->glibc, rt->glibc);
+        return -1;
+    }
+    return 0;
+}
+
+/* A self-contained FMU's libraries that are not part of glibc (libffi, libz, libstdc++, ...):
+   the system's if it has a library of that name, else the FMU's copy. Loaded before libpython and
+   the extension modules that need them, which the dynamic loader then binds to the library
+   already loaded under that name; 0, or -1 with the reason in err. */
+static int load_fallbacks(Component *c, const Runtime *rt, char *err, size_t errn)
+{
+    for (int i = 0; i < rt->n_fallbacks; ++i) {
+        const char *path = rt->fallbacks[i], *slash = strrchr(path, '/');
+        const char *name = slash ? slash + 1 : path;
+        if (dlopen(name, RTLD_NOW | RTLD_LOCAL)) continue;
+        if (!dlopen(path, RTLD_NOW | RTLD_LOCAL)) {
+            ds_format(err, errn, "cannot load %s: this machine has none, and the FMU's copy "
+                      "'%s' does not load: %s", name, path, dlerror());
+            return -1;
+        }
+        ds_logf(c, fmi2OK, "%s: not on this machine, the FMU's copy loaded (%s)", name, path);
+    }
+    return 0;
 }
 
 /* The interpreter the slaves run in: the host's if it has one, else ours (started once). */
@@ -397,10 +502,16 @@ static int ensure_python(Component *c, const char *resources)
         return -1; /* not remembered */
     }
     if (!(rt = read_runtime(resources, err, ERR_LEN))) goto fail;
+    if (check_glibc(rt, err, ERR_LEN) != 0 || load_fallbacks(c, rt, err, ERR_LEN) != 0) goto fail;
     void *where = RTLD_DEFAULT;
     const int present = dlsym(RTLD_DEFAULT, "Py_IsInitialized") != NULL;
     if (!present) {
         where = dlopen(rt->libpython, RTLD_NOW | RTLD_GLOBAL);
+        if (!where && rt->bundled) {
+            ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load the FMU's bundled libpython "
+                    "'%s': %s", rt->libpython, dlerror());
+            goto done;
+        }
         if (!where) {
             ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load libpython '%s': %s (set "
                     "DRILLSTRING_FMU_LIBPYTHON to the libpython%s.so of a Python %s with numpy)",
@@ -418,7 +529,8 @@ static int ensure_python(Component *c, const char *resources)
         for (int i = 0; i < rt->n_sites; ++i)
             if (!ds_is_dir(rt->sites[i]))
                 ds_logf(c, fmi2Warning, "fmi2Instantiate: site-packages folder '%s' does not exist "
-                        "(set DRILLSTRING_FMU_SITE_PACKAGES)", rt->sites[i]);
+                        "(%s)", rt->sites[i], rt->bundled ? "unpack the whole FMU"
+                                                          : "set DRILLSTRING_FMU_SITE_PACKAGES");
         char *sites = joined_sites(rt);
         ds_logf(c, fmi2OK, "started Python %.*s from %s (home %s, site-packages %s)",
                 (int)strcspn(py.Py_GetVersion(), " "), py.Py_GetVersion(), rt->libpython,

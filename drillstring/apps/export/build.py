@@ -29,6 +29,7 @@ from drillstring.apps.export.model_description import (
     xml_bytes,
 )
 from drillstring.apps.export.python_runtime import python_record
+from drillstring.apps.export.self_contained import self_contained_fmus
 from drillstring.apps.export.specs import (
     CONTROLLER,
     CONTROLLER_SI,
@@ -183,12 +184,15 @@ def build_fmus(
     out_dir: str | os.PathLike[str] = DEFAULT_OUT,
     gains_path: str | os.PathLike[str] | None = None,
     source_date_epoch: int | None = None,
+    self_contained: bool = False,
 ) -> dict[str, Path]:
     """Build every FMU (plant, LMI and top-drive controller; scaled and SI) and the SSP packages
     into ``out_dir``; returns {model identifier or package name: path}.
 
     ``gains_path`` defaults to ``drillstring.controller.gains.DEFAULT_GAINS_PATH``;
-    ``source_date_epoch`` defaults to the environment variable ``SOURCE_DATE_EPOCH``.
+    ``source_date_epoch`` defaults to the environment variable ``SOURCE_DATE_EPOCH``;
+    ``self_contained``: every FMU carries its Python
+    (:mod:`drillstring.apps.export.self_contained`), and so do the SSP packages made of them.
     """
     out = Path(out_dir)
     gains_file = Path(gains_path) if gains_path is not None else DEFAULT_GAINS_PATH
@@ -205,17 +209,20 @@ def build_fmus(
     base = {"version": package_version(), "format": 1}
     control = {**base, "gains": gains}
     topdrive = {**control, "topdrive": topdrive_config()}
-    built = {
-        spec.model: build_fmu(spec, out, config, source_date_epoch)
-        for spec, config in (
-            (PLANT, base),
-            (CONTROLLER, control),
-            (PLANT_SI, base),
-            (CONTROLLER_SI, control),
-            (TOPDRIVE, topdrive),
-            (TOPDRIVE_SI, topdrive),
-        )
-    }
+    jobs = (
+        (PLANT, base),
+        (CONTROLLER, control),
+        (PLANT_SI, base),
+        (CONTROLLER_SI, control),
+        (TOPDRIVE, topdrive),
+        (TOPDRIVE_SI, topdrive),
+    )
+    if self_contained:
+        with tempfile.TemporaryDirectory(prefix="build_fmus_normal_") as tmp:
+            normal = {s.model: build_fmu(s, Path(tmp), c, source_date_epoch) for s, c in jobs}
+            built = self_contained_fmus(normal, out, source_date_epoch)
+    else:
+        built = {s.model: build_fmu(s, out, c, source_date_epoch) for s, c in jobs}
     built.update(build_packages(out, source_date_epoch))
     return built
 

@@ -27,9 +27,15 @@ def export_main(argv: Sequence[str] | None = None) -> int:
         help="gains file of the design (default: out/design/gains.json, designed if missing)",
     )
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default: build/)")
+    ap.add_argument(
+        "--self-contained",
+        action="store_true",
+        help="bundle the Python runtime and the compiled kernel into every FMU (about 100 MB "
+        "each): they run on a Linux x86-64 machine without Python (docs/fmus.md)",
+    )
     args = ap.parse_args(argv)
     try:
-        built = build_fmus(args.out, args.gains)
+        built = build_fmus(args.out, args.gains, self_contained=args.self_contained)
     except BuildError as exc:
         print(f"build_fmus: error: {exc}", file=sys.stderr)
         return 1
