@@ -400,7 +400,9 @@ def package_documentation(variant: LoopVariant) -> str:
             "variable has one named <code>time</code> in <code>s</code> (FMI 2.0, section "
             f"2.2.7), so every tool shows tau as seconds. One unit of time is t* seconds of the "
             f"rig ({ts:.6g} s for the reference rig), and so are the default experiments' "
-            "times, the step and the parameters <code>h</code> and <code>t_on</code>. To "
+            "times, the step and the time-valued parameters (<code>h</code>, <code>t_on</code> "
+            "and the others; the FMUs' model descriptions say so in the FMU's and in each such "
+            "variable's description). To "
             "couple the loop with models in seconds use the SI package "
             f"<code>{esc(system)}SI.ssp</code>.</p>"
         )
