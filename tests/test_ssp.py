@@ -22,8 +22,10 @@ host, units honoured by the project's master.
 * units: parameter values given in rpm (defined in the ``.ssv``), ms (defined in the ``.ssd``)
   and inline in the SSD are converted (hand-computed), an undefined or incompatible unit is
   refused naming parameter, unit and dimension; a controller FMU that speaks kN.m swapped into
-  the N.m loop gives the N.m loop's run (parameters and table torque converted), one whose
-  torque output is in rad/s is refused naming the connection, both units and their dimensions;
+  the N.m loop gives the N.m loop's run (parameters and table torque converted), also where it
+  calls its kN.m "N.m" (definitions decide, not names); one whose torque output is in rad/s is
+  refused naming the connection, both units and their dimensions, one that declares no unit
+  there is refused naming both ends unless the connection suppresses unit conversion;
 * fmpy's ``simulate_ssp`` with an explicit parameter set equals the algorithm it documents and
   ignores the bindings; ``drillstring cosim`` (``--variant``, ``--parameter-set``) and
   :func:`run_si_demo`.
@@ -683,24 +685,70 @@ KILO = {"table_torque": "kN.m", "kp": "kN.m.s/rad", "ki": "kN.m/rad", "R_ff": "k
         "R_min": "kN.m", "R_max": "kN.m", "rate": "kN.m/s", "P_max": "kW"}  # fmt: skip
 
 
+#: The SI units of :data:`KILO`'s variables, each defined as its kilo-unit of :data:`KNM`.
+SI_NAMES = {
+    "N.m": "kN.m",
+    "N.m.s/rad": "kN.m.s/rad",
+    "N.m/rad": "kN.m/rad",
+    "rad/(N.m.s)": "rad/(kN.m.s)",
+    "kg.m2": "t.m2",
+    "N.m/s": "kN.m/s",
+    "W": "kW",
+}
+
+
+def _fmu_defining_units(src: Path, dst: Path, defs: dict[str, str]) -> Path:
+    """A copy of an FMU whose ``UnitDefinitions`` define the units named in ``defs`` otherwise
+    (unit name -> the attributes of its ``BaseUnit`` as XML text, without display units); the
+    variables keep their unit names (not their display units), the FMU's code is unchanged."""
+    with zipfile.ZipFile(src) as z:
+        entries = {i.filename: z.read(i.filename) for i in z.infolist()}
+    root = etree.fromstring(entries["modelDescription.xml"])
+    for name, base in defs.items():
+        (unit,) = root.findall(f"UnitDefinitions/Unit[@name='{name}']")
+        for child in list(unit):
+            unit.remove(child)
+        unit.append(etree.fromstring(f"<BaseUnit {base}/>"))
+    for real in root.iterfind("ModelVariables/ScalarVariable/Real"):
+        if real.get("unit") in defs:
+            real.attrib.pop("displayUnit", None)
+    entries["modelDescription.xml"] = etree.tostring(root, xml_declaration=True, encoding="UTF-8")
+    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in entries.items():
+            z.writestr(name, data)
+    return dst
+
+
+@pytest.mark.parametrize("named", ["kilo-names", "si-names"])
 @pytest.mark.parametrize("variant", ["fig5", "fig6-z-torque"])
-def test_a_controller_in_kilonewton_metres_closes_the_newton_metre_loop(built, tmp_path, variant):
+def test_a_controller_in_kilonewton_metres_closes_the_newton_metre_loop(
+    built, tmp_path, variant, named
+):
     """The SI top-drive controller declared in kN.m (torque output and every torque-valued
     parameter, :data:`KILO`): the master sets its parameters from the package's N.m values
     divided by 1000 (z_gain times 1000), so that it computes in kN.m, and multiplies its torque
     by 1000 on the way to the plant. The run is the N.m package's to rounding (asserted 1e-12
     relative; Jacobi in C is not used when a connection converts, so the Python loop runs), also
-    under Gauss-Seidel with linear extrapolation."""
-    knm = tl.fmu_with_units(built.si.topdrive.fmu, tmp_path / "TopDriveKNm.fmu", KILO, KNM)
+    under Gauss-Seidel with linear extrapolation. The same where the FMU keeps the SI names and
+    defines them as the kilo-units (``si-names``: the definitions decide, not the names, both
+    on the connection and for the parameters, whose ``.ssv`` defines its N.m as N.m)."""
+    if named == "kilo-names":
+        knm = tl.fmu_with_units(built.si.topdrive.fmu, tmp_path / "TopDriveKNm.fmu", KILO, KNM)
+        source = "kN.m"
+    else:
+        defs = {si: KNM[kilo] for si, kilo in SI_NAMES.items()}
+        knm = _fmu_defining_units(built.si.topdrive.fmu, tmp_path / "TopDriveKNm.fmu", defs)
+        source = "N.m"
     ssp = built.si.topdrive_ssp
     stop = 24.0 if variant == "fig6-z-torque" else STOP  # past the switch-on at 23.06 s
     n_m = read_ssp(ssp, unpack=False, variant=variant).parameters()["controller"]
+    assert n_m["kp"].unit_def.factor == 1.0 and n_m["kp"].unit == "N.m.s/rad"
     for kw in ({}, {"scheme": "gauss-seidel", "extrapolation": "linear"}):
         with kept_sys_path(), Master.from_ssp(ssp, variant=variant, fmus={"controller": knm}) as m:
             (conv,) = m.system.conversions.values()
             assert list(m.system.conversions) == ["plant.table_torque"]
             assert (conv.source, conv.target, conv.factor, conv.offset) == (
-                "kN.m", "N.m", 1000.0, 0.0)  # fmt: skip
+                source, "N.m", 1000.0, 0.0)  # fmt: skip
             starts = effective_start_values(m.system.units[1])
             got = m.run(stop, H, progress=False, **kw)
         assert got.completed, got.failure
@@ -714,7 +762,7 @@ def test_a_controller_in_kilonewton_metres_closes_the_newton_metre_loop(built, t
                            rtol=1e-15, atol=0)  # fmt: skip
         worst = {n: _rel(got[n], ref[n]) for n in _plant_columns(ref.data)}
         print(
-            f"kN.m controller in the N.m loop, {variant} {kw}: max relative difference",
+            f"kN.m controller ({named}) in the N.m loop, {variant} {kw}: max relative difference",
             max(worst.values()),
         )
         assert max(worst.values()) <= 1e-12, worst
@@ -743,6 +791,45 @@ def test_a_connection_of_different_dimensions_is_refused(built, tmp_path):
         ),
     ):
         Master.from_ssp(folder)  # fmt: skip
+
+
+def test_a_connection_of_which_one_end_declares_no_unit_is_refused(built, tmp_path):
+    """A controller FMU whose torque output declares no unit, swapped into the N.m loop: its
+    numbers may be N m, kN m or the scaled torque, and nothing tells, so the master refuses the
+    connection naming both ends, their FMUs and the one unit (also the other way round, a plant
+    whose input declares none). ``suppressUnitConversion="true"`` on the connection is the
+    explicit opt-in: the values pass unchanged (here they are N m: the package's run). A
+    dimensionless "1" against no unit is the same plain number and passes."""
+    ssp = built.si.topdrive_ssp
+    torque = {"table_torque": None}
+    bare = tl.fmu_with_units(built.si.topdrive.fmu, tmp_path / "TopDriveBare.fmu", torque, {})
+    with pytest.raises(ValueError, match=re.escape(
+        "connection 'controller.table_torque -> plant.table_torque': 'plant.table_torque' of "
+        "DrillStringPlantSI.fmu is in 'N.m' (dimension kg.m2.s-2), 'controller.table_torque' of "
+        "TopDriveBare.fmu declares no unit, so its values cannot be checked or converted; "
+        "declare the unit in its model description, or pass the values unchanged on purpose "
+        'with suppressUnitConversion="true"')):  # fmt: skip
+        Master.from_ssp(ssp, fmus={"controller": bare})
+    plant = tl.fmu_with_units(built.si.plant.fmu, tmp_path / "PlantBare.fmu", torque, {})
+    with pytest.raises(ValueError, match=re.escape(
+        "'controller.table_torque' of TopDriveControllerSI.fmu is in 'N.m' (dimension "
+        "kg.m2.s-2), 'plant.table_torque' of PlantBare.fmu declares no unit")):  # fmt: skip
+        Master.from_ssp(ssp, fmus={"plant": plant})
+    folder = _unpack(ssp, tmp_path / "opted_in")
+    _edit(
+        folder / SSD_FILE,
+        'endElement="plant" endConnector="table_torque"',
+        'endElement="plant" endConnector="table_torque" suppressUnitConversion="true"',
+    )
+    with kept_sys_path(), Master.from_ssp(folder, fmus={"controller": bare}) as m:
+        assert m.system.conversions == {}
+        a = m.run(0.1, H, progress=False)
+    b = _master_run(ssp, stop=0.1)
+    assert np.array_equal(a["plant.bit_speed"], b["plant.bit_speed"])
+    one = tl.fmu_with_units(built.si.topdrive.fmu, tmp_path / "TopDriveOne.fmu",
+                            {"table_torque": "1"}, {"1": ""})  # fmt: skip
+    with kept_sys_path(), Master.from_ssp(ssp, fmus={"plant": plant, "controller": one}) as m:
+        assert m.system.conversions == {}
 
 
 def test_suppress_unit_conversion_passes_values_unconverted(built, tmp_path):
