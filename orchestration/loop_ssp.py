@@ -340,7 +340,8 @@ def _system_name(variant: LoopVariant) -> str:
     return base + ("SI" if variant.name == SI.name else "")
 
 
-def _description(variant: LoopVariant, e: LoopExperiment) -> str:
+def _loop_description(variant: LoopVariant) -> str:
+    """What the package's loop is (the SSDs' descriptions without the experiment)."""
     kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
     if variant.controller == "topdrive":
         law = "industrial top-drive controller"
@@ -348,8 +349,12 @@ def _description(variant: LoopVariant, e: LoopExperiment) -> str:
         law = "torsional controller (29)-(31)"
     return (
         f"Drill-string plant (11)-(14), (17) of Besselink, van de Wouw and Nijmeijer (IEEE "
-        f"CCA 2011) and {law} in closed loop, in {kind}. {e.summary}"
+        f"CCA 2011) and {law} in closed loop, in {kind}"
     )
+
+
+def _description(variant: LoopVariant, e: LoopExperiment) -> str:
+    return f"{_loop_description(variant)}. {e.summary}"
 
 
 def package_documentation(variant: LoopVariant) -> str:
@@ -410,7 +415,7 @@ def package_documentation(variant: LoopVariant) -> str:
 <html lang="en"><head><meta charset="utf-8"><title>{esc(system)}</title></head>
 <body>
 <h1>{esc(system)}</h1>
-<p>{esc(_description(variant, first).rsplit(". ", 1)[0])}. SSP 1.0 package written by the
+<p>{esc(_loop_description(variant))}. SSP 1.0 package written by the
 drillstring project (<code>build_fmus.py</code>), validated against the SSP 1.0 schemas.</p>
 
 <h2>One experiment per SSD</h2>

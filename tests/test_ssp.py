@@ -335,6 +335,8 @@ def test_documentation_folder_says_what_each_ssd_is(built, package):
     with zipfile.ZipFile(ssp) as z:
         page = z.read("documentation/index.html").decode()
     assert page.startswith("<!DOCTYPE html>") and page.rstrip().endswith("</html>")
+    kind = "SI units and seconds" if variant.name == "si" else "the paper&#x27;s scaled quantities"
+    assert f"closed loop, in {kind}. SSP 1.0 package written by" in page  # no experiment's "Fig."
     for i, e in enumerate(loop_experiments(variant)):
         assert f"<code>{SSD_FILE if i == 0 else e.name + '.ssd'}</code>" in page
         assert html.escape(e.summary) in page
