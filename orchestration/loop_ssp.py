@@ -466,13 +466,13 @@ values run (for these FMUs: Fig. 5's initial state and the controller on from t 
 <li>The default experiment is ignored: without <code>--stopTime</code> the run stops at 1 s.
 Give <code>--stopTime</code> and <code>--stepSize</code> from the table above.</li>
 <li>A set that binds only one component leaves the other at its start values: a
-controller-only set runs the plant from its own initial state (a stiff PI set alone ran the
-plant from Fig. 5's state with the torsional-stick model off, which leaves the model at 54.017 s
-in SI). Every set of this package binds both components for that reason.</li>
+controller-only set runs the plant from its own initial state (a stiff PI set alone, on from
+t = 0, ran the plant from Fig. 5's state with the torsional-stick model off, which leaves the
+model at 54.017 s in SI). Every set of this package binds both components for that reason.</li>
 <li>When the plant leaves the validity of its model (bit bouncing, torsional stick without the
-torsional-stick model: <code>fmi2Discard</code>), Ecos prints nothing at its default log level,
-goes on stepping with the bit frozen and exits with code 0: check that the plant's outputs still
-change at the end of the run.</li>
+torsional-stick model: <code>fmi2Discard</code>), Ecos prints nothing of it at its default log
+level, goes on stepping with the plant's outputs frozen (the controller computes on) and
+exits with code 0: check that the plant's outputs still change at the end of the run.</li>
 <li>A run of fewer than 10 steps ends in a floating-point exception (exit code 136).</li>
 <li>Enumeration parameters (<code>latch</code>, <code>on_invalid</code>) are not set (Ecos warns
 that no int variable of that name is registered): they keep the FMUs' start values, which are

@@ -18,7 +18,9 @@ host, units honoured by the project's master.
 * the ``ecos simulate`` command line in a clean environment on a variant folder, to the
   resolution of its CSV, and the Ecos behaviours the packages' documentation warns of (each
   pinned: the path of an ``.ssd`` crashes it, a misspelt set is ignored, the stop time is 1 s
-  without ``--stopTime``, fewer than 10 steps crash it);
+  without ``--stopTime``, fewer than 10 steps crash it, a controller-only set runs the plant
+  from its start values, and after the plant leaves its model at 54.017 s Ecos runs on with the
+  plant frozen, says nothing and exits with code 0);
 * units: parameter values given in rpm (defined in the ``.ssv``), ms (defined in the ``.ssd``)
   and inline in the SSD are converted (hand-computed), an undefined or incompatible unit is
   refused naming parameter, unit and dimension; a controller FMU that speaks kN.m swapped into
@@ -536,6 +538,77 @@ def test_ecos_pitfalls_the_documentation_names(built, tmp_path, clean_home):
     proc = _ecos(["--path", str(folder), "--stepSize", "0.001", "--stopTime", "0.009",
                   "--parameterSet", "fig6"], work, clean_home)  # fmt: skip
     assert proc.returncode in (-signal.SIGFPE, 128 + signal.SIGFPE), proc.returncode
+
+
+#: The stop time of the controller-only run: a little past the plant's validity stop (54.017 s).
+ECOS_LONG = 54.5
+
+
+def test_ecos_runs_a_controller_only_set_on_past_the_plant_leaving_its_model(
+    built, tmp_path, clean_home
+):
+    """The Ecos pitfalls of the documentation that need a long run (``ecos simulate`` to 54.5 s,
+    about 55 s on 2 cores): a set that binds the controller alone (the stiff PI tuning from
+    t = 0: Fig. 6's stiff-PI SSD with ``t_on = 0`` and the plant's binding removed) leaves the
+    plant at the FMU's start values, Fig. 5's state with the torsional-stick model off. That
+    plant leaves its model at 54.017 s (the bit stops: ``fmi2Discard``, which the project's
+    master reports and stops at); Ecos runs the same run up to there (to its CSV's resolution),
+    says nothing of the stop, goes on to the stop time with every plant output frozen while the
+    controller computes on, and exits with code 0."""
+    ssp = built.si.topdrive_ssp
+    work = tmp_path / "controller_only"
+    work.mkdir()
+    folder = variant_folder(ssp, "fig6-stiff-pi", work / "stiff")
+    ssd = etree.parse(str(folder / SSD_FILE))
+    (plant,) = ssd.findall("ssd:System/ssd:Elements/ssd:Component[@name='plant']", NS)
+    plant.remove(plant.find("ssd:ParameterBindings", NS))
+    ssd.write(str(folder / SSD_FILE), xml_declaration=True, encoding="UTF-8")
+    ssv = etree.parse(str(folder / "resources" / "fig6-stiff-pi.controller.ssv"))
+    ssv.find("ssv:Parameters/ssv:Parameter[@name='t_on']/ssv:Real", NS).set("value", "0.0")
+    ssv.write(str(folder / "resources" / "fig6-stiff-pi.controller.ssv"), xml_declaration=True,
+              encoding="UTF-8")  # fmt: skip
+    assert validate_ssp(folder) == []
+    with kept_sys_path(), Master.from_ssp(folder) as m:
+        assert m.ssp.bound_sets == ("fig6-stiff-pi",)  # the controller's only
+        ref = m.run(ECOS_LONG, H, progress=False, exchange="simple", grid="sum")
+    failure = str(ref.failure)
+    assert not ref.completed and "torsional stick: outside the model" in failure, failure
+    stop = float(re.search(r"\(t = ([0-9.]+) s\)", failure).group(1))
+    assert round(stop, 3) == 54.017
+    proc = _ecos(["--path", str(folder), "--stepSize", "0.001", "--stopTime", str(ECOS_LONG),
+                  "--parameterSet", "fig6-stiff-pi"], work, clean_home)  # fmt: skip
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    said = [line for line in (proc.stdout + proc.stderr).splitlines()
+            if "[warning]" in line or "[error]" in line or "[critical]" in line]  # fmt: skip
+    assert said and all("No variable named" in line for line in said), said  # the enumerations
+    header, data = tl.read_ecos_csv(work / "stiff.csv")
+
+    def col(name: str) -> np.ndarray:
+        return data[:, header.index(name)]
+
+    t = col("time")
+    assert t[-1] == pytest.approx(ECOS_LONG, abs=2e-3)
+    # the plant at the FMU's start values, the controller at the set's
+    starts = declared_start_values(read_model_description(str(built.si.plant.fmu)))
+    assert starts["torsional_stick_model"] is False
+    assert starts["dphi0"] == pytest.approx(FIG5.dphi0 / TS, rel=1e-12)
+    assert col("plant::dphi0[REAL]")[0] == pytest.approx(starts["dphi0"], abs=1e-6)
+    stiff = read_ssp(ssp, unpack=False, variant="fig6-stiff-pi").parameters()["controller"]
+    soft = declared_start_values(read_model_description(str(built.si.topdrive.fmu)))["kp"]
+    assert col("controller::kp[REAL]")[0] == pytest.approx(stiff["kp"].value, abs=1e-6)
+    assert abs(stiff["kp"].value - soft) > 1.0 and col("controller::t_on[REAL]")[0] == 0.0
+    # up to the stop the master's run; after it the plant frozen, the controller on
+    k = int(np.count_nonzero(t < stop - H))  # rows from t = 0, as the master's
+    after = t > stop + H
+    assert k > 54_000 and len(ref.time) >= k
+    assert np.max(np.abs(t[:k] - ref.time[:k])) <= CSV_RESOLUTION
+    for name in ("bit_speed", "table_speed", "bit_position", "weight_on_bit", "torque_on_bit"):
+        got = col(f"plant::{name}[REAL]")
+        err = np.max(np.abs(got[:k] - ref[f"plant.{name}"][:k]))
+        assert err <= CSV_RESOLUTION, (name, err)
+        assert np.ptp(got[after]) == 0.0, name
+    assert col("plant::bit_speed[REAL]")[-1] == pytest.approx(0.0, abs=1e-6)  # the bit stopped
+    assert np.ptp(col("controller::table_torque[REAL]")[after]) > 100.0  # N m
 
 
 # ------------------------------------------------------------------------------------------------
