@@ -106,6 +106,8 @@ STOP = 2.0
 #: How far past Fig. 6's switch-on the cross-host runs go, in units of the package's time (tau,
 #: or t* seconds in SI): long enough that every law has visibly acted on the plant.
 AFTER_T_ON = 3.0
+#: Where Ecos stops without --stopTime, whatever the package's default experiment [s].
+ECOS_DEFAULT_STOP = 1.0
 #: Half a unit in the last place of Ecos's CSV numbers (std::to_string: "%f").
 CSV_RESOLUTION = 5e-7 + 1e-12
 ODD = "drill ü#%[x] 100%20"
@@ -345,8 +347,97 @@ def test_documentation_folder_says_what_each_ssd_is(built, package):
     for caveat in ("misspelt", "--stopTime", "controller-only", "exits with code 0", "139"):
         assert caveat in page, caveat
     assert ("seconds" if variant.name == "si" else "tau = t/t*") in page
+
+
+#: tool (the start of its row in the README's table) -> what the README says it applies, and how
+#: every package's documentation/index.html says it
+README_TOOLS = {
+    "the project's master": (
+        "every binding, in order (SSP 1.0), or the sets named",
+        "applies the SSD's bindings as SSP 1.0 does (every binding of a component in order",
+    ),
+    "libcosim": (
+        "the first binding of each component",
+        "applies the first binding of each component",
+    ),
+    "Ecos": (
+        "only the set named by `--parameterSet`",
+        "applies only the parameter set named by <code>--parameterSet</code>",
+    ),
+    "fmpy": (
+        "none: only its `parameter_set` argument",
+        "applies none of its bindings: pass the set as its <code>parameter_set</code> argument",
+    ),
+}
+#: What Ecos does not tell, as the README's bullets say it and as every package's documentation
+#: says it; each is pinned by the Ecos tests above (:data:`ECOS_DEFAULT_STOP`, exit code 0).
+README_ECOS = (
+    ("a misspelt `--parameterSet` (or none) is ignored: the FMUs' start values run",
+     "A misspelt <code>--parameterSet</code> (or none) is ignored without a word: the FMUs' "
+     "start values run"),
+    ("the default experiment is ignored: the run stops at {stop:g} s unless `--stopTime` is given",
+     "The default experiment is ignored: without <code>--stopTime</code> the run stops at "
+     "{stop:g} s"),
+    ("a set that binds the controller alone runs the plant from its start values",
+     "A set that binds only one component leaves the other at its start values"),
+    ("after the plant leaves its model (`fmi2Discard`) it runs on with the plant frozen and "
+     "exits 0", "goes on stepping with the plant's outputs frozen (the controller computes on) "
+     "and exits with code 0"),
+)  # fmt: skip
+
+
+def _readme_ssp_section() -> str:
+    text = (ROOT / "README.md").read_text()
+    start = text.index("The closed loops are SSP 1.0 packages")
+    return text[start : text.index("\n## ", start)]
+
+
+def test_readme_states_what_the_packages_documentation_says(built):
+    """The README's SSP section says what every package's documentation/index.html says: which
+    SSDs there are, what each tool applies (its table, one row per tool), what Ecos does not
+    tell (its bullets, with the numbers the Ecos tests pin), and a command line whose stop time,
+    step and set are the SI package's default experiment and Fig. 5's set; the README stays
+    short (at most 200 lines)."""
     readme = (ROOT / "README.md").read_text()
-    assert "documentation/index.html" in readme and "--variant" in readme
+    assert len(readme.splitlines()) <= 200
+    section = _readme_ssp_section()
+    flat = " ".join(section.split())
+    pages = []
+    for make, variant in PACKAGES.values():
+        with zipfile.ZipFile(make(built)) as z:
+            pages.append(
+                " ".join(html.unescape(z.read("documentation/index.html").decode()).split())
+            )
+        names = [SSD_FILE if i == 0 else f"{e.name}.ssd"
+                 for i, e in enumerate(loop_experiments(variant))]  # fmt: skip
+        assert names[0] in flat and all(
+            n in flat or (n.startswith("fig6-") and "`fig6-<law>.ssd`" in flat) for n in names
+        ), names
+    rows = [[c.strip() for c in line.strip().strip("|").split("|")]
+            for line in section.splitlines() if line.startswith("|")]  # fmt: skip
+    assert rows[0] == ["tool", "reads", "applies", "also"] and set(rows[1][0]) == {"-"}
+    assert [r[0].split(" (")[0] for r in rows[2:]] == list(README_TOOLS)
+    for row, (said, page_says) in zip(rows[2:], README_TOOLS.values(), strict=True):
+        assert row[2] == said, row
+        for page in pages:
+            assert " ".join(html.unescape(page_says).split()) in page, page_says
+    bullets = [line[2:].rstrip(";.") for line in section.splitlines() if line.startswith("- ")]
+    assert len(bullets) == len(README_ECOS)
+    for bullet, (said, page_says) in zip(bullets, README_ECOS, strict=True):
+        assert bullet == said.format(stop=ECOS_DEFAULT_STOP), bullet
+        for page in pages:
+            assert " ".join(html.unescape(page_says.format(stop=ECOS_DEFAULT_STOP)).split()) in page
+    assert "documentation/index.html" in flat
+    # the command lines run what they say
+    (cmd,) = re.findall(r"`ecos simulate ([^`]*)`", flat)
+    args = dict(zip(cmd.split()[::2], cmd.split()[1::2], strict=True))
+    _, stop, step = loop_default_experiment(SI, FIG5)
+    assert Path(args["--path"]).name == SI.ssp
+    assert (float(args["--stepSize"]), args["--stopTime"]) == (step, f"{stop:g}")
+    assert args["--parameterSet"] == read_ssp(built.si.ssp, unpack=False).bound_sets[0] == "fig5"
+    (cosim,) = re.findall(r"`drillstring cosim ([^`]*)`", flat)
+    variant = cosim.split("--variant ")[1].split()[0]
+    assert variant in read_ssp(built.si.ssp, unpack=False).variants
 
 
 # ------------------------------------------------------------------------------------------------
@@ -534,7 +625,9 @@ def test_ecos_pitfalls_the_documentation_names(built, tmp_path, clean_home):
     dphi0 = data[:, header.index("plant::dphi0[REAL]")]
     start = declared_start_values(read_model_description(str(built.si.plant.fmu)))["dphi0"]
     assert dphi0[0] == pytest.approx(start, abs=1e-6) and start != pytest.approx(FIG6.dphi0 / TS)
-    assert data[-1, header.index("time")] == pytest.approx(1.0, abs=2e-3)  # not 55.352
+    assert data[-1, header.index("time")] == pytest.approx(
+        ECOS_DEFAULT_STOP, abs=2e-3
+    )  # not 55.352
     proc = _ecos(["--path", str(folder), "--stepSize", "0.001", "--stopTime", "0.009",
                   "--parameterSet", "fig6"], work, clean_home)  # fmt: skip
     assert proc.returncode in (-signal.SIGFPE, 128 + signal.SIGFPE), proc.returncode
