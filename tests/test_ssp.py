@@ -499,8 +499,8 @@ def test_every_ssd_runs_the_same_in_master_ecos_and_libcosim(built, tmp_path, pa
     (measured: 0.0 for both hosts in every SSD). Fig. 5 runs 2000 steps; Fig. 6 runs past its
     switch-on (tau = 25, 23.06 s in SI) to tau = 28 (26 s), and the controller's output must
     have changed after the switch-on by more than half the nominal torque R0: the hosts agree
-    while the law acts on the plant (the 8 runs of Fig. 6 took 2.9 minutes on 2 cores, 2.3 more
-    than at 2000 steps)."""
+    while the law acts on the plant (the 8 runs of Fig. 6 took 1.2 minutes in all on the shared
+    2 cores at a load of 1, 2.9 at a load of 6; about 4 times as long as at 2000 steps)."""
     ssp, loop = PACKAGES[package][0](built), PACKAGES[package][1]
     p = read_ssp(ssp, unpack=False, variant=variant)
     t_on = p.parameters()["controller"]["t_on"].value
@@ -640,14 +640,14 @@ ECOS_LONG = 54.5
 def test_ecos_runs_a_controller_only_set_on_past_the_plant_leaving_its_model(
     built, tmp_path, clean_home
 ):
-    """The Ecos pitfalls of the documentation that need a long run (``ecos simulate`` to 54.5 s,
-    about 55 s on 2 cores): a set that binds the controller alone (the stiff PI tuning from
-    t = 0: Fig. 6's stiff-PI SSD with ``t_on = 0`` and the plant's binding removed) leaves the
-    plant at the FMU's start values, Fig. 5's state with the torsional-stick model off. That
-    plant leaves its model at 54.017 s (the bit stops: ``fmi2Discard``, which the project's
-    master reports and stops at); Ecos runs the same run up to there (to its CSV's resolution),
-    says nothing of the stop, goes on to the stop time with every plant output frozen while the
-    controller computes on, and exits with code 0."""
+    """The Ecos pitfalls of the documentation that need a long run (``ecos simulate`` to 54.5 s:
+    25 s on 2 cores at a load of 1, 56 s at 6): a set that binds the controller alone (the stiff PI
+    tuning from t = 0: Fig. 6's stiff-PI SSD with ``t_on = 0`` and the plant's binding removed)
+    leaves the plant at the FMU's start values, Fig. 5's state with the torsional-stick model
+    off. That plant leaves its model at 54.017 s (the bit stops: ``fmi2Discard``, which the
+    project's master reports and stops at); Ecos runs the same run up to there (to its CSV's
+    resolution), says nothing of the stop, goes on to the stop time with every plant output
+    frozen while the controller computes on, and exits with code 0."""
     ssp = built.si.topdrive_ssp
     work = tmp_path / "controller_only"
     work.mkdir()
