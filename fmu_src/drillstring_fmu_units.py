@@ -6,7 +6,9 @@ variable exists in one of them only), its dimension (:data:`drillstring.model.un
 or its SI unit, its description and its scaled start value. :func:`variables` gives the
 :class:`~drillstring_fmu_support.Variable` table of either unit system: in SI each start value
 and bound is scaled by its dimension on the reference rig (``docs/reference_rig.md``) and the
-unit (and display unit) is the dimension's; in scaled units every unit is "1". ``build_fmus.py``
+unit (and display unit) is the dimension's; in scaled units every unit is "1", so the
+description of every time-valued variable says that it is in the scaled time tau (in SI: in
+seconds; :meth:`Declared.time_note`). ``build_fmus.py``
 generates each variant's class from the script's one class: the unit system is a class
 attribute (``UNIT_SYSTEM``), the rest is the same code.
 """
@@ -22,7 +24,7 @@ import drillstring_fmu_support as fmu
 
 from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.tables import Parameter
-from drillstring.model.units import DIMENSIONS, si_scale
+from drillstring.model.units import DIMENSIONS, SCALED_TIME, si_scale
 
 __all__ = [
     "SCALED",
@@ -69,6 +71,19 @@ class Declared:
         """The variable's name in ``system`` (None: absent there)."""
         return self.scaled if system == SCALED else self.si
 
+    @property
+    def time_valued(self) -> bool:
+        """Whether the variable is a time (a Real whose SI unit is the second)."""
+        return self.type == "Real" and (self.si_unit or DIMENSIONS[self.dimension].unit) == "s"
+
+    def time_note(self, system: str) -> str:
+        """What a time-valued variable's description says of its unit: in the scaled system the
+        scaled time tau (:data:`~drillstring.model.units.SCALED_TIME`), which a tool cannot read
+        from its unit "1", in SI seconds; "" for any other variable."""
+        if not self.time_valued:
+            return ""
+        return f"; in the {SCALED_TIME}" if system == SCALED else "; in seconds"
+
     def variable(self, system: str) -> fmu.Variable | None:
         """The variable of ``system``, or None when it has no name there."""
         name = self.name(system)
@@ -79,7 +94,7 @@ class Declared:
         if system == SI and si_check is not None:
             kw["check"] = si_check
         note = self.scaled_note if system == SCALED else self.si_note
-        description = f"{self.description}{note}"
+        description = f"{self.description}{note}{self.time_note(system)}"
         start = self.start
         if system == SI and self.type == "Real":
             d = DIMENSIONS[self.dimension]

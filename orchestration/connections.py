@@ -9,12 +9,15 @@ section 2.2.8; an output without a ``dependencies`` attribute depends on all inp
 from them the exchange schedule and the default Gauss-Seidel order (:mod:`.schedule`).
 
 Units. Where both ends of a connection declare a unit (FMI 2.0 ``unit`` with its
-``UnitDefinitions``) and the two differ, the value is converted on the way
-(:func:`~drillstring.model.units.unit_conversion`: a torque output in kN.m into an input in
-N.m is multiplied by 1000); units of different dimensions are refused, naming the connection,
-both units and their dimensions. A connection made with ``convert_units=False`` (SSP's
-``suppressUnitConversion``) passes values unchanged; so does one with an end that declares no
-unit.
+``UnitDefinitions``), their definitions are compared, not their names: units of other factors
+or offsets convert the value on the way (:func:`~drillstring.model.units.unit_conversion`: a
+torque output in kN.m into an input in N.m is multiplied by 1000, and so is one from an FMU
+that defines its "N.m" with factor 1000); units of different dimensions are refused, naming the
+connection, both units and their dimensions. Where only one end declares a unit, the other's
+values are in a unit nobody can check: the connection is refused, naming both ends, their FMUs
+and the unit, unless that unit is dimensionless with factor 1 (``"1"``, the scaled FMUs'). A
+connection made with ``convert_units=False`` (SSP's ``suppressUnitConversion="true"``) passes
+values unchanged and is not checked: the explicit way to couple such ends.
 """
 
 from __future__ import annotations
@@ -294,25 +297,46 @@ def unit_definitions(model_description: Any) -> dict[str, UnitDef]:
     return out
 
 
+def _plain_number(unit: UnitDef) -> bool:
+    """A dimensionless unit of factor 1 and offset 0 (``"1"``): a value without one is in it."""
+    return not any(unit.exponents.values()) and unit.factor == 1.0 and unit.offset == 0.0
+
+
 def _conversion(
     label: str,
+    ends: tuple[str, str],
     src: Any,
     dst: Any,
     src_units: Mapping[str, UnitDef],
     dst_units: Mapping[str, UnitDef],
 ) -> Conversion | None:
-    """The conversion of a connection from the FMUs' units (module docstring), None for none
-    (fmpy's reader has checked that every unit a variable names is defined)."""
+    """The conversion of a connection from the FMUs' unit definitions (module docstring), None
+    for none; ``ends`` names the source and the target with their FMUs (fmpy's reader has
+    checked that every unit a variable names is defined)."""
     a, b = variable_unit(src), variable_unit(dst)
-    if a is None or b is None or a == b:
+    if a is None and b is None:
         return None
+    if a is None or b is None:
+        declared = src_units[a] if a is not None else dst_units[b]
+        if _plain_number(declared):
+            return None
+        bare, other = (ends[0], ends[1]) if a is None else (ends[1], ends[0])
+        raise ValueError(
+            f"{label}: {other} is in {declared.name!r} (dimension {declared.dimension}), "
+            f"{bare} declares no unit, so its values cannot be checked or converted; declare "
+            "the unit in its model description, or pass the values unchanged on purpose with "
+            'suppressUnitConversion="true" on the SSD\'s connection '
+            "(Connection(..., convert_units=False))"
+        )
     ua, ub = src_units[a], dst_units[b]
+    same_name = " (one name, two definitions)" if a == b else ""
     try:
         conv = unit_conversion(ua, ub)
     except UnitMismatch:
         raise ValueError(
             f"{label}: the source's unit {a!r} (dimension {ua.dimension}) and the target's unit "
-            f"{b!r} (dimension {ub.dimension}) are of different dimensions: not convertible"
+            f"{b!r} (dimension {ub.dimension}) are of different dimensions{same_name}: not "
+            "convertible"
         ) from None
     return None if conv.identity else conv
 
@@ -345,7 +369,8 @@ def build_system(
         unknown units or variables, a source that is not an output, a target that is not
         an input, non-Real connections, an input connected twice, unsettable or ill-typed
         start values, an algebraic loop, a bad ``gs_order``, connected units of different
-        dimensions (module docstring).
+        dimensions, a connection of which only one end declares a unit (not ``"1"``) and
+        ``convert_units`` is True (module docstring).
     """
     if isinstance(units, Mapping):
         units = [_unit_from_mapping(name, spec) for name, spec in units.items()]
@@ -399,8 +424,13 @@ def build_system(
             )
         input_source[c.target] = c.source
         if c.convert_units:
+            ends = (
+                f"{c.source!r} of {Path(units[src.unit].fmu).name}",
+                f"{c.target!r} of {Path(units[dst.unit].fmu).name}",
+            )
             conv = _conversion(
                 label,
+                ends,
                 mvars_of[src.unit][src.name],
                 mvars_of[dst.unit][dst.name],
                 unit_defs[src.unit],

@@ -340,7 +340,8 @@ def _system_name(variant: LoopVariant) -> str:
     return base + ("SI" if variant.name == SI.name else "")
 
 
-def _description(variant: LoopVariant, e: LoopExperiment) -> str:
+def _loop_description(variant: LoopVariant) -> str:
+    """What the package's loop is (the SSDs' descriptions without the experiment)."""
     kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
     if variant.controller == "topdrive":
         law = "industrial top-drive controller"
@@ -348,8 +349,12 @@ def _description(variant: LoopVariant, e: LoopExperiment) -> str:
         law = "torsional controller (29)-(31)"
     return (
         f"Drill-string plant (11)-(14), (17) of Besselink, van de Wouw and Nijmeijer (IEEE "
-        f"CCA 2011) and {law} in closed loop, in {kind}. {e.summary}"
+        f"CCA 2011) and {law} in closed loop, in {kind}"
     )
+
+
+def _description(variant: LoopVariant, e: LoopExperiment) -> str:
+    return f"{_loop_description(variant)}. {e.summary}"
 
 
 def package_documentation(variant: LoopVariant) -> str:
@@ -400,7 +405,9 @@ def package_documentation(variant: LoopVariant) -> str:
             "variable has one named <code>time</code> in <code>s</code> (FMI 2.0, section "
             f"2.2.7), so every tool shows tau as seconds. One unit of time is t* seconds of the "
             f"rig ({ts:.6g} s for the reference rig), and so are the default experiments' "
-            "times, the step and the parameters <code>h</code> and <code>t_on</code>. To "
+            "times, the step and the time-valued parameters (<code>h</code>, <code>t_on</code> "
+            "and the others; the FMUs' model descriptions say so in the FMU's and in each such "
+            "variable's description). To "
             "couple the loop with models in seconds use the SI package "
             f"<code>{esc(system)}SI.ssp</code>.</p>"
         )
@@ -408,7 +415,7 @@ def package_documentation(variant: LoopVariant) -> str:
 <html lang="en"><head><meta charset="utf-8"><title>{esc(system)}</title></head>
 <body>
 <h1>{esc(system)}</h1>
-<p>{esc(_description(variant, first).rsplit(". ", 1)[0])}. SSP 1.0 package written by the
+<p>{esc(_loop_description(variant))}. SSP 1.0 package written by the
 drillstring project (<code>build_fmus.py</code>), validated against the SSP 1.0 schemas.</p>
 
 <h2>One experiment per SSD</h2>
@@ -459,13 +466,13 @@ values run (for these FMUs: Fig. 5's initial state and the controller on from t 
 <li>The default experiment is ignored: without <code>--stopTime</code> the run stops at 1 s.
 Give <code>--stopTime</code> and <code>--stepSize</code> from the table above.</li>
 <li>A set that binds only one component leaves the other at its start values: a
-controller-only set runs the plant from its own initial state (a stiff PI set alone ran the
-plant from Fig. 5's state with the torsional-stick model off, which leaves the model at 54.017 s
-in SI). Every set of this package binds both components for that reason.</li>
+controller-only set runs the plant from its own initial state (a stiff PI set alone, on from
+t = 0, ran the plant from Fig. 5's state with the torsional-stick model off, which leaves the
+model at 54.017 s in SI). Every set of this package binds both components for that reason.</li>
 <li>When the plant leaves the validity of its model (bit bouncing, torsional stick without the
-torsional-stick model: <code>fmi2Discard</code>), Ecos prints nothing at its default log level,
-goes on stepping with the bit frozen and exits with code 0: check that the plant's outputs still
-change at the end of the run.</li>
+torsional-stick model: <code>fmi2Discard</code>), Ecos prints nothing of it at its default log
+level, goes on stepping with the plant's outputs frozen (the controller computes on) and
+exits with code 0: check that the plant's outputs still change at the end of the run.</li>
 <li>A run of fewer than 10 steps ends in a floating-point exception (exit code 136).</li>
 <li>Enumeration parameters (<code>latch</code>, <code>on_invalid</code>) are not set (Ecos warns
 that no int variable of that name is registered): they keep the FMUs' start values, which are

@@ -193,8 +193,9 @@ class Master:
         named parameter set(s). A value given in another unit than its FMU variable's is
         converted into it (units defined in the ``.ssv`` or the ``.ssd``: ``Omega0 = 51.756``
         in rpm is set as 5.42 rad/s); a connection between FMU variables of different units of
-        one dimension converts the value on the way (:mod:`.connections`). The SSD's default
-        experiment is :attr:`ssp` (``stop_time``, ``step``).
+        one dimension converts the value on the way (:mod:`.connections`). Units are compared
+        by their definitions, not their names. The SSD's default experiment is :attr:`ssp`
+        (``stop_time``, ``step``).
 
         Parameters
         ----------
@@ -229,7 +230,9 @@ class Master:
             (the message names the parameter, the unit and the dimension expected).
         ValueError
             For connected FMU variables of different dimensions (naming the connection, both
-            units and their dimensions), and the errors of :class:`Master`.
+            units and their dimensions), a connection of which only one end declares a unit
+            (other than "1") and that does not suppress unit conversion (naming both ends, their
+            FMUs and the unit), and the errors of :class:`Master`.
         """
         tmp = tempfile.mkdtemp(prefix="cosim_ssp_")
         try:
@@ -531,9 +534,13 @@ def _in_variable_unit(
     component: str, fmu: str, p: SspParameter, unit: str | None, defs: Mapping[str, UnitDef]
 ) -> float:
     """A Real parameter's value in its FMU variable's unit (see :meth:`Master.from_ssp`; fmpy's
-    reader has checked that ``unit`` is among the FMU's ``defs``)."""
+    reader has checked that ``unit`` is among the FMU's ``defs``). The definitions decide, not
+    the names: a unit of the variable's name that the ``.ssv`` or ``.ssd`` defines otherwise
+    than the FMU is converted; one of that name they leave undefined is taken as the FMU's."""
     value = float(p.value)
-    if p.unit is None or p.unit == unit:
+    if p.unit is None or (
+        p.unit == unit and (p.unit_def is None or _same_unit(p.unit_def, defs[unit]))
+    ):
         return value
     what = f"component {component!r}: parameter {p.name!r} = {value!r} given in {p.unit!r}"
     if unit is None:
@@ -552,6 +559,11 @@ def _in_variable_unit(
         return value
     log.info("%s: set as %r %s", what, conv(value), unit)
     return conv(value)
+
+
+def _same_unit(a: UnitDef, b: UnitDef) -> bool:
+    """Whether two unit definitions are the same unit (exponents, factor, offset; not names)."""
+    return a.same_dimension(b) and (a.factor, a.offset) == (b.factor, b.offset)
 
 
 def _check_connected_units(package: SspPackage) -> None:

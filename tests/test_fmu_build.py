@@ -214,6 +214,54 @@ def test_documentation_states_what_a_host_reads_as_time(built):
                 assert "this FMU's time is in seconds" in doc, unit.model
 
 
+#: The time-valued variables of each FMU, (scaled name, SI name), read off the paper and the
+#: laws' tables: the plant's delay t_n (14), RK4 step and event tolerance; the switch-on time, the
+#: back-calculation tracking time (top-drive laws only), the drive's lag and the telemetry's
+#: frame period and latency.
+TIMES = {
+    "plant": (("tau_n", "delay"), ("h", "h"), ("event_tol", "event_tol")),
+    "controller": tuple((n, n) for n in ("t_on", "lag", "period", "latency")),
+    "topdrive": tuple((n, n) for n in ("t_on", "tracking_time", "lag", "period", "latency")),
+}
+
+
+def _descriptions(unit) -> tuple[str, dict[str, tuple[str, str | None]]]:
+    """The fmiModelDescription's description and each variable's (description, Real unit), as
+    the built modelDescription.xml has them."""
+    with zipfile.ZipFile(unit.fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    variables = {
+        sv.get("name"): (sv.get("description"), sv[0].get("unit") if sv[0].tag == "Real" else None)
+        for sv in root.iter("ScalarVariable")
+    }
+    return root.get("description"), variables
+
+
+def test_model_descriptions_state_the_time_base(built):
+    """A tool reads only unit "1" in the scaled FMUs and shows their time as seconds (FMI 2.0,
+    2.2.7): the fmiModelDescription's description says that their time is tau = t/t*, with t* =
+    sqrt(I1/C) = 0.922531 s on the reference rig, and so does the description of every
+    time-valued variable (:data:`TIMES`; all of them: those are exactly the SI twin's variables
+    in s), and of no other; the SI FMUs' say seconds."""
+    t_star = f"{math.sqrt(REFERENCE_RIG.I1 / REFERENCE_RIG.C):.6g} s on the reference rig"
+    assert t_star.startswith("0.922531 s")
+    tau = "scaled time tau = t/t*, in units of t* = sqrt(I1/C) seconds of the rig"
+    for kind, times in TIMES.items():
+        sc_root, sc_vars = _descriptions(getattr(built, kind))
+        si_root, si_vars = _descriptions(getattr(built.si, kind))
+        assert f"Time base: the {tau} ({t_star}), not seconds" in sc_root, kind
+        assert "default experiment" in sc_root and "per unit of tau" in sc_root, kind
+        assert "Time base: seconds" in si_root and "tau = t/t*" not in si_root, kind
+        assert {si for _, si in times} == {n for n, (_, u) in si_vars.items() if u == "s"}, kind
+        for name, (desc, unit) in sc_vars.items():
+            timed = name in {sc for sc, _ in times}
+            assert (f"; in the {tau} ({t_star})" in desc) == timed, (kind, name, desc)
+            assert unit in (None, "1"), (kind, name)
+        for name, (desc, unit) in si_vars.items():
+            assert desc.endswith("; in seconds") == (unit == "s"), (kind, name, desc)
+            assert "tau = t/t*" not in desc, (kind, name)
+
+
 def test_every_variable_has_description_and_unit(built):
     for unit in _units(built).values():
         md = read_model_description(str(unit.fmu))

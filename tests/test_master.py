@@ -473,6 +473,25 @@ def test_connections_of_different_dimensions_are_refused(small_fmus, tmp_path):
         ),
     ):
         Master([Unit("A", bad), Unit("B", bad)], ["A.x -> B.u", "B.x -> A.u"])  # fmt: skip
-    # an end without a unit: nothing to check, nothing converted
-    with Master([Unit("A", bad), Unit("B", small_fmus["integrator"])], ["A.x -> B.u"]) as m:
+    # an end without a unit: refused, naming both ends; passed unchanged only on purpose
+    plain = small_fmus["integrator"]
+    refused = (
+        f"connection 'A.x -> B.u': 'A.x' of bad.fmu is in 'rad/s' (dimension s-1.rad), 'B.u' "
+        f"of {plain.name} declares no unit, so its values cannot be checked or converted"
+    )
+    with pytest.raises(ValueError, match=re.escape(refused)):
+        Master([Unit("A", bad), Unit("B", plain)], ["A.x -> B.u"])
+    with Master([Unit("A", bad), Unit("B", plain)], [Connection("A.x", "B.u", False)]) as m:
         assert m.system.conversions == {}
+    # a dimensionless "1" (the scaled FMUs' unit) and no unit are the same plain number
+    one = tl.fmu_with_units(plain, tmp_path / "one.fmu", {"x": "1"}, {"1": ""})
+    with Master([Unit("A", one), Unit("B", plain)], ["A.x -> B.u"]) as m:
+        assert m.system.conversions == {}
+    # a unit of one name defined otherwise by the other FMU: converted by the definitions
+    kilo = tl.fmu_with_units(plain, tmp_path / "kilo.fmu", {"x": "N.m", "u": "N.m"},
+                             {"N.m": KNM["kN.m"]})  # fmt: skip
+    newton = tl.fmu_with_units(plain, tmp_path / "newton.fmu", {"x": "N.m", "u": "N.m"},
+                               {"N.m": KNM["N.m"]})  # fmt: skip
+    with Master([Unit("A", kilo), Unit("B", newton)], ["A.x -> B.u", "B.x -> A.u"]) as m:
+        conv = {k: (c.factor, c.offset) for k, c in m.system.conversions.items()}
+    assert conv == {"B.u": (1000.0, 0.0), "A.u": (0.001, 0.0)}

@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drillstring.model.engine import InitialState
-from drillstring.model.params import PhysicalParams, ScaledParams, weight_on_bit
+from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams, weight_on_bit
 from drillstring.validation import check_real
 
 __all__ = [
@@ -59,6 +59,7 @@ __all__ = [
     "DIMENSIONS",
     "Dimension",
     "PLANT_SI",
+    "SCALED_TIME",
     "SIScaling",
     "UNITS",
     "UnitDef",
@@ -339,6 +340,13 @@ DIMENSIONS: dict[str, Dimension] = {
         Dimension("velocity", 0, -1, "m/s", "mm/s", length=1),
     )
 }
+
+#: The time base of the scaled FMUs in words, for their model descriptions: their numbers of time
+#: are the paper's scaled time (Section II), t = t* tau.
+SCALED_TIME = (
+    f"scaled time tau = t/t*, in units of t* = sqrt(I1/C) seconds of the rig "
+    f"({REFERENCE_RIG.t_star:.6g} s on the reference rig)"
+)
 
 
 def si_scale(dimension: str, C: float, t_star: float, L_star: float | None = None) -> float:

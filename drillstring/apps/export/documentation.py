@@ -8,9 +8,10 @@ import html
 from collections.abc import Sequence
 from typing import Any
 
-from drillstring.apps.export.model_description import format_bound, format_start
+from drillstring.apps.export.model_description import format_bound, format_start, scaled_time
 from drillstring.apps.export.python_runtime import OVERRIDES, RUNTIME_NAME
 from drillstring.model.params import REFERENCE_RIG
+from drillstring.model.units import SCALED_TIME
 
 __all__ = ["documentation"]
 
@@ -21,15 +22,16 @@ def _time_base(variables: Sequence[Any]) -> str:
         "The FMU declares no independent variable, so by FMI 2.0 (section 2.2.7) its time is a "
         "variable <code>time</code> with unit <code>s</code>, and every host reads it as seconds."
     )
-    if any(v.type == "Real" and v.unit not in (None, "1") for v in variables):
+    if not scaled_time(variables):
         return f"<p>{implicit} It is: this FMU's time is in seconds.</p>"
-    times = [f"<code>{v.name}</code>" for v in variables if v.name in ("h", "event_tol", "t_on")]
+    times = [f"<code>{v.name}</code>" for v in variables if SCALED_TIME in v.description]
     return (
         f"<p>{implicit} Its numbers are the paper's scaled time tau = t/t*: one unit of this "
         f"FMU's time is t* = sqrt(I1/C) seconds of the rig ({REFERENCE_RIG.t_star:.6g} s for the "
         "reference rig), and in that unit are the start time, the communication points and step "
         "sizes of <code>fmi2SetupExperiment</code> and <code>fmi2DoStep</code>, the default "
-        f'experiment and the time parameters ({", ".join(times)}; unit <code>"1"</code>). The '
+        f'experiment and the time-valued variables ({", ".join(times)}; unit <code>"1"</code>, '
+        "and their descriptions in the model description say so, as does the FMU's). The "
         "FMUs named <code>...SI</code> are the same model in seconds and SI units, for coupling "
         "with models in seconds.</p>"
     )

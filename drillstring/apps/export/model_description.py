@@ -4,6 +4,8 @@ without start values, listed in ``InitialUnknowns``; the true ``ModelStructure``
 variable's ``depends_on``); ``min``/``max`` of every parameter with a range; Enumeration types
 (``TypeDefinitions``); each Real's unit and display unit, with ``UnitDefinitions`` giving their
 SI base-unit exponents (:data:`drillstring.model.units.UNITS`; "1" throughout the scaled FMUs);
+the time base at the end of the FMU's ``description`` (:func:`time_base`: the scaled FMUs' numbers
+of time are tau = t/t*, which their unit "1" cannot tell a tool; the SI FMUs' are seconds);
 start values written exactly (17 digits); a GUID derived from the content; a pinned
 ``generationDateAndTime`` when ``SOURCE_DATE_EPOCH`` is set.
 """
@@ -18,14 +20,16 @@ from typing import Any
 from xml.etree import ElementTree as ET
 
 from drillstring.apps.export.specs import BuildError
-from drillstring.model.units import BASE_UNITS, UNITS
+from drillstring.model.units import BASE_UNITS, SCALED_TIME, UNITS
 
 __all__ = [
     "fix_model_description",
     "format_bound",
     "format_start",
     "generation_time",
+    "scaled_time",
     "set_guid",
+    "time_base",
     "unit_definitions",
     "xml_bytes",
 ]
@@ -48,8 +52,58 @@ def format_bound(value: float, kind: str) -> str:
     return repr(float(value)) if kind == "Real" else str(int(value))
 
 
+def scaled_time(variables: Sequence[Any]) -> bool:
+    """Whether an FMU's numbers of time are the paper's scaled time tau rather than seconds.
+
+    Parameters
+    ----------
+    variables : sequence of drillstring_fmu_support.Variable
+        The FMU's variables.
+
+    Returns
+    -------
+    bool
+        True for the scaled FMUs (every Real of unit "1"); an SI FMU declares SI units.
+    """
+    return not any(v.type == "Real" and v.unit not in (None, "1") for v in variables)
+
+
+def time_base(variables: Sequence[Any]) -> str:
+    """The sentence on the FMU's time base that ends its model description's ``description``.
+
+    FMI 2.0 (section 2.2.7) makes the time of an FMU without an independent variable a variable
+    ``time`` in ``s``, so a tool shows the scaled FMUs' time as seconds; the sentence says what it
+    is (t = t* tau, Section II of the paper).
+
+    Parameters
+    ----------
+    variables : sequence of drillstring_fmu_support.Variable
+        The FMU's variables (:func:`scaled_time` tells the unit system).
+
+    Returns
+    -------
+    str
+        The sentence.
+    """
+    if not scaled_time(variables):
+        return (
+            "Time base: seconds: the FMU's time, its default experiment, its step sizes and its "
+            "time-valued variables are in s."
+        )
+    return (
+        f"Time base: the {SCALED_TIME}, not seconds: the FMU's time, its default experiment, "
+        "its step sizes and its time-valued variables are in tau, every rate is per unit of tau "
+        "(FMI 2.0 gives this time no unit a tool can read: tools show it as s)."
+    )
+
+
 def fix_model_description(root: ET.Element, variables: Sequence[Any], starts: dict[str, Any]):
-    """Types, units, ranges, exact start values and the true ModelStructure (module docstring)."""
+    """Types, units, ranges, exact start values, the time base in the ``description`` and the
+    true ModelStructure (module docstring)."""
+    described = (root.get("description") or "").rstrip(". ")
+    root.set(
+        "description", f"{described}. {time_base(variables)}" if described else time_base(variables)
+    )
     svs = list(root.find("ModelVariables") or [])
     index = {sv.get("name"): i + 1 for i, sv in enumerate(svs)}
     by_name = {v.name: v for v in variables}
