@@ -21,14 +21,15 @@ test of the first compilation reads that run. Tests that use ``clean_home``, ``f
 and every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
-``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty
-folder of the session, and ``XDG_CACHE_HOME`` and ``XDG_CONFIG_HOME`` are folders of another, so
-the master's native loop (``orchestration/native_loop.py``) and the FMUs loaded in this process
-keep their cache (``$XDG_CACHE_HOME/drillstring``) there; ``DRILLSTRING_FMU_CACHE`` is unset so
-that this default applies. At the end of the session HOME must still be empty: anything there is
+``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty folder
+of the session, ``TMPDIR`` another (what this process and its children put in temporary folders,
+Ecos's unpacked packages among them) and ``XDG_CACHE_HOME`` and ``XDG_CONFIG_HOME`` are folders of a
+third, so the master's native loop (``orchestration/native_loop.py``) and the FMUs loaded in this
+process keep their cache (``$XDG_CACHE_HOME/drillstring``) there; ``DRILLSTRING_FMU_CACHE`` is unset
+so that this default applies. At the end of the session HOME must still be empty: anything there is
 a path that would have gone into the user's real home; and that cache must hold no copy of the
-package (an FMU in this process uses the package already imported; a copy there is a host
-outside the process that compiled the kernel a second time instead of using ``clean_home``).
+package (an FMU in this process uses the package already imported; a copy there is a host outside
+the process that compiled the kernel a second time instead of using ``clean_home``).
 
 One thing is written elsewhere, on purpose: numba's cache of what this process compiles (the
 kernel, the digital controller, the FMUs' entry points: ``*.nbi``/``*.nbc`` in the
@@ -43,6 +44,7 @@ the default place only.
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import fmu_testlib as tl
@@ -71,8 +73,14 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
     """HOME and the XDG folders in the session's temporary folder (see the module docstring)."""
     home = tmp_path_factory.mktemp("session_home")
     xdg = tmp_path_factory.mktemp("session_xdg")
+    tmp = tmp_path_factory.mktemp("session_tmp")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("HOME", str(home))
+        # temporary files of this process and its children: Ecos unpacks every SSP package it
+        # opens into $TMPDIR/ecos_ssp_<uuid>/ and leaves it there, fmpy its FMUs, Dask its
+        # scratch space
+        mp.setenv("TMPDIR", str(tmp))
+        mp.setattr(tempfile, "tempdir", None)  # tempfile reads TMPDIR again
         mp.setenv("XDG_CACHE_HOME", str(xdg / "cache"))
         mp.setenv("XDG_CONFIG_HOME", str(xdg / "config"))  # matplotlib's configuration folder
         mp.delenv("DRILLSTRING_FMU_CACHE", raising=False)
