@@ -16,7 +16,10 @@ next one import another copy of the package.
 ``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
 by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
 copies the package into its cache and compiles numba's kernel there, once for all of them; the
-test of the first compilation reads that run. Tests that use ``clean_home``, ``first_use`` or
+test of the first compilation reads that run. The build, the first use and the self-contained
+FMUs (``self_contained``) run in one thread beside the tests from the session's first test on
+(``_background``): they are subprocesses, about 3 minutes of one core that the tests before their
+first user no longer wait for. Tests that use ``clean_home``, ``first_use``, ``self_contained`` or
 ``other_gains`` are marked ``slow`` here (they need that compilation or a build of their own),
 and every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
 
@@ -44,14 +47,17 @@ the default place only.
 
 from __future__ import annotations
 
+import os
 import tempfile
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import fmu_testlib as tl
 import pytest
 
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
-SLOW_FIXTURES = {"clean_home", "first_use", "other_gains"}
+SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
 #: Session fixtures of built FMUs.
 FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 
@@ -97,11 +103,57 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
     )
 
 
+#: The session's work outside this process (builds, first runs), named as its fixtures, in the
+#: order it runs.
+BACKGROUND = ("built", "first_use", "self_contained")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _background(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory, _session_folders
+) -> Iterator[Callable[[str], Future]]:
+    """The session's builds and first runs, started at the session's first test, in one thread
+    beside the tests, as far as the collected tests need them (none for ``make test-fast``): the
+    FMU build, the first use in a clean HOME (a numba compilation) and the self-contained FMUs
+    (a second compilation, for a generic CPU) are subprocesses that take about 3 minutes of one
+    core, which the tests before their first user (the model, analysis and controller tiers) no
+    longer wait for. The subprocesses get the environment as it is now (``_session_folders``'),
+    so no test's monkeypatching reaches them. Yields ``start(name) -> Future`` of
+    :data:`BACKGROUND`'s work (started on first call if no collected test needed it)."""
+    environ = dict(os.environ)
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="session-background")
+    futures: dict[str, Future] = {}
+
+    def start(name: str) -> Future:
+        if name not in futures:
+            root = tmp_path_factory.mktemp(name)  # in this thread: the factory is not thread-safe
+            if name == "built":
+                futures[name] = pool.submit(tl.built_fmus, root, environ)
+            elif name == "first_use":
+                built, env = start("built"), tl.clean_env(root / "home")
+                futures[name] = pool.submit(lambda: tl.first_use(built.result(), root, env))
+            elif name == "self_contained":
+                built = start("built")
+                futures[name] = pool.submit(
+                    lambda: tl.self_contained_units(built.result(), root, environ)
+                )
+            else:
+                raise KeyError(name)
+        return futures[name]
+
+    needed = {n for item in request.session.items for n in getattr(item, "fixturenames", ())}
+    for name in BACKGROUND:
+        if name in needed:
+            start(name)
+    yield start
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
 @pytest.fixture(scope="session")
-def built(tmp_path_factory: pytest.TempPathFactory) -> tl.Built:
+def built(_background: Callable[[str], Future]) -> tl.Built:
     """The FMUs of this session's build (both unit systems), their designed gains file and
     folder."""
-    return tl.built_fmus(tmp_path_factory)
+    return _background("built").result()
 
 
 @pytest.fixture(scope="session")
@@ -123,9 +175,16 @@ def _sys_path():
 
 
 @pytest.fixture(scope="session")
-def first_use(built: tl.Built, tmp_path_factory: pytest.TempPathFactory) -> tl.FirstUse:
+def first_use(built: tl.Built, _background: Callable[[str], Future]) -> tl.FirstUse:
     """The FMUs' first run in a clean environment with an empty HOME (see the module docstring)."""
-    return tl.first_use(built, tmp_path_factory.mktemp("first_use"))
+    return _background("first_use").result()
+
+
+@pytest.fixture(scope="session")
+def self_contained(built: tl.Built, _background: Callable[[str], Future]) -> tl.Built:
+    """The session's scaled plant and LMI controller made self-contained
+    (:func:`fmu_testlib.self_contained_units`), as a :class:`fmu_testlib.Built`."""
+    return _background("self_contained").result()
 
 
 @pytest.fixture(scope="session")

@@ -28,14 +28,16 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import importlib.util
+import json
 import os
 import shutil
 import subprocess
 import sys
 import sysconfig
 import zipfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -89,8 +91,6 @@ RECORD_PLANT_SI = (
     "rate_of_penetration",
 )
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-
-_CACHE: dict[str, Any] = {}
 
 
 @dataclass
@@ -191,14 +191,19 @@ def make_gains_file(path: Path) -> Path:
 
 
 def run_build(
-    out: Path, gains: Path, env: dict[str, str] | None = None
+    out: Path,
+    gains: Path,
+    env: dict[str, str] | None = None,
+    *,
+    base: Mapping[str, str] | None = None,
 ) -> subprocess.CompletedProcess:
-    """``python build_fmus.py --gains GAINS --out OUT``; raises with its output on failure."""
+    """``python build_fmus.py --gains GAINS --out OUT`` in the environment ``base`` (this
+    process's by default) updated with ``env``; raises with its output on failure."""
     proc = subprocess.run(
         [sys.executable, str(ROOT / "build_fmus.py"), "--gains", str(gains), "--out", str(out)],
         capture_output=True,
         text=True,
-        env={**os.environ, **(env or {})},
+        env={**(os.environ if base is None else base), **(env or {})},
         cwd=ROOT,
         timeout=600,
     )
@@ -275,49 +280,46 @@ def _unit(model: str, fmu: Path, root: Path) -> Unit:
     return Unit(model, fmu, unzipped, md.guid, vr, types, causality)
 
 
-def built_fmus(tmp_path_factory: Any) -> Built:
-    """Design the controller and build the FMUs once per session (cached across the FMU test
-    modules): ``python build_fmus.py --gains GAINS --out OUT`` where GAINS does not exist yet,
-    so the command designs the controller first (the synthesis with its certificate) and writes
-    GAINS, then builds every FMU and SSP package with it."""
-    if "built" not in _CACHE:
-        root = Path(tmp_path_factory.mktemp("fmus"))
-        gains = root / "design" / "gains.json"
-        assert not gains.exists()
-        out = root / "build"
-        log = run_build(out, gains).stderr
-        designed = read_gains(gains)
-        values = {"F": list(designed.F), "K0": designed.K0, "R_ff": designed.R_ff}
-        scaled = Built(
-            plant=_unit(PLANT, out / f"{PLANT}.fmu", root),
-            controller=_unit(CONTROLLER, out / f"{CONTROLLER}.fmu", root),
-            gains=gains,
-            out=out,
-            gains_values=values,
-            build_log=log,
-            ssp=out / "DrillStringClosedLoop.ssp",
-            topdrive=_unit(TOPDRIVE, out / f"{TOPDRIVE}.fmu", root),
-            topdrive_ssp=out / "DrillStringTopDrive.ssp",
-        )
-        si = Built(
-            plant=_unit(PLANT_SI, out / f"{PLANT_SI}.fmu", root),
-            controller=_unit(CONTROLLER_SI, out / f"{CONTROLLER_SI}.fmu", root),
-            gains=gains,
-            out=out,
-            gains_values=values,
-            build_log=log,
-            units="si",
-            feedback=FEEDBACK_SI,
-            torque="table_torque",
-            record=RECORD_PLANT_SI,
-            ssp=out / "DrillStringClosedLoopSI.ssp",
-            other=scaled,
-            topdrive=_unit(TOPDRIVE_SI, out / f"{TOPDRIVE_SI}.fmu", root),
-            topdrive_ssp=out / "DrillStringTopDriveSI.ssp",
-        )
-        scaled.other = si
-        _CACHE["built"] = scaled
-    return _CACHE["built"]
+def built_fmus(root: Path, environ: Mapping[str, str]) -> Built:
+    """Design the controller and build the FMUs into ``root`` (once per session: conftest's
+    ``built``): ``python build_fmus.py --gains GAINS --out OUT`` in the environment ``environ``,
+    where GAINS does not exist yet, so the command designs the controller first (the synthesis
+    with its certificate) and writes GAINS, then builds every FMU and SSP package with it."""
+    gains = root / "design" / "gains.json"
+    assert not gains.exists()
+    out = root / "build"
+    log = run_build(out, gains, base=environ).stderr
+    designed = read_gains(gains)
+    values = {"F": list(designed.F), "K0": designed.K0, "R_ff": designed.R_ff}
+    scaled = Built(
+        plant=_unit(PLANT, out / f"{PLANT}.fmu", root),
+        controller=_unit(CONTROLLER, out / f"{CONTROLLER}.fmu", root),
+        gains=gains,
+        out=out,
+        gains_values=values,
+        build_log=log,
+        ssp=out / "DrillStringClosedLoop.ssp",
+        topdrive=_unit(TOPDRIVE, out / f"{TOPDRIVE}.fmu", root),
+        topdrive_ssp=out / "DrillStringTopDrive.ssp",
+    )
+    si = Built(
+        plant=_unit(PLANT_SI, out / f"{PLANT_SI}.fmu", root),
+        controller=_unit(CONTROLLER_SI, out / f"{CONTROLLER_SI}.fmu", root),
+        gains=gains,
+        out=out,
+        gains_values=values,
+        build_log=log,
+        units="si",
+        feedback=FEEDBACK_SI,
+        torque="table_torque",
+        record=RECORD_PLANT_SI,
+        ssp=out / "DrillStringClosedLoopSI.ssp",
+        other=scaled,
+        topdrive=_unit(TOPDRIVE_SI, out / f"{TOPDRIVE_SI}.fmu", root),
+        topdrive_ssp=out / "DrillStringTopDriveSI.ssp",
+    )
+    scaled.other = si
+    return scaled
 
 
 # ------------------------------------------------------------------------------------------------
@@ -741,13 +743,14 @@ class FirstUse:
     again: subprocess.CompletedProcess
 
 
-def first_use(built: Built, root: Path) -> FirstUse:
-    """The C host runs the closed loop (5 steps of 2 ms, logging on) in a clean environment whose
-    HOME is the empty folder ``root/home``, then again from a second unpack folder.
+def first_use(built: Built, root: Path, env: Mapping[str, str]) -> FirstUse:
+    """The C host runs the closed loop (5 steps of 2 ms, logging on) in the clean environment
+    ``env`` (:func:`clean_env`) whose HOME, not created yet, becomes an empty folder, then again
+    from a second unpack folder; its work goes into ``root``.
 
     The HOME is the session's ``clean_home`` (conftest): the one numba compilation of the
     clean-environment hosts happens here, and the test of the first use reads both runs."""
-    home = root / "home"
+    home = Path(env["HOME"])
     home.mkdir()
     exe = compile_c_host(root)
     runs = []
@@ -759,8 +762,41 @@ def first_use(built: Built, root: Path) -> FirstUse:
         csv = work / "host.csv"
         starts = {"controller": {"t_on": 0.5}}
         config = host_config(built, dirs, 2_000_000, 5, starts, csv, logging=True)
-        runs.append(run_c_host(exe, config, work, clean_env(home), csv)[0])
+        runs.append(run_c_host(exe, config, work, dict(env), csv)[0])
     return FirstUse(home, *runs)
+
+
+#: Makes self-contained FMUs in a fresh process: the step of ``build_fmus.py --self-contained``.
+_SELF_CONTAINED = (
+    "import json, sys; from pathlib import Path; "
+    "from drillstring.apps.export.self_contained import self_contained_fmus; "
+    "fmus = {m: Path(f) for m, f in json.loads(sys.argv[1]).items()}; "
+    "self_contained_fmus(fmus, Path(sys.argv[2]))"
+)
+
+
+def self_contained_units(built: Built, root: Path, environ: Mapping[str, str]) -> Built:
+    """``built`` with its plant and controller replaced by their self-contained forms
+    (:func:`drillstring.apps.export.self_contained.self_contained_fmus`, in a subprocess run in
+    the environment ``environ``), written to and unpacked in ``root``."""
+    out = root / "build"
+    fmus = {u.model: str(u.fmu) for u in (built.plant, built.controller)}
+    proc = subprocess.run(
+        [sys.executable, "-c", _SELF_CONTAINED, json.dumps(fmus), str(out)],
+        capture_output=True,
+        text=True,
+        env=dict(environ),
+        cwd=root,
+        timeout=900,
+    )
+    if proc.returncode != 0:
+        raise AssertionError(f"self_contained_fmus failed ({proc.returncode}):\n{proc.stderr}")
+    return dataclasses.replace(
+        built,
+        plant=_unit(built.plant.model, out / built.plant.fmu.name, root),
+        controller=_unit(built.controller.model, out / built.controller.fmu.name, root),
+        out=out,
+    )
 
 
 def compile_c_host(out_dir: Path) -> Path:

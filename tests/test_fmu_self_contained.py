@@ -2,10 +2,10 @@
 as another machine sees them: no Python installation, no virtual environment, no checkout, no
 cache (``tests/isolation.py``), and the system's libffi replaced by an empty file.
 
-The session's plant and LMI controller are made self-contained once for this module (the
-warm-up compiles numba's kernel for a generic x86-64 CPU: the module's cost); the C host and
-``ecos simulate`` then run them in isolation, against the same hosts running the normal FMUs in
-the clean environment of the other host tests.
+The session's plant and LMI controller are made self-contained once (conftest's
+``self_contained``, beside the earlier tests: its warm-up compiles numba's kernel for a generic
+x86-64 CPU); the C host and ``ecos simulate`` then run them in isolation, against the same hosts
+running the normal FMUs in the clean environment of the other host tests.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from packaging.requirements import Requirement
 
-from drillstring.apps.export.self_contained import DISTRIBUTIONS, self_contained_fmus
+from drillstring.apps.export.self_contained import DISTRIBUTIONS
 
 pytestmark = pytest.mark.slow
 
@@ -34,17 +34,9 @@ ODD = "drill ü#%[x] 100%20"  # a folder whose URI needs percent-encoding
 
 
 @pytest.fixture(scope="module")
-def sc(built, tmp_path_factory) -> tl.Built:
-    """The session's scaled plant and LMI controller, self-contained, as a :class:`Built`."""
-    root = tmp_path_factory.mktemp("self_contained")
-    units = {"plant": built.plant, "controller": built.controller}
-    fmus = self_contained_fmus({u.model: u.fmu for u in units.values()}, root / "build")
-    return dataclasses.replace(
-        built,
-        plant=tl._unit(built.plant.model, fmus[built.plant.model], root),
-        controller=tl._unit(built.controller.model, fmus[built.controller.model], root),
-        out=root / "build",
-    )
+def sc(self_contained: tl.Built) -> tl.Built:
+    """The session's scaled plant and LMI controller, self-contained (conftest)."""
+    return self_contained
 
 
 def _hidden(*homes: Path) -> list[Path]:
