@@ -175,13 +175,13 @@ def _sys_path():
 
 
 @pytest.fixture(scope="session")
-def first_use(built: tl.Built, _background: Callable[[str], Future]) -> tl.FirstUse:
+def first_use(_background: Callable[[str], Future]) -> tl.FirstUse:
     """The FMUs' first run in a clean environment with an empty HOME (see the module docstring)."""
     return _background("first_use").result()
 
 
 @pytest.fixture(scope="session")
-def self_contained(built: tl.Built, _background: Callable[[str], Future]) -> tl.Built:
+def self_contained(_background: Callable[[str], Future]) -> tl.Built:
     """The session's scaled plant and LMI controller made self-contained
     (:func:`fmu_testlib.self_contained_units`), as a :class:`fmu_testlib.Built`."""
     return _background("self_contained").result()

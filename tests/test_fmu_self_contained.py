@@ -33,12 +33,6 @@ STARTS = {"controller": {"t_on": 0.5}}
 ODD = "drill ü#%[x] 100%20"  # a folder whose URI needs percent-encoding
 
 
-@pytest.fixture(scope="module")
-def sc(self_contained: tl.Built) -> tl.Built:
-    """The session's scaled plant and LMI controller, self-contained (conftest)."""
-    return self_contained
-
-
 def _hidden(*homes: Path) -> list[Path]:
     return [*isolation.python_installations(), isolation.ROOT, *isolation.user_caches(*homes)]
 
@@ -69,9 +63,12 @@ def test_the_bundle_holds_every_distribution_the_bundled_ones_require():
                 assert req.name.lower() in DISTRIBUTIONS, f"{name} requires {text!r}, not bundled"
 
 
-def test_the_self_contained_fmu_is_the_normal_fmu_plus_its_runtime(built, sc):
+def test_the_self_contained_fmu_is_the_normal_fmu_plus_its_runtime(built, self_contained):
     """Same model description, binaries and package; the record names the bundle."""
-    for normal, bundled in ((built.plant, sc.plant), (built.controller, sc.controller)):
+    for normal, bundled in (
+        (built.plant, self_contained.plant),
+        (built.controller, self_contained.controller),
+    ):
         with zipfile.ZipFile(normal.fmu) as a, zipfile.ZipFile(bundled.fmu) as b:
             names_a, names_b = set(a.namelist()), set(b.namelist())
             assert names_a < names_b
@@ -87,7 +84,9 @@ def test_the_self_contained_fmu_is_the_normal_fmu_plus_its_runtime(built, sc):
         print(f"{bundled.fmu.name}: {bundled.fmu.stat().st_size / 2**20:.1f} MiB")
 
 
-def test_c_host_runs_the_self_contained_fmus_where_no_python_is(built, sc, tmp_path, clean_home):
+def test_c_host_runs_the_self_contained_fmus_where_no_python_is(
+    built, self_contained, tmp_path, clean_home
+):
     """The closed loop in the C host: the normal FMUs in the clean environment (their kernel
     compiled in clean_home), the self-contained ones in isolation with bogus overrides of the
     Python they would use, libffi missing; the same numbers bit for bit, nothing compiled."""
@@ -107,7 +106,7 @@ def test_c_host_runs_the_self_contained_fmus_where_no_python_is(built, sc, tmp_p
     def wrap(cmd):
         return isolation.isolated(cmd, work, _hidden(clean_home, home), [libffi])
 
-    proc, got, elapsed = _c_host_run(sc, work, env, wrap)
+    proc, got, elapsed = _c_host_run(self_contained, work, env, wrap)
     log = proc.stdout + proc.stderr
     assert proc.returncode == 0, log
     unpacked = work / ODD / "plant" / "resources" / "python"
@@ -120,7 +119,9 @@ def test_c_host_runs_the_self_contained_fmus_where_no_python_is(built, sc, tmp_p
     print(f"self-contained closed loop, {N_STEPS} steps, in isolation: {elapsed:.2f} s")
 
 
-def test_ecos_runs_the_self_contained_fmus_like_the_normal_ones(built, sc, tmp_path, clean_home):
+def test_ecos_runs_the_self_contained_fmus_like_the_normal_ones(
+    built, self_contained, tmp_path, clean_home
+):
     """``ecos simulate`` on an SSP folder of the normal FMUs (clean environment) and of the
     self-contained ones (in isolation, the Ecos binary and libtbb copied out of the hidden
     virtual environment): the same CSV byte for byte."""
@@ -128,7 +129,7 @@ def test_ecos_runs_the_self_contained_fmus_like_the_normal_ones(built, sc, tmp_p
     loader, exe, tbb = cmd[0], Path(cmd[3]), Path(cmd[2]) / "libtbb.so.12"
     args = ["--stepSize", "0.002", "--stopTime", "2", "--parameterSet", "initial"]
     csvs = []
-    for kind, units in (("normal", built), ("isolated", sc)):
+    for kind, units in (("normal", built), ("isolated", self_contained)):
         work = tmp_path / kind
         tl.ssp_folder(units, work / "loop", STARTS)
         if kind == "normal":
@@ -170,10 +171,12 @@ def test_isolation_leaves_no_python(tmp_path):
     assert proc.returncode == 0, proc.stderr
 
 
-def test_an_older_glibc_is_refused_with_both_versions_named(sc, tmp_path):
+def test_an_older_glibc_is_refused_with_both_versions_named(self_contained, tmp_path):
     """A machine whose glibc is older than the bundle needs: a logged NULL from fmi2Instantiate
     naming both versions (the record's version raised to one no machine has)."""
-    bundled = dataclasses.replace(sc.plant, unzipped=tl.unpack(sc.plant.fmu, tmp_path / "plant"))
+    bundled = dataclasses.replace(
+        self_contained.plant, unzipped=tl.unpack(self_contained.plant.fmu, tmp_path / "plant")
+    )
     cfg = bundled.unzipped / "resources" / "drillstring_fmu_python.cfg"
     text = cfg.read_text()
     cfg.write_text(
@@ -181,10 +184,8 @@ def test_an_older_glibc_is_refused_with_both_versions_named(sc, tmp_path):
     )
     exe = tl.compile_c_host(tmp_path)
     csv = tmp_path / "host.csv"
-    config = tl.host_config(
-        dataclasses.replace(sc, plant=bundled), {"plant": bundled.unzipped}, H_NS, 2, {}, csv,
-        logging=True,
-    )  # fmt: skip
+    units = dataclasses.replace(self_contained, plant=bundled)
+    config = tl.host_config(units, {"plant": bundled.unzipped}, H_NS, 2, {}, csv, logging=True)
     proc, _ = tl.run_c_host(exe, config, tmp_path, tl.clean_env(tmp_path), csv)
     assert proc.returncode != 0
     assert "is older than glibc 9.99, the oldest the self-contained FMU's bundled Python" in (
