@@ -29,6 +29,7 @@ from drillstring.model.kernel import stepper as _stepper_compiled
 from drillstring.model.kernel.coordinates import to_perturbation, to_total
 from drillstring.model.kernel.filippov import g_star, mode_at_zero_velocity
 from drillstring.model.params import ScaledParams
+from drillstring.model.pipe import StringParams, axial_chain, max_elements, torsional_chain
 from drillstring.model.prehistory import (
     HistoryFunction,
     HistoryView,
@@ -271,6 +272,9 @@ class Engine:
         Prehistory tau <= 0 -> (u, du, phi, dphi) (default: the nominal motion).
     control : optional
         Torque law R - R0, see :meth:`set_control`.
+    string : StringParams, optional
+        The drill pipe (``docs/model.md``, "The distributed string"); default: the paper's
+        one-mode model, a massless spring (one element, the ``"paper"`` lumping).
     """
 
     def __init__(
@@ -280,11 +284,23 @@ class Engine:
         initial: InitialState | Mapping[str, float] | None = None,
         history: HistoryFunction | None = None,
         control: Control = None,
+        string: StringParams | None = None,
     ) -> None:
         if not isinstance(params, ScaledParams):
             raise TypeError(f"params must be a ScaledParams, got {type(params).__name__}")
+        if string is None:
+            string = StringParams()
+        if not isinstance(string, StringParams):
+            raise TypeError(f"string must be a StringParams, got {type(string).__name__}")
         self.params = params
+        self.string = string
         self.options = opt = options or EngineOptions()
+        n_max = max_elements(string, params.rho, params.eta, opt.h)
+        if string.elements > n_max:
+            raise ValueError(
+                f"string elements = {string.elements} is more than RK4 with h = {opt.h:g} "
+                f"integrates stably here ({n_max}); use fewer elements or a smaller h"
+            )
         init = InitialState.coerce(initial)
         p = params
         if opt.freeze_torsion and (init.dphi != 0.0 or init.phi != 0.0):
@@ -298,8 +314,10 @@ class Engine:
                 "the model needs a rotating bit (torsional stick at tau = 0)"
             )
         H, n_nodes = build_prehistory(p, history or nominal_history, opt.h, opt.history_capacity)
-        s = S.allocate(H, opt.event_capacity)
-        s.params[:] = _parameter_array(p)
+        P = _parameter_array(p, string)
+        nt, na = int(P[S.P_NT]), int(P[S.P_NA])
+        s = S.allocate(H, opt.event_capacity, S.chain_columns(nt, na))
+        s.params[:] = P
         self._params_tuple = tuple(s.params.tolist())  # for Python-side conversions
         s.options[S.O_H] = opt.h
         s.options[S.O_TSTICK] = float(opt.torsional_stick)
@@ -309,6 +327,7 @@ class Engine:
         s.y[:] = to_total(
             s.params, 0.0, init.u, init.du, init.phi, init.dphi, init.theta, init.dtheta
         )
+        s.chain[S.Z_NOW] = _initial_chain(p, nt, na, init)
         # the initial state joins the prehistory at tau = 0: a discontinuity node (a second node
         # at tau = 0 when the state jumps there, e.g. dphi(0) != 0 after a nominal past)
         last = n_nodes - 1
@@ -334,7 +353,8 @@ class Engine:
         elif V < 0.0:
             mode = S.MODE_UP
         else:
-            mode = mode_at_zero_velocity(g_star(s.params, 0.0, s.y[S.Y_U], s.diag[S.D_D]))
+            hook_side = 0.0 if na == 0 else s.chain[S.Z_NOW, 2 * nt + na - 1]
+            mode = mode_at_zero_velocity(g_star(s.params, s.y[S.Y_U], s.diag[S.D_D], hook_side))
         st = self._refresh_with_mode(mode)
         if st != S.ST_OK:
             raise ValueError(f"invalid initial condition: {STATUS_TEXT.get(st, st)}")
@@ -460,7 +480,7 @@ class Engine:
                 return status
 
     def sample(
-        self, times: np.ndarray, rows: np.ndarray | None = None
+        self, times: np.ndarray, rows: np.ndarray | None = None, nodes: np.ndarray | None = None
     ) -> tuple[np.ndarray, Status]:
         """Advance through the increasing ``times``, recording the outputs at each.
 
@@ -472,6 +492,9 @@ class Engine:
             Increasing times, none before the current time.
         rows : array, optional
             Output buffer of shape (len(times), len(OUTPUT_COLUMNS)).
+        nodes : array, optional
+            Buffer of shape (len(times), columns of the chain) for the string's inner nodes at
+            each time (total coordinates, :meth:`string_nodes`'s layout); None: not kept.
 
         Returns
         -------
@@ -491,12 +514,19 @@ class Engine:
         self._check_target(times[0])
         if rows is None:
             rows = np.empty((times.size, S.OUT_SIZE))
+        if nodes is None:
+            nodes = np.empty((times.size, 0))
+        elif nodes.shape != (times.size, self._s.chain.shape[1]):
+            raise ValueError(
+                f"sample: nodes must have shape {(times.size, self._s.chain.shape[1])}, "
+                f"got {nodes.shape}"
+            )
         if self._failed is not None:
             return rows[:0], self._failed
         i = 0
         while True:
             st, i = self._stepper.advance_sampled_from(
-                *self._s, times, rows, i, times.size, self._ext
+                *self._s, times, rows, nodes, i, times.size, self._ext
             )
             status = self.finish(int(st))
             if status is not None:
@@ -656,6 +686,18 @@ class Engine:
             Shape (6,), a copy of the kernel's state (``docs/model.md``, "Coordinates").
         """
         return self._s.y.copy()
+
+    def string_nodes(self) -> np.ndarray:
+        """The string's inner nodes now (a copy of chain row ``Z_NOW``).
+
+        Returns
+        -------
+        ndarray
+            Total scaled coordinates: the inner torsional nodes' angles (table side first),
+            their speeds, the inner axial nodes' positions (hook side first), their velocities;
+            empty for the paper's one-mode model (:func:`string_profiles` reads it).
+        """
+        return self._s.chain[S.Z_NOW].copy()
 
     def diagnostics(self) -> dict[str, float]:
         """d, tau_n, g, g*, twist torque S, torque on bit T, applied R - R0 at the current time.
@@ -860,8 +902,85 @@ def time_in_mode(
     return total
 
 
-def _parameter_array(p: ScaledParams) -> np.ndarray:
-    """The kernel's parameter array (``P_*``) of a scaled parameter set."""
+def string_profiles(
+    params: ScaledParams, string: StringParams, data: Mapping[str, np.ndarray], nodes: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The string along its length at each sample: nodes' angles and speeds, elements' torques.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The scaled set.
+    string : StringParams
+        The string the run integrated.
+    data : mapping
+        The run's columns ``tau, u, du, phi, dphi, theta, dtheta`` (perturbations, one row per
+        sample).
+    nodes : ndarray
+        The inner nodes at each sample, shape (samples, chain columns), as :meth:`Engine.sample`
+        records them (total coordinates).
+
+    Returns
+    -------
+    dict of str to ndarray
+        Scaled values, one row per sample: ``x_node`` (N + 1 positions along the pipe, 0 at the
+        table, 1 at the bit), ``phi_node`` and ``dphi_node`` (angle and speed perturbations of
+        the nodes, table first, bit last), ``x_element`` (the N elements' midpoints) and
+        ``torque_minus_R0`` (each element's torque less the nominal R0, in units of C; the first
+        is what a sub at the top of the string measures); ``x_axial``, ``u_node``, ``du_node``
+        for the axial nodes (hook first, its perturbation 0).
+    """
+    tors = torsional_chain(string, params.rho)
+    ax = axial_chain(string, params.eta)
+    nt, na = tors.elements - 1, ax.elements - 1
+    tau = np.asarray(data["tau"])[:, None]
+    inner_phi = nodes[:, :nt] - params.omega0 * tau
+    inner_w = nodes[:, nt : 2 * nt] - params.omega0
+    phi = np.hstack([data["theta"][:, None], inner_phi, data["phi"][:, None]])
+    dphi = np.hstack([data["dtheta"][:, None], inner_w, data["dphi"][:, None]])
+    base = 2 * nt
+    inner_u = nodes[:, base : base + na] - params.v0 * tau
+    inner_du = nodes[:, base + na : base + 2 * na] - params.v0
+    zero = np.zeros_like(tau)
+    u = np.hstack([zero, inner_u, data["u"][:, None]])
+    du = np.hstack([zero, inner_du, data["du"][:, None]])
+    return {
+        "x_node": np.linspace(0.0, 1.0, nt + 2),
+        "phi_node": phi,
+        "dphi_node": dphi,
+        "x_element": (np.arange(nt + 1) + 0.5) / (nt + 1),
+        "torque_minus_R0": tors.stiffness * (phi[:, :-1] - phi[:, 1:]),
+        "x_axial": np.linspace(0.0, 1.0, na + 2),
+        "u_node": u,
+        "du_node": du,
+    }
+
+
+def _initial_chain(p: ScaledParams, nt: int, na: int, init: InitialState) -> np.ndarray:
+    """The string's inner nodes at tau = 0 (row ``Z_NOW``), in total coordinates.
+
+    Perturbations interpolated linearly along the string, in angle and speed, from the table
+    (theta, dtheta) to the bit (phi, dphi), and axially from the hook (0) to the bit (u, du):
+    the quasi-static shape of a twist and a stretch, the same for every N (``docs/model.md``,
+    "The distributed string").
+    """
+    z = np.zeros(S.chain_columns(nt, na))
+    for i in range(1, nt + 1):
+        x = i / (nt + 1)  # from the table (0) to the bit (1)
+        z[i - 1] = (1.0 - x) * init.theta + x * init.phi
+        z[nt + i - 1] = p.omega0 + (1.0 - x) * init.dtheta + x * init.dphi
+    base = 2 * nt
+    for i in range(1, na + 1):
+        x = i / (na + 1)
+        z[base + i - 1] = x * init.u
+        z[base + na + i - 1] = p.v0 + x * init.du
+    return z
+
+
+def _parameter_array(p: ScaledParams, string: StringParams | None = None) -> np.ndarray:
+    """The kernel's parameter array (``P_*``) of a scaled parameter set and a string."""
+    tors = torsional_chain(string or StringParams(), p.rho)
+    ax = axial_chain(string or StringParams(), p.eta)
     P = np.zeros(S.P_SIZE)
     P[S.P_N] = p.n
     P[S.P_PSI] = p.psi
@@ -877,4 +996,13 @@ def _parameter_array(p: ScaledParams) -> np.ndarray:
     P[S.P_NPSI] = p.n * p.psi
     P[S.P_BLADE] = 2.0 * math.pi / p.n
     P[S.P_R0] = p.R0
+    P[S.P_KT] = tors.stiffness
+    P[S.P_JT] = tors.inertia[0]
+    P[S.P_JB] = tors.inertia[-1]
+    P[S.P_JI] = tors.inertia[1] if tors.elements > 1 else 0.0
+    P[S.P_KA] = ax.stiffness
+    P[S.P_MB] = ax.inertia[-1]
+    P[S.P_MI] = ax.inertia[1] if ax.elements > 1 else 0.0
+    P[S.P_NT] = tors.elements - 1
+    P[S.P_NA] = ax.elements - 1
     return P

@@ -338,10 +338,12 @@ def plant_io_step(io, s, t, h):
 
 @jit
 def plant_step_from(io, params, options, control, clock, y, ints, diag, history, events, stages,
-                    t, h):  # fmt: skip
+                    chain, t, h):  # fmt: skip
     """:func:`plant_io_step` on the kernel state made of these arrays (the plant's Python path:
     numba dispatches arrays fast, a named tuple slowly)."""
-    s = S.KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    s = S.KernelState(
+        params, options, control, clock, y, ints, diag, history, events, stages, chain
+    )
     return plant_io_step(io, s, t, h)
 
 
@@ -358,6 +360,7 @@ if AVAILABLE:
         _units.si_plant_values,
         _units.si_to_tau,
         _units.si_torque_deviation,
+        S.chain_columns,
     ):
         register_jitable(_f)
     _SIG = types.int32(types.CPointer(types.float64), types.CPointer(types.voidptr),
@@ -366,8 +369,10 @@ if AVAILABLE:
 
     @numba.njit(cache=True, nogil=True)
     def kernel_state(args, hcap, ecap):
+        params = carray(args[0], (S.P_SIZE,), dtype=_F64)
+        zcols = S.chain_columns(int(params[S.P_NT]), int(params[S.P_NA]))
         return S.KernelState(
-            carray(args[0], (S.P_SIZE,), dtype=_F64),
+            params,
             carray(args[1], (S.O_SIZE,), dtype=_F64),
             carray(args[2], (S.C_SIZE,), dtype=_F64),
             carray(args[3], (S.X_SIZE,), dtype=_F64),
@@ -377,6 +382,7 @@ if AVAILABLE:
             carray(args[7], (S.H_ROWS, hcap), dtype=_F64),
             carray(args[8], (ecap, S.E_COLS), dtype=_F64),
             carray(args[9], (S.K_ROWS, S.Y_SIZE), dtype=_F64),
+            carray(args[10], (S.Z_ROWS, zcols), dtype=_F64),
         )
 
     def plant_step(io_p, args, t, h):

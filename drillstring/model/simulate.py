@@ -24,6 +24,7 @@ from drillstring.model.engine import (
     InitialState,
     Status,
     stick_entries,
+    string_profiles,
     time_in_mode,
 )
 from drillstring.model.experiments import DEFAULT_DT_OUT
@@ -37,6 +38,7 @@ from drillstring.model.kernel import (
     stepper,
 )
 from drillstring.model.params import REFERENCE, ScaledParams
+from drillstring.model.pipe import StringParams
 from drillstring.model.prehistory import HistoryFunction
 from drillstring.validation import check_real
 
@@ -54,6 +56,11 @@ class SimulationResult:
     ``r.R_minus_R0`` (the torque the kernel applied), ``r.mode``. ``status.ok`` is False when
     the run stopped early (bit bouncing, torsional stick outside the model, ...); the arrays then
     end at the stop time, which is the last sample.
+
+    ``profiles`` holds the string along its length at each sample (:func:`~drillstring.model.
+    engine.string_profiles`), and the column ``top_torque_minus_R0`` the torque at the top of
+    the string less R0 (scaled), what a sub under the top drive measures; on the paper's
+    one-mode string it is theta - phi.
     """
 
     params: ScaledParams
@@ -62,6 +69,8 @@ class SimulationResult:
     events: list[Event]
     status: Status
     counters: dict[str, int] = field(default_factory=dict)
+    string: StringParams = field(default_factory=StringParams)
+    profiles: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __getattr__(self, name: str) -> np.ndarray:
         data = self.__dict__.get("data", {})
@@ -177,6 +186,7 @@ def simulate(
     options: EngineOptions | None = None,
     progress: bool | None = None,
     times: np.ndarray | None = None,
+    string: StringParams | None = None,
 ) -> SimulationResult:
     """Simulate the model (11)-(14), (17) from tau = 0 to ``tau_end``.
 
@@ -204,15 +214,20 @@ def simulate(
     times : array of float, optional
         Increasing output times from 0 to ``tau_end`` instead of the grid of ``dt_out`` (e.g.
         the communication points of an adaptive co-simulation).
+    string : StringParams, optional
+        The drill pipe (default: the paper's one-mode string).
 
     Returns
     -------
     SimulationResult
         The sampled columns, events, counters and the outcome (partial on an early stop).
     """
-    engine = Engine(params, options=options, initial=initial, history=history, control=control)
+    engine = Engine(
+        params, options=options, initial=initial, history=history, control=control, string=string
+    )
     grid = output_grid(tau_end, dt_out) if times is None else _times(times, tau_end)
     rows = np.empty((grid.size, len(COLUMNS)))
+    nodes = np.empty((grid.size, engine.string_nodes().size))
     n_done = 0
     status = Status("ok", "", 0.0)
     bar = tqdm(
@@ -228,7 +243,7 @@ def simulate(
         while n_done < grid.size and status.ok:
             t0 = time.perf_counter()
             stop = min(grid.size, n_done + chunk)
-            got, status = engine.sample(grid[n_done:stop], rows[n_done:stop])
+            got, status = engine.sample(grid[n_done:stop], rows[n_done:stop], nodes[n_done:stop])
             n_done += len(got)
             bar.update(len(got))
             # chunks of about a progress interval: the bar moves, the overhead stays negligible
@@ -239,6 +254,8 @@ def simulate(
         bar.close()
     rows = rows[:n_done]
     data = {c: rows[:, j].copy() for j, c in enumerate(COLUMNS)}
+    profiles = string_profiles(params, engine.string, data, nodes[:n_done])
+    data["top_torque_minus_R0"] = profiles["torque_minus_R0"][:, 0].copy()
     return SimulationResult(
         params=params,
         options=engine.options,
@@ -246,6 +263,8 @@ def simulate(
         events=engine.events,
         status=status,
         counters=engine.counters,
+        string=engine.string,
+        profiles=profiles,
     )
 
 

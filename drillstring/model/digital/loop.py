@@ -100,7 +100,7 @@ def _run(s, b, k, n, Ts, every, rows, i, acc, keep_events):
 
 @jit
 def run_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                     b, k, n, Ts, every, rows, i, acc, keep_events):  # fmt: skip
+                     chain, b, k, n, Ts, every, rows, i, acc, keep_events):  # fmt: skip
     """Run the sampled loop from sample ``k`` to ``n`` on the kernel state of these arrays and
     the controller block ``b``; rows from ``rows[i]`` on.
 
@@ -109,5 +109,5 @@ def run_sampled_from(params, options, control, clock, y, ints, diag, history, ev
     (ST_EVLOG_FULL, ST_HIST_FULL: the advance of sample k is unfinished; finish it, then call
     again from k + 1 and i), or the status that stopped the run (its last row at the stop).
     """
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, chain)
     return _run(s, b, k, n, Ts, every, rows, i, acc, keep_events)

@@ -18,8 +18,9 @@ from drillstring.model.kernel.state import (
     MODE_UP,
     P_BETA,
     P_D0,
-    P_ETA,
     P_GAMMA,
+    P_KA,
+    P_KT,
     P_LAM,
     P_N,
     P_NPSI,
@@ -32,14 +33,15 @@ inline = jit_for(__name__, inline=True)
 
 
 @inline
-def g_star(P: np.ndarray, tau: float, U: float, d: float) -> float:
+def g_star(P: np.ndarray, U: float, d: float, hook_side: float) -> float:
     """The contact multiplier that keeps dV/dtau = 0 at V = 0.
 
     g* = [(d - d0) - (gamma*v0 - eta^2*(U - v0*tau)) / (n*psi)] / lambda; +inf or -inf for a
-    sharp bit (lambda = 0), where stick is impossible.
+    sharp bit (lambda = 0), where stick is impossible. On the distributed string the spring
+    force is the bit element's, k_a*(U - hook_side), with ``hook_side`` the axial position of
+    the bit's neighbour (v0*tau, the hook, for the paper's massless spring).
     """
-    eta = P[P_ETA]
-    num = (d - P[P_D0]) - (P[P_GAMMA] * P[P_V0] - eta * eta * (U - P[P_V0] * tau)) / P[P_NPSI]
+    num = (d - P[P_D0]) - (P[P_GAMMA] * P[P_V0] - P[P_KA] * (U - hook_side)) / P[P_NPSI]
     lam = P[P_LAM]
     if lam > 0.0:
         return num / lam
@@ -75,9 +77,10 @@ def max_bit_torque(P: np.ndarray, d: float) -> float:
 
 
 @inline
-def twist_torque(P: np.ndarray, Phi: float, Theta: float) -> float:
-    """Scaled twist torque of the string S = R0 + Theta - Phi (R0 the nominal twist, eq. (8))."""
-    return P[P_R0] + Theta - Phi
+def twist_torque(P: np.ndarray, Phi: float, neighbour: float) -> float:
+    """Scaled twist torque on the bit S = R0 + Theta - Phi (R0 the nominal twist, eq. (8)); on
+    the distributed string the bit element's, R0 + k_t*(neighbour - Phi)."""
+    return P[P_R0] + P[P_KT] * neighbour - P[P_KT] * Phi
 
 
 @inline

@@ -17,7 +17,10 @@ in the kernel. The arrays:
 * ``history`` past of U, V, Phi, W at the integrator's nodes (rows ``H_*``, live columns
   ``ints[I_HSTART]:ints[I_HEND]``);
 * ``events`` the event log (rows of ``E_*`` columns), drained by the engine;
-* ``stages`` RK stage derivatives (row ``K_NOW`` is always the derivative at the current state).
+* ``stages`` RK stage derivatives (row ``K_NOW`` is always the derivative at the current state);
+* ``chain`` the inner nodes of the string (``docs/model.md``, "The distributed string"): row
+  ``Z_NOW`` their state, columns ``Z_*`` offsets below, row ``Z_KNOW`` its derivative, the other
+  rows the RK stages and trial ends of a step (no columns for the paper's one-mode model).
 
 A step's trial states and their diagnostics are tuples of the compiled code, not arrays
 (``drillstring.model.kernel.stepper``).
@@ -44,7 +47,17 @@ P_D0 = 10
 P_NPSI = 11
 P_BLADE = 12  # 2*pi/n, the angle between blades, eq. (6)
 P_R0 = 13
-P_SIZE = 14
+# the string (drillstring.model.pipe; the paper's one-mode model: 1, rho, 1, 0, eta^2, 1, 0, 0, 0)
+P_KT = 14  # torsional stiffness of one element
+P_JT = 15  # inertia of the rotary-table node
+P_JB = 16  # inertia of the bit node
+P_JI = 17  # inertia of an inner torsional node
+P_KA = 18  # axial stiffness of one element
+P_MB = 19  # axial mass of the bit node
+P_MI = 20  # axial mass of an inner node
+P_NT = 21  # inner torsional nodes, N - 1 (0: one element)
+P_NA = 22  # inner axial nodes (0: a massless axial spring)
+P_SIZE = 23
 
 # --- options O -------------------------------------------------------------------------------
 O_H = 0  # nominal step
@@ -139,6 +152,26 @@ K_NOW = 0  # derivative at the current state (stage 1 of the next step)
 K_END = 4  # derivative at the end state of the last trial step
 K_ROWS = 5
 
+# --- rows of the chain array Z (each state row is followed by its derivative row) -------------
+Z_NOW = 0  # the inner nodes' state now (persistent)
+Z_KNOW = 1  # its derivative now
+Z_STAGE = 2  # an RK stage's state
+Z_ACC = 3  # the RK weighted sum of the stage derivatives
+Z_KSTAGE = 4  # an RK stage's derivative
+Z_END = 5  # the end of a full step (row 6: its derivative)
+Z_TRIAL1 = 7  # the end of a trial step of event location (row 8: its derivative)
+Z_TRIAL2 = 9  # the other trial end (row 10), so the nearest far side found is kept
+Z_BEST = 11  # the earliest event's far side over the candidates (row 12)
+Z_ROWS = 13
+# columns: torsional angles of the inner nodes, their speeds, axial positions, velocities (node
+# 1 next to the rotary table or the hook, the last next to the bit), in total coordinates
+
+
+def chain_columns(nt: int, na: int) -> int:
+    """Columns of the chain array for ``nt`` inner torsional and ``na`` inner axial nodes."""
+    return 2 * nt + 2 * na
+
+
 # --- output columns OUT (one sample of a run: time, perturbations, diagnostics, mode) ---------
 OUT_TAU = 0
 OUT_U = 1
@@ -207,14 +240,17 @@ class KernelState(NamedTuple):
     history: np.ndarray
     events: np.ndarray
     stages: np.ndarray
+    chain: np.ndarray
 
 
 #: Arrays that make up the resumable state (``events`` is drained after every call).
-PERSISTENT = ("params", "options", "control", "clock", "y", "ints", "diag", "history", "stages")
+PERSISTENT = (
+    "params", "options", "control", "clock", "y", "ints", "diag", "history", "stages", "chain"
+)  # fmt: skip
 
 
-def allocate(history: np.ndarray, event_capacity: int) -> KernelState:
-    """A zeroed state around a prepared history buffer."""
+def allocate(history: np.ndarray, event_capacity: int, chain_columns: int = 0) -> KernelState:
+    """A zeroed state around a prepared history buffer, with ``chain_columns`` for the string."""
     return KernelState(
         params=np.zeros(P_SIZE),
         options=np.zeros(O_SIZE),
@@ -226,4 +262,5 @@ def allocate(history: np.ndarray, event_capacity: int) -> KernelState:
         history=history,
         events=np.zeros((event_capacity, E_COLS)),
         stages=np.zeros((K_ROWS, Y_SIZE)),
+        chain=np.zeros((Z_ROWS, chain_columns)),
     )

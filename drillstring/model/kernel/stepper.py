@@ -29,7 +29,7 @@ import numpy as np
 
 from drillstring.model.control import feedback_torque, switch_on_references
 from drillstring.model.kernel.coordinates import to_perturbation
-from drillstring.model.kernel.equations import rhs
+from drillstring.model.kernel.equations import chain_rhs, rhs
 from drillstring.model.kernel.events import (
     EVF_DELAY,
     N_CANDIDATES,
@@ -98,7 +98,10 @@ from drillstring.model.kernel.state import (
     OUT_THETA,
     OUT_U,
     P_BLADE,
+    P_NA,
+    P_NT,
     P_OMEGA0,
+    P_V0,
     ST_DELAY,
     ST_EVLOG_FULL,
     ST_HIST_FULL,
@@ -114,6 +117,15 @@ from drillstring.model.kernel.state import (
     Y_V,
     Y_W,
     Y_WT,
+    Z_ACC,
+    Z_BEST,
+    Z_END,
+    Z_KNOW,
+    Z_KSTAGE,
+    Z_NOW,
+    Z_STAGE,
+    Z_TRIAL1,
+    Z_TRIAL2,
     KernelState,
 )
 
@@ -136,11 +148,13 @@ ZENO_LIMIT = 64
 # functions costs reference counting, which cost more than the arithmetic. What travels
 # together is one tuple:
 #
-# * ``ctx = (P, C, H, hs, he, mode, frozen)``, what the vector field reads besides time and
+# * ``ctx = (P, C, H, hs, he, mode, frozen, Z)``, what the vector field reads besides time and
 #   state, fixed during a step: parameters, control law, history and its live window, contact
-#   mode, frozen torsion;
-# * ``start = (tau, y, dy/dtau, diagnostics)``, the state a step starts from;
-# * a far side ``(y, dy/dtau, diagnostics)``, the state that ends a step;
+#   mode, frozen torsion, and the string's inner nodes (the chain array: rows ``Z_*``);
+# * ``start = (tau, y, dy/dtau, diagnostics)``, the state a step starts from (its inner nodes
+#   in the chain's rows Z_NOW and Z_KNOW);
+# * a far side ``(y, dy/dtau, diagnostics, zrow)``, the state that ends a step, its inner nodes
+#   in chain row ``zrow`` and their derivative in row ``zrow + 1``;
 # * a candidate ``(ev, f0, f1, t_disc)``, a candidate end of the step (``.events``) and the
 #   values of its function at the step's ends.
 #
@@ -150,10 +164,11 @@ ZENO_LIMIT = 64
 
 
 @jit
-def as_tuple_14(a):
-    """The 14 entries of ``a`` as a tuple (the parameter array, ``P_SIZE``)."""
+def as_tuple_23(a):
+    """The 23 entries of ``a`` as a tuple (the parameter array, ``P_SIZE``)."""
     return (
-        a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12], a[13]
+        a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12], a[13],
+        a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22]
     )  # fmt: skip
 
 
@@ -216,31 +231,46 @@ def control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext):
 
 
 @inline
-def stage(ctx, hint, tau, y, ext):
+def stage(ctx, hint, tau, y, zin, zout, ext):
     """One evaluation of the vector field at (tau, y): delay, depth of cut, contact, torque.
 
-    Returns (status, hint, dy/dtau, d, tau_n, g, g*, R - R0).
+    The string's inner nodes are read from chain row ``zin``, their derivative written to row
+    ``zout``. Returns (status, hint, dy/dtau, d, tau_n, g, g*, R - R0, S).
     """
-    P, C, H, hs, he, mode, frozen = ctx
+    P, C, H, hs, he, mode, frozen, Z = ctx
     U, V, Phi, W, Theta, Wt = y
+    nt = int(P[P_NT])
+    na = int(P[P_NA])
+    bit_nb = Theta if nt == 0 else Z[zin, nt - 1]
+    table_nb = Phi if nt == 0 else Z[zin, 0]
+    hook_side = P[P_V0] * tau if na == 0 else Z[zin, 2 * nt + na - 1]
     k, s, u_past = delay_lookup(H, hs, he, hint, Phi, P[P_BLADE])
     if k < 0:
-        return ST_DELAY, hint, _ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0
+        return ST_DELAY, hint, _ZERO6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     d = U - u_past
-    gs = g_star(P, tau, U, d)
+    gs = g_star(P, U, d, hook_side)
     g = contact(mode, gs)
     r = control_torque(P, C, tau, U, V, Phi, W, Theta, Wt, ext)
+    S = twist_torque(P, Phi, bit_nb)
     if not math.isfinite(r):
-        return ST_NONFINITE, k, _ZERO6, d, tau - s, g, gs, r
-    dy = rhs(P, frozen, mode, tau, U, V, Phi, W, Theta, Wt, d, g, r)
-    return ST_OK, k, dy, d, tau - s, g, gs, r
+        return ST_NONFINITE, k, _ZERO6, d, tau - s, g, gs, r, S
+    dy = rhs(P, frozen, mode, tau, U, V, Phi, W, Theta, Wt, d, g, r, bit_nb, table_nb, hook_side)
+    chain_rhs(P, frozen, tau, Z, zin, zout, Phi, Theta, U)
+    return ST_OK, k, dy, d, tau - s, g, gs, r, S
 
 
 @inline
-def diagnostics(P, mode, y, d, taun, g, gs, r, qg):
+def diagnostics(P, mode, d, taun, g, gs, r, qg, S):
     """The diagnostics of a state as a tuple in the order of the ``D_*`` columns."""
-    S = twist_torque(P, y[Y_PHI], y[Y_THETA])
     return d, taun, g, gs, S, torque_on_bit(P, mode, d, g, S), r, qg, max_bit_torque(P, d) - S
+
+
+@inline
+def copy_rows(Z, src, dst):
+    """Chain rows ``src`` (a state) and ``src + 1`` (its derivative) into ``dst``, ``dst + 1``."""
+    for j in range(Z.shape[1]):
+        Z[dst, j] = Z[src, j]
+        Z[dst + 1, j] = Z[src + 1, j]
 
 
 #: A zero derivative and empty diagnostics, returned with a failed stage or trial.
@@ -249,34 +279,54 @@ _ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @inline
-def rk4(ctx, hint, start, h, ext):
+def rk4(ctx, hint, start, h, out, ext):
     """Classical RK4 step of size h from ``start`` = (tau, y0, dy/dtau, diagnostics).
 
-    Returns (status, hint, y, dy/dtau, diagnostics) of the end state; the diagnostics'
+    Returns (status, hint, y, dy/dtau, diagnostics) of the end state, whose inner nodes of the
+    string go to chain row ``out`` (their derivative to ``out + 1``); the diagnostics'
     ``D_QG`` is the RK4 quadrature of g over the step. The end state's derivative serves the
     event functions and, when the step is accepted, as the next step's first stage.
     """
     P = ctx[0]
     mode = ctx[5]
+    Z = ctx[7]
+    m = Z.shape[1]
     tau, y0, k0, d0 = start
     k = k0
     acc = k0
     qg = d0[D_G]
+    kz = Z_KNOW
+    for j in range(m):
+        Z[Z_ACC, j] = Z[Z_KNOW, j]
     for i in range(3):
         yt = axpy6(y0, RK_A[i] * h, k)
-        st, hint, k, d, taun, g, gs, r = stage(ctx, hint, tau + RK_C[i] * h, yt, ext)
+        a = RK_A[i] * h
+        for j in range(m):
+            Z[Z_STAGE, j] = Z[Z_NOW, j] + a * Z[kz, j]
+        st, hint, k, d, taun, g, gs, r, S = stage(
+            ctx, hint, tau + RK_C[i] * h, yt, Z_STAGE, Z_KSTAGE, ext
+        )
         if st != ST_OK:
             return st, hint, y0, _ZERO6, _ZERO9
+        kz = Z_KSTAGE
         acc = axpy6(acc, RK_B6[i + 1], k)
+        b = RK_B6[i + 1]
+        for j in range(m):
+            Z[Z_ACC, j] = Z[Z_ACC, j] + b * Z[Z_KSTAGE, j]
         qg += RK_B6[i + 1] * g
     yn = axpy6(y0, h / 6.0, acc)
     for j in range(Y_SIZE):
         if not math.isfinite(yn[j]):
             return ST_NONFINITE, hint, y0, _ZERO6, _ZERO9
-    st, hint, k, d, taun, g, gs, r = stage(ctx, hint, tau + h, yn, ext)
+    for j in range(m):
+        z = Z[Z_NOW, j] + h / 6.0 * Z[Z_ACC, j]
+        if not math.isfinite(z):
+            return ST_NONFINITE, hint, y0, _ZERO6, _ZERO9
+        Z[out, j] = z
+    st, hint, k, d, taun, g, gs, r, S = stage(ctx, hint, tau + h, yn, out, out + 1, ext)
     if st != ST_OK:
         return st, hint, y0, _ZERO6, _ZERO9
-    return ST_OK, hint, yn, k, diagnostics(P, mode, yn, d, taun, g, gs, r, h / 6.0 * qg)
+    return ST_OK, hint, yn, k, diagnostics(P, mode, d, taun, g, gs, r, h / 6.0 * qg, S)
 
 
 @jit
@@ -291,7 +341,9 @@ def locate(ctx, hint, start, h, tol, candidate, far, ext):
     a trial belongs exactly to the time ``tau + theta*h`` it is labelled with. f0, f1 are the
     values of the candidate's function at the step's ends (:func:`.events.event_value`, which
     reads ``t_disc`` for the delayed discontinuity); ``far`` is the end of the step, (y,
-    dy/dtau, diagnostics), the far side until a trial finds a nearer one.
+    dy/dtau, diagnostics, zrow), the far side until a trial finds a nearer one. Trials put the
+    string's inner nodes in the chain rows Z_TRIAL1 and Z_TRIAL2 by turns, never over the far
+    side's.
 
     Returns (status, hint, theta, trials, far side): theta in (0, 1] lies within ``tol`` (in
     time) after the root.
@@ -319,7 +371,8 @@ def locate(ctx, hint, start, h, tol, candidate, far, ext):
         elif hi - th < half:
             th = hi - half
         t = tau + th * h
-        st, hint, y, k, dg = rk4(ctx, hint, start, t - tau, ext)
+        out = Z_TRIAL2 if far[3] == Z_TRIAL1 else Z_TRIAL1
+        st, hint, y, k, dg = rk4(ctx, hint, start, t - tau, out, ext)
         trials += 1
         if st != ST_OK:
             return st, hint, -1.0, trials, far
@@ -327,7 +380,7 @@ def locate(ctx, hint, start, h, tol, candidate, far, ext):
         if f <= 0.0:
             hi = th
             fhi = f
-            far = (y, k, dg)
+            far = (y, k, dg, out)
             if side == -1:
                 flo *= 0.5
             side = -1
@@ -356,16 +409,17 @@ def store(Y: np.ndarray, K: np.ndarray, D: np.ndarray, y, k, dg) -> None:
 def refresh(s: KernelState, ext) -> int:
     """Recompute the derivative and diagnostics at the current state (new mode or input)."""
     I = s.ints  # noqa: E741
-    P = as_tuple_14(s.params)
+    P = as_tuple_23(s.params)
     mode = I[I_MODE]
     y = as_tuple_6(s.y)
     frozen = s.options[O_FREEZE] > 0.0
-    ctx = (P, as_tuple_13(s.control), s.history, I[I_HSTART], I[I_HEND], mode, frozen)
-    st, hint, k, d, taun, g, gs, r = stage(ctx, I[I_KHINT], s.clock[X_TAU], y, ext)
+    ctx = (P, as_tuple_13(s.control), s.history, I[I_HSTART], I[I_HEND], mode, frozen, s.chain)
+    tau = s.clock[X_TAU]
+    st, hint, k, d, taun, g, gs, r, S = stage(ctx, I[I_KHINT], tau, y, Z_NOW, Z_KNOW, ext)
     I[I_KHINT] = hint
     if st != ST_OK:
         return st
-    store(s.y, s.stages, s.diag, y, k, diagnostics(P, mode, y, d, taun, g, gs, r, s.diag[D_QG]))
+    store(s.y, s.stages, s.diag, y, k, diagnostics(P, mode, d, taun, g, gs, r, s.diag[D_QG], S))
     return ST_OK
 
 
@@ -382,15 +436,15 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
     far side (y, dy/dtau, diagnostics) the state that ends the step.
     """
     tau, y0, k0, d0 = start
-    st, hint, yn, kn, dn = rk4(ctx, hint, start, h, ext)
+    st, hint, yn, kn, dn = rk4(ctx, hint, start, h, Z_END, ext)
     if st != ST_OK:
-        return st, hint, -1, 0.0, (y0, k0, d0), 0, 0
-    _, _, H, hs, he, mode, frozen = ctx
+        return st, hint, -1, 0.0, (y0, k0, d0, Z_NOW), 0, 0
+    _, _, H, hs, he, mode, frozen, Z = ctx
     # the first stored discontinuity the delayed instant passes in the step (-inf: none)
     t_disc = next_discontinuity(H, hs, he, hint, tau - d0[D_TAUN], t_end - dn[D_TAUN])
     best = 2.0
     best_ev = -1
-    far = (yn, kn, dn)
+    far = (yn, kn, dn, Z_END)
     trials = 0
     located = 0
     mask = watched(mode, bouncing, frozen)
@@ -402,7 +456,7 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
         if not inside(ev, f0, f1):
             continue
         st, hint, th, n, found = locate(
-            ctx, hint, start, h, tol, (ev, f0, f1, t_disc), (yn, kn, dn), ext
+            ctx, hint, start, h, tol, (ev, f0, f1, t_disc), (yn, kn, dn, Z_END), ext
         )
         trials += n
         located += 1
@@ -411,21 +465,23 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
         if th < best:
             best = th
             best_ev = ev
-            far = found
+            if found[3] != Z_END:  # the next candidate's trials reuse the trial rows
+                copy_rows(Z, found[3], Z_BEST)
+            far = (found[0], found[1], found[2], Z_BEST if found[3] != Z_END else Z_END)
     return ST_OK, hint, best_ev, best, far, trials, located
 
 
 @inline
-def step(P, C, H, I, X, Y, K, D, frozen, tol, h, t_end, ext):
+def step(P, C, H, I, X, Y, K, D, Z, frozen, tol, h, t_end, ext):
     """One step to t_end = tau + h, or to the first event inside it.
 
     ``P``, ``C`` are the parameters and the control law as tuples (:func:`as_tuple_14`); the
-    arrays are those of the kernel state (history, ints, clock, y, stages, diag). Returns
+    arrays are those of the kernel state (history, ints, clock, y, stages, diag, chain). Returns
     (status, event): the mode event that ended the step, for the caller to apply
     (:func:`finish_event`), or -1.
     """
     tau = X[X_TAU]
-    ctx = (P, C, H, I[I_HSTART], I[I_HEND], I[I_MODE], frozen)
+    ctx = (P, C, H, I[I_HSTART], I[I_HEND], I[I_MODE], frozen, Z)
     start = (tau, as_tuple_6(Y), row_tuple_6(K, K_NOW), as_tuple_9(D))
     st, hint, ev, th, far, trials, located = attempt(
         ctx, I[I_KHINT], I[I_BOUNCING], tol, start, h, t_end, ext
@@ -436,8 +492,9 @@ def step(P, C, H, I, X, Y, K, D, frozen, tol, h, t_end, ext):
     if st != ST_OK:
         return st, -1
     I[I_NSTEPS] += 1
-    y, k, dg = far
+    y, k, dg, zrow = far
     store(Y, K, D, y, k, dg)
+    copy_rows(Z, zrow, Z_NOW)
     X[X_GINT] += dg[D_QG]
     X[X_TAU] = t_end if ev < 0 or th == 1.0 else tau + th * h
     if ev < 0 or ev == EVF_DELAY:
@@ -483,11 +540,11 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
     # the arrays are bound once: passing the state tuple into the loop's functions would cost
     # reference counting on every one of its arrays at every step
     H, I, X, E = s.history, s.ints, s.clock, s.events
-    Y, K, D = s.y, s.stages, s.diag
+    Y, K, D, Z = s.y, s.stages, s.diag, s.chain
     h_nom = s.options[O_H]
     frozen = s.options[O_FREEZE] > 0.0
     tol = s.options[O_EVTOL]
-    P = as_tuple_14(s.params)
+    P = as_tuple_23(s.params)
     C = as_tuple_13(s.control)
     zeno = 0
     while True:
@@ -526,7 +583,7 @@ def advance(s: KernelState, to_tau: float, ext) -> int:
         if int(C[C_KIND]) == CTRL_AFFINE and C[C_ACTIVE] == 0.0 and tau < C[C_TON] < t_end:
             t_end = C[C_TON]
             h = t_end - tau
-        st, ev = step(P, C, H, I, X, Y, K, D, frozen, tol, h, t_end, ext)
+        st, ev = step(P, C, H, I, X, Y, K, D, Z, frozen, tol, h, t_end, ext)
         if st == ST_OK and ev >= 0:
             st = finish_event(s, ev, ext)
         if st != ST_OK:
@@ -564,8 +621,11 @@ def write_sample(s: KernelState, row: np.ndarray) -> None:
 
 
 @jit
-def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int, i1: int, ext):
-    """Advance through ``times[i0:i1]`` writing the outputs at each into ``rows``.
+def advance_sampled(
+    s: KernelState, times: np.ndarray, rows: np.ndarray, zrows: np.ndarray, i0: int, i1: int, ext
+):
+    """Advance through ``times[i0:i1]`` writing the outputs at each into ``rows``, and the
+    string's inner nodes (chain row ``Z_NOW``) into ``zrows``.
 
     Returns (status, i): the index of the next row to fill. A buffer status (ST_EVLOG_FULL,
     ST_HIST_FULL) asks the caller to act and call again from i; any other status stops the
@@ -576,6 +636,8 @@ def advance_sampled(s: KernelState, times: np.ndarray, rows: np.ndarray, i0: int
         if st == ST_EVLOG_FULL or st == ST_HIST_FULL:
             return st, i
         write_sample(s, rows[i])
+        for j in range(zrows.shape[1]):
+            zrows[i, j] = s.chain[Z_NOW, j]
         if st != ST_OK:
             return st, i + 1
     return ST_OK, i1
@@ -636,32 +698,33 @@ def held_step(s: KernelState, r: float, to_tau: float, keep_events: bool, bounce
 
 @jit
 def advance_sampled_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                         times, rows, i0, i1, ext):  # fmt: skip
+                         chain, times, rows, zrows, i0, i1, ext):  # fmt: skip
     """:func:`advance_sampled` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
-    return advance_sampled(s, times, rows, i0, i1, ext)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, chain)
+    return advance_sampled(s, times, rows, zrows, i0, i1, ext)
 
 
 @jit
 def refresh_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                 ext):  # fmt: skip
+                 chain, ext):  # fmt: skip
     """:func:`refresh` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, chain)
     return refresh(s, ext)
 
 
 @jit
-def hold_from(params, options, control, clock, y, ints, diag, history, events, stages, r):
+def hold_from(params, options, control, clock, y, ints, diag, history, events, stages, chain,
+              r):  # fmt: skip
     """:func:`hold` on the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, chain)
     hold(s, r)
 
 
 @jit
 def advance_drained_from(params, options, control, clock, y, ints, diag, history, events, stages,
-                         to_tau, keep_events, ext):  # fmt: skip
+                         chain, to_tau, keep_events, ext):  # fmt: skip
     """:func:`advance_drained` of the state made of these arrays."""
-    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages)
+    s = KernelState(params, options, control, clock, y, ints, diag, history, events, stages, chain)
     return advance_drained(s, to_tau, keep_events, ext)
 
 
