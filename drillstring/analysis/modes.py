@@ -534,7 +534,8 @@ def torsional_elements_needed(
 ) -> int:
     """The smallest N whose torsional chain has mode ``mode`` within ``rel_tol`` of the exact.
 
-    N runs 1, 2, 3, ... (the errors of the lumped chain fall monotonically in N).
+    N runs 1, 2, 3, ... and the first N within the tolerance is returned (on the strings tried
+    the lumped chain's error falls steadily with N, so later N stay within it).
 
     Parameters
     ----------
