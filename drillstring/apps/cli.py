@@ -22,6 +22,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "simulate": ("drillstring.apps.simulate", "simulate_main", "one run of the full model"),
     "axial": ("drillstring.apps.axial", "axial_main", "Section III: Figs. 2-4"),
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
+    "modes": ("drillstring.apps.modes", "modes_main", "modes of the distributed string"),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
