@@ -145,3 +145,32 @@ def test_the_state_round_trips_with_the_string() -> None:
     f.advance(4.0)
     assert np.array_equal(f.string_nodes(), ref)
     assert ref.size == 2 * 7  # seven inner nodes, angle and speed
+
+
+def test_simulate_command_writes_the_string_along_its_length(tmp_path) -> None:
+    from drillstring.apps.simulate import simulate_main
+
+    out = tmp_path / "run"
+    argv = ["--tau-end", "1", "--dphi0", "-2.5", "--elements", "4", "--dt-out", "0.5"]
+    assert simulate_main([*argv, "--out", str(out)]) == 0
+    nodes = np.genfromtxt(out / "string_nodes.csv", delimiter=",", names=True)
+    elements = np.genfromtxt(out / "string_elements.csv", delimiter=",", names=True)
+    assert nodes.size == 3 * 5 and elements.size == 3 * 4  # 3 samples, 5 nodes, 4 elements
+    at0 = nodes[nodes["tau_scaled"] == 0.0]
+    # the initial speed perturbation runs linearly from the table (0) to the bit (-2.5)
+    assert np.allclose(at0["dphi_node_scaled"], [0.0, -0.625, -1.25, -1.875, -2.5], atol=1e-12)
+    assert np.allclose(at0["x_scaled"], [0.0, 0.25, 0.5, 0.75, 1.0])
+    assert set(elements.dtype.names) == {
+        "tau_scaled",
+        "element",
+        "x_scaled",
+        "torque_minus_R0_scaled",
+    }
+
+
+def test_simulate_command_refuses_a_bad_element_count(tmp_path, capsys) -> None:
+    from drillstring.apps.simulate import simulate_main
+
+    assert simulate_main(["--elements", "0", "--out", str(tmp_path / "x")]) == 2
+    assert "elements must be a positive integer, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

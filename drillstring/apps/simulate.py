@@ -5,6 +5,7 @@ Examples::
     drillstring simulate --tau-end 60 --dphi0 -2.5 --out out/simulate            # open loop
     drillstring simulate --experiment fig5 --gains out/design/gains.json         # Fig. 5
     drillstring simulate --experiment fig6 --gains out/design/gains.json         # Fig. 6
+    drillstring simulate --tau-end 30 --dphi0 -4.9 --torsional-stick --elements 16  # string
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import Control, EngineOptions
 from drillstring.model.experiments import DEFAULT_DT_OUT, DEFAULT_H, EXPERIMENTS, FIG5
 from drillstring.model.params import ParameterError, params_from_spec
+from drillstring.model.pipe import StringParams
 from drillstring.model.simulate import simulate
 from drillstring.plotting import plot_velocities
 
@@ -59,6 +61,13 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--h", type=float, default=DEFAULT_H, help="integration step")
     ap.add_argument("--dt-out", type=float, default=DEFAULT_DT_OUT, help="output sampling step")
     ap.add_argument("--torsional-stick", action="store_true", help="model torsional stick")
+    ap.add_argument(
+        "--elements",
+        type=int,
+        default=1,
+        help="elements of the distributed string (default 1: the paper's one-mode model; "
+        "docs/model.md, 'The distributed string')",
+    )
     ap.add_argument("--out", type=Path, default=Path("out/simulate"))
     return ap
 
@@ -66,8 +75,10 @@ def build_parser() -> argparse.ArgumentParser:
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """Run the ``simulate`` subcommand; exit code 0 (ok), 1 (the run stopped), 2 (bad input).
 
-    Writes ``simulation.csv``, ``simulation.json`` (status, counters, flags, parameters) and
-    ``simulation.png`` into ``--out``; a run that stops early is written up to the stop.
+    Writes ``simulation.csv``, ``simulation.json`` (status, counters, flags, parameters, the
+    string), ``simulation.png`` and the string along its length (``string_nodes.csv``,
+    ``string_elements.csv``: :meth:`SimulationResult.profiles_to_csv`) into ``--out``; a run
+    that stops early is written up to the stop.
 
     Parameters
     ----------
@@ -94,6 +105,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             else:
                 t_on, latch = (exp.t_on, exp.latch) if exp is not None else (0.0, "none")
                 control = AffineFeedback(g.F, g.K0, g.R_ff, t_on=t_on, latch=latch)
+        string = StringParams(elements=args.elements)
         stick = args.torsional_stick or (exp is not None and exp.torsional_stick)
         dphi0 = args.dphi0 if args.dphi0 is not None else (exp or FIG5).dphi0
         tau_end = args.tau_end if args.tau_end is not None else (exp or FIG5).tau_end
@@ -104,12 +116,14 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             initial={"dphi": dphi0, "du": args.du0},
             dt_out=args.dt_out,
             options=EngineOptions(h=args.h, torsional_stick=stick),
+            string=string,
         )
     except (ParameterError, GainsFileError, ValueError, OSError) as exc:
         print(f"drillstring simulate: {exc}", file=sys.stderr)
         return 2
     out = args.out
     r.to_csv(out / "simulation.csv")
+    r.profiles_to_csv(out / "string_nodes.csv", out / "string_elements.csv")
     write_json(
         out / "simulation.json",
         {
@@ -118,6 +132,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             "counters": r.counters,
             "flags": r.flags,
             "params": params.to_dict(),
+            "string": {
+                "elements": string.elements,
+                "kappa": string.kappa,
+                "axial_mass_ratio": string.axial_mass_ratio,
+                "lumping": string.lumping,
+            },
         },
     )
     t_on = exp.t_on if exp is not None and exp.t_on > 0 else None

@@ -133,6 +133,44 @@ class SimulationResult:
         cols = [self.data[c] for c in COLUMNS]
         return write_csv(path, COLUMNS, zip(*(c.tolist() for c in cols), strict=True))
 
+    def profiles_to_csv(self, nodes: str | os.PathLike[str], elements: str | os.PathLike[str]):
+        """Write the string along its length at every sample, as two CSV files (atomically).
+
+        Parameters
+        ----------
+        nodes, elements : str or path-like
+            The files: one row per sample and node (``tau_scaled, node, x_scaled,
+            phi_node_rad, dphi_node_scaled``: node 0 the rotary table, the last the bit,
+            x_scaled its position along the pipe from 0 at the table to 1 at the bit, the
+            angle and speed perturbations from the nominal motion), and one row per sample and
+            element (``tau_scaled, element, x_scaled, torque_minus_R0_scaled``: the element's
+            torque less R0 in units of C; element 0 is the top of the string).
+
+        Returns
+        -------
+        tuple of Path
+            The two paths.
+        """
+        pr = self.profiles
+        tau = self.data["tau"].tolist()
+
+        def rows(values: tuple[np.ndarray, ...], x: np.ndarray):
+            for i, t in enumerate(tau):
+                for j, xj in enumerate(x.tolist()):
+                    yield (t, j, xj, *(float(v[i, j]) for v in values))
+
+        a = write_csv(
+            nodes,
+            ("tau_scaled", "node", "x_scaled", "phi_node_rad", "dphi_node_scaled"),
+            rows((pr["phi_node"], pr["dphi_node"]), pr["x_node"]),
+        )
+        b = write_csv(
+            elements,
+            ("tau_scaled", "element", "x_scaled", "torque_minus_R0_scaled"),
+            rows((pr["torque_minus_R0"],), pr["x_element"]),
+        )
+        return a, b
+
 
 def output_grid(tau_end: float, dt_out: float) -> np.ndarray:
     """The output times of a run: 0, dt_out, 2 dt_out, ..., and tau_end last.
