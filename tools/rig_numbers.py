@@ -50,6 +50,10 @@ def _rig(name: str) -> None:
     print(f"  M = {rig.M:.6g} kg, K = {rig.K:.6g} N/m, D = {rig.D:.6g} N s/m")
     print(f"  axial damping ratio D/(2 sqrt(K M)) = gamma/(2 eta) = {s.gamma / (2 * s.eta):.4g}")
     print(
+        f"  t* = {rig.t_star:.6g} s, L* = {rig.L_star:.6g} m, W0 = {rig.W0:.6g} N, "
+        f"T0 = {rig.T0:.6g} N m"
+    )
+    print(
         f"  scaled: psi = {s.psi:.6g}, gamma = {s.gamma:.6g}, eta = {s.eta:.6g}, "
         f"etabar^2 = {s.etabar2:.6g}, gammabar = {s.gammabar:.6g}"
     )
@@ -103,7 +107,9 @@ def _averaging(name: str, max_periods: int) -> None:
         )
         print(
             f"  at taubar_n0, max_periods = {budget}: {lc.kind}, period {lc.period:.5g} fast "
-            f"= {lc.period / s.sqrt_npsi:.4g} slow, (lambda/vbar0)<gbar> = {lc.average:.5g}, "
+            f"= {lc.period / s.sqrt_npsi:.4g} slow "
+            f"({2 * math.pi * s.sqrt_npsi / lc.period:.3g} per torsional period 2 pi), "
+            f"(lambda/vbar0)<gbar> = {lc.average:.5g}, "
             f"stick fraction {lc.stick_fraction:.3g}, found after {lc.time_simulated:.5g} fast"
         )
     for budget in (400, max_periods):
@@ -145,6 +151,20 @@ def _settling(name: str, window: float = 400.0, end: float = 4000.0) -> None:
     print(f"== {name}: (18) at taubar_n0 from ubar(0) = 0.05, windows of {window:g} fast")
     print(f"  mean ubar: {', '.join(means)}")
     print(f"  mean gbar: {', '.join(gs)}")
+    # the e-folding time of the mean: windows of 100 fast after the first (the growth from the
+    # kick), while the distance from the last window's mean is above 1 % of the second window's
+    fine = int(100.0 / 0.1)
+    m = np.array([u[i : i + fine].mean() for i in range(0, ts.size, fine)])
+    dist = np.abs(m - m[-1])
+    k = 1
+    while k + 1 < m.size and dist[k + 1] > 1e-2 * dist[1]:
+        k += 1
+    rate = -np.polyfit(np.arange(k) * 100.0, np.log(dist[1 : k + 1]), 1)[0]
+    print(
+        f"  e-folding time of the mean of ubar: {1 / rate:.4g} fast = "
+        f"{1 / rate / s.sqrt_npsi:.4g} t* = {1 / rate / s.sqrt_npsi / (2 * math.pi):.3g} "
+        f"torsional periods (log-linear fit over {k} windows of 100 fast, from 100 fast on)"
+    )
 
 
 def _same_damping_ratio(max_periods: int) -> None:
@@ -154,8 +174,9 @@ def _same_damping_ratio(max_periods: int) -> None:
     alt = s.replace(gamma=2 * zeta * s.eta)
     rig = get_physical("pipe-rig")
     print(f"== pipe-rig with the damping ratio {zeta:.4g} of reference-rig instead of its D")
+    D = alt.gamma * rig.M / rig.t_star
     print(
-        f"  D = {alt.gamma * rig.M / rig.t_star:.6g} N s/m, gamma = {alt.gamma:.6g}, "
+        f"  D = {D:.6g} N s/m ({D / rig.D - 1:+.1%}), gamma = {alt.gamma:.6g}, "
         f"gammabar = {alt.gammabar:.6g}, taubar_crit = {taubar_crit(alt):.6g}, roots in the "
         f"right half plane at taubar_n0: "
         f"{int(unstable_root_count(alt.gammabar, alt.etabar2, alt.taubar_n0))}"
