@@ -116,7 +116,7 @@ class Pipe:
 REFERENCE_PIPE = Pipe(od=0.1270, id=0.1086)
 #: The drill pipe of each known rig of :data:`~drillstring.model.params.KNOWN_PHYSICAL` whose
 #: pipe is documented, by the rig's name.
-KNOWN_PIPES: dict[str, Pipe] = {"reference-rig": REFERENCE_PIPE}
+KNOWN_PIPES: dict[str, Pipe] = {"reference-rig": REFERENCE_PIPE, "pipe-rig": REFERENCE_PIPE}
 
 
 def rig_pipe(rig: Scales) -> Pipe:

@@ -478,8 +478,10 @@ def test_from_scaled_result_out_of_range_is_reported() -> None:
 
 
 def test_reference_rig_by_name() -> None:
-    assert set(KNOWN_PARAMS) == {"reference", "reference-rig"}
-    assert KNOWN_PHYSICAL == {"reference-rig": REFERENCE_RIG}
+    # the pipe rig (tests/test_pipe_rig.py) is the one set added since
+    assert set(KNOWN_PARAMS) == {"reference", "reference-rig", "pipe-rig"}
+    assert set(KNOWN_PHYSICAL) == {"reference-rig", "pipe-rig"}
+    assert KNOWN_PHYSICAL["reference-rig"] is REFERENCE_RIG
     assert get_physical("reference-rig") is REFERENCE_RIG
     for s in (get_params("reference-rig"), params_from_spec("reference-rig")):
         assert isinstance(s, ScaledParams)

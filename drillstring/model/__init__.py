@@ -14,6 +14,7 @@ from drillstring.model.engine import (
 from drillstring.model.experiments import DEFAULT_H, FIG5, FIG6, Experiment
 from drillstring.model.laws import Measurement, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import (
+    PIPE_RIG,
     REFERENCE,
     REFERENCE_RIG,
     ParameterError,
@@ -33,6 +34,7 @@ __all__ = [
     "DEFAULT_H",
     "FIG5",
     "FIG6",
+    "PIPE_RIG",
     "REFERENCE",
     "REFERENCE_RIG",
     "AffineFeedback",

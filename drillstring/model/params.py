@@ -27,7 +27,10 @@ Named sets
 ----------
 ``"reference"`` is :data:`REFERENCE`, our reconstruction of the paper's Table I (``docs/model.md``,
 "Reference parameter set"). ``"reference-rig"`` is :data:`REFERENCE_RIG`, a physical rig in SI
-units that maps onto it by (15)-(16) (``docs/reference_rig.md``). :func:`get_params`,
+units that maps onto it by (15)-(16) (``docs/reference_rig.md``). ``"pipe-rig"`` is
+:data:`PIPE_RIG`, the same rig with its axial mass M and stiffness K made consistent with its
+drill pipe (``docs/reference_rig.md``, "The pipe rig"): a second, labelled rig that does not map
+onto :data:`REFERENCE`; the reference set stays the default everywhere. :func:`get_params`,
 :data:`KNOWN_PARAMS` and :func:`params_from_spec` always give :class:`ScaledParams` (a physical
 set converted by :meth:`PhysicalParams.to_scaled`, like :func:`load_params` does for files);
 :func:`get_physical` and :data:`KNOWN_PHYSICAL` give the physical sets as :class:`PhysicalParams`.
@@ -75,9 +78,14 @@ from drillstring.validation import check_int, check_real
 __all__ = [
     "KNOWN_PARAMS",
     "KNOWN_PHYSICAL",
+    "PIPE_RIG",
     "REFERENCE",
     "REFERENCE_RIG",
+    "REFERENCE_PIPE_EA_L",
+    "REFERENCE_PIPE_LENGTH",
+    "REFERENCE_PIPE_MASS",
     "REFERENCE_RIG_CHOICES",
+    "REFERENCE_RIG_PIPE",
     "ParameterError",
     "PhysicalParams",
     "ScaledParams",
@@ -766,8 +774,46 @@ REFERENCE_RIG_CHOICES: dict[str, float] = {
 #: ``drillstring/model/data/reference_rig.toml``.
 REFERENCE_RIG = PhysicalParams.from_scaled(REFERENCE, **REFERENCE_RIG_CHOICES)
 
+#: The reference rig's drill pipe and its steel (``docs/reference_rig.md``): 5-in 19.5 lb/ft
+#: pipe, OD 127.0 mm and ID 108.6 mm [m], density 7850 kg/m^3, shear modulus G = 79.3 GPa and
+#: Young's modulus E = 206.8 GPa [Pa]. Its length is the one whose GJ/L is the rig's C.
+REFERENCE_RIG_PIPE: dict[str, float] = {
+    "od": 0.1270,
+    "id": 0.1086,
+    "density": 7850.0,
+    "G": 79.3e9,
+    "E": 206.8e9,
+}
+
+
+def _pipe_length_and_mass(pipe: Mapping[str, float], C: float) -> tuple[float, float, float]:
+    """The length L = G*J/C [m] of ``pipe`` whose torsional stiffness is C, its mass [kg] and its
+    axial stiffness E*A/L [N/m] (J = pi*(od^4 - id^4)/32, A = pi*(od^2 - id^2)/4)."""
+    od, id_ = pipe["od"], pipe["id"]
+    J = math.pi * (od**4 - id_**4) / 32.0
+    area = math.pi * (od**2 - id_**2) / 4.0
+    length = pipe["G"] * J / C
+    return length, pipe["density"] * area * length, pipe["E"] * area / length
+
+
+#: The reference rig's pipe: its length [m] (G*J/C = 4008.9 m), its mass [kg] (107 146 kg) and
+#: its axial stiffness E*A/L [N/m] (1.756e5 N/m), from :data:`REFERENCE_RIG_PIPE` and C.
+REFERENCE_PIPE_LENGTH, REFERENCE_PIPE_MASS, REFERENCE_PIPE_EA_L = _pipe_length_and_mass(
+    REFERENCE_RIG_PIPE, REFERENCE_RIG_CHOICES["C"]
+)
+
+#: The pipe rig (``docs/reference_rig.md``, "The pipe rig"): the reference rig with M and K
+#: consistent with its pipe. M is the bottom-hole assembly (the reference rig's M, the collars
+#: alone) plus the one-mode share of the pipe, a third of its mass (48 946 kg); K is the pipe's
+#: E*A/L (1.756e5 N/m). Everything else, the axial damping D included, is the reference rig's.
+#: It does NOT map onto :data:`REFERENCE` (psi = 67.6, eta = 1.75); the reference set stays the
+#: default everywhere. Also stored in ``drillstring/model/data/pipe_rig.toml``.
+PIPE_RIG = REFERENCE_RIG.replace(
+    M=REFERENCE_RIG.M + REFERENCE_PIPE_MASS / 3.0, K=REFERENCE_PIPE_EA_L
+)
+
 #: Physical named sets, as :class:`PhysicalParams` (see :func:`get_physical`).
-KNOWN_PHYSICAL: dict[str, PhysicalParams] = {"reference-rig": REFERENCE_RIG}
+KNOWN_PHYSICAL: dict[str, PhysicalParams] = {"reference-rig": REFERENCE_RIG, "pipe-rig": PIPE_RIG}
 
 #: Every named set as :class:`ScaledParams`; a physical set appears converted by (15)-(16).
 KNOWN_PARAMS: dict[str, ScaledParams] = {
@@ -780,7 +826,8 @@ def get_params(name: str) -> ScaledParams:
     """Return a named parameter set as :class:`ScaledParams`.
 
     ``"reference"`` is the scaled reference set; ``"reference-rig"`` is the physical reference
-    rig converted by (15)-(16) (equal to ``"reference"`` to rounding). :func:`get_physical`
+    rig converted by (15)-(16) (equal to ``"reference"`` to rounding); ``"pipe-rig"`` the rig
+    whose M and K are its pipe's, converted likewise (psi = 67.6, eta = 1.75). :func:`get_physical`
     returns a physical set in SI units.
 
     Parameters

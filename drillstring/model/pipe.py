@@ -234,3 +234,62 @@ __all__ = [
     "max_elements",
     "torsional_chain",
 ]
+
+
+# --------------------------------------------------------------------------------------------
+# the string of each named rig
+# --------------------------------------------------------------------------------------------
+
+# appended below the string's definitions above, which stay as they were
+from drillstring.model.params import PIPE_RIG, REFERENCE_PIPE_MASS  # noqa: E402
+
+#: The pipe of each named physical rig (:data:`~drillstring.model.params.KNOWN_PHYSICAL`) as
+#: the one-element (paper) string, by the rig's name. ``"reference-rig"``: kappa =
+#: :data:`REFERENCE_KAPPA` and a massless axial spring (axial mass ratio 0: the paper's K is not
+#: the pipe's EA/L, ``docs/reference_rig.md``); ``"pipe-rig"``: the same pipe, whose M and K are
+#: its own, so the axial mass ratio is the pipe's mass over M (2.19: the bit end keeps
+#: 1 - mu/3 = 0.27 of M, the bottom-hole assembly).
+KNOWN_STRINGS: dict[str, StringParams] = {
+    "reference-rig": StringParams(kappa=REFERENCE_KAPPA, axial_mass_ratio=0.0),
+    "pipe-rig": StringParams(
+        kappa=REFERENCE_KAPPA, axial_mass_ratio=REFERENCE_PIPE_MASS / PIPE_RIG.M
+    ),
+}
+
+
+def rig_string(name: str, elements: int = 1, lumping: str | None = None) -> StringParams:
+    """The pipe of a named rig as a string of ``elements`` elements.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`KNOWN_STRINGS` (``"reference-rig"``, ``"pipe-rig"``).
+    elements : int
+        N, the number of elements (default 1).
+    lumping : str, optional
+        As :class:`StringParams` (default: ``"paper"`` for one element, ``"lumped"`` otherwise).
+
+    Returns
+    -------
+    StringParams
+        The rig's kappa and axial mass ratio with ``elements`` and ``lumping``.
+
+    Raises
+    ------
+    ValueError
+        ``name`` is not a rig with a known string (the message lists them), or ``elements`` or
+        ``lumping`` is invalid (as :class:`StringParams`).
+    """
+    if not isinstance(name, str) or name not in KNOWN_STRINGS:
+        known = ", ".join(sorted(KNOWN_STRINGS))
+        raise ValueError(f"no string is known for the rig {name!r} (known: {known})")
+    base = KNOWN_STRINGS[name]
+    return StringParams(
+        elements=elements,
+        kappa=base.kappa,
+        axial_mass_ratio=base.axial_mass_ratio,
+        lumping=lumping,
+    )
+
+
+__all__ += ["KNOWN_STRINGS", "rig_string"]
