@@ -174,3 +174,21 @@ def test_simulate_command_refuses_a_bad_element_count(tmp_path, capsys) -> None:
     assert simulate_main(["--elements", "0", "--out", str(tmp_path / "x")]) == 2
     assert "elements must be a positive integer, got 0" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_the_pipe_rig_distributes_the_axial_string_too() -> None:
+    from drillstring.model.params import get_params
+    from drillstring.model.pipe import rig_string
+
+    p = get_params("pipe-rig")
+    string = rig_string("pipe-rig", 8)
+    assert string.axial_distributed
+    r = ds.simulate(p, 2.0, initial={"du": 0.5}, string=string, progress=False, dt_out=0.01)
+    assert r.status.ok
+    u = r.profiles["u_node"]
+    assert u.shape == (r.tau.size, 9) and np.all(u[:, 0] == 0.0)  # the hook's feed is imposed
+    # the axial wave: the inner nodes have moved off the initial straight stretch by t = 2
+    straight = np.outer(r.u, r.profiles["x_axial"])
+    assert np.max(np.abs(u[-1] - straight[-1])) > 1e-3
+    # the reference rig keeps the paper's massless axial spring
+    assert not rig_string("reference-rig", 8).axial_distributed

@@ -21,7 +21,7 @@ from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import Control, EngineOptions
 from drillstring.model.experiments import DEFAULT_DT_OUT, DEFAULT_H, EXPERIMENTS, FIG5
 from drillstring.model.params import ParameterError, params_from_spec
-from drillstring.model.pipe import StringParams
+from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
 from drillstring.model.simulate import simulate
 from drillstring.plotting import plot_velocities
 
@@ -72,6 +72,28 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def string_of(spec: str, elements: int) -> StringParams:
+    """The string of a parameter set named on the command line, with ``elements`` elements.
+
+    Parameters
+    ----------
+    spec : str
+        The ``--params`` value: a rig with a known pipe (``reference-rig``, ``pipe-rig``), the
+        scaled ``reference`` set (the reference rig's pipe), or a file (the reference pipe).
+    elements : int
+        N.
+
+    Returns
+    -------
+    StringParams
+        The pipe of that rig (its kappa and axial mass ratio) as N elements.
+    """
+    name = "reference-rig" if spec == "reference" else spec
+    if name in KNOWN_STRINGS:
+        return rig_string(name, elements)
+    return StringParams(elements=elements)
+
+
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """Run the ``simulate`` subcommand; exit code 0 (ok), 1 (the run stopped), 2 (bad input).
 
@@ -105,7 +127,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             else:
                 t_on, latch = (exp.t_on, exp.latch) if exp is not None else (0.0, "none")
                 control = AffineFeedback(g.F, g.K0, g.R_ff, t_on=t_on, latch=latch)
-        string = StringParams(elements=args.elements)
+        string = string_of(args.params, args.elements)
         stick = args.torsional_stick or (exp is not None and exp.torsional_stick)
         dphi0 = args.dphi0 if args.dphi0 is not None else (exp or FIG5).dphi0
         tau_end = args.tau_end if args.tau_end is not None else (exp or FIG5).tau_end

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drillstring.model.params import PIPE_RIG, REFERENCE_PIPE_MASS
 from drillstring.validation import check_choice, check_int, check_real
 
 #: How the pipe's inertia is put on the nodes (``docs/model.md``, "The distributed string").
@@ -241,7 +242,6 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 
 # appended below the string's definitions above, which stay as they were
-from drillstring.model.params import PIPE_RIG, REFERENCE_PIPE_MASS  # noqa: E402
 
 #: The pipe of each named physical rig (:data:`~drillstring.model.params.KNOWN_PHYSICAL`) as
 #: the one-element (paper) string, by the rig's name. ``"reference-rig"``: kappa =
