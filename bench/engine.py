@@ -24,6 +24,12 @@ Every comparison is measured side by side in this run (interleaved rounds, media
 4. Plain Python (``DRILLSTRING_JIT=0``): cost per step and bit-identity with the compiled
    kernel on a short Fig. 5 closed-loop run with events.
 5. Prehistory: building the engine at h = 1.25e-5 (nominal history).
+6. The distributed string (``docs/model.md``, "The distributed string"): cost per step and per
+   Fig. 6 open-loop run (dphi/dtau(0) = -4.9, torsional stick, tau in [0, 60], R - R0 = 0: the
+   stick-slip before the switch-on, throughout) for N = 1, 4, 16, 64 and for the N at which the
+   second torsional mode is within 1 % of the continuous string's (``drillstring.analysis.
+   modes``), interleaved rounds, medians, each against N = 1. Targets: cost linear in N, the
+   run at the 1 % N at most 5x the N = 1 run.
 
 v0.1 is run live from the repository's history in a subprocess of this interpreter (its
 sources only; it needs nothing this environment lacks), so every run prints both side by side.
@@ -68,6 +74,7 @@ import numpy as np
 from minimal_loop import minimal_loop
 
 from drillstring.analysis.axial_stability import critical_delay
+from drillstring.analysis.modes import torsional_elements_needed
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.gains import PAPER_F
 from drillstring.model.control import AffineFeedback
@@ -76,6 +83,7 @@ from drillstring.model.experiments import FIG5
 from drillstring.model.kernel.jit import numba_available
 from drillstring.model.kernel.state import H_ROWS, I_HEND, I_KHINT, K_NOW
 from drillstring.model.params import REFERENCE, ScaledParams
+from drillstring.model.pipe import REFERENCE_KAPPA, StringParams
 from drillstring.model.prehistory import build_prehistory, nominal_history
 from drillstring.model.simulate import simulate
 
@@ -506,6 +514,48 @@ def prehistory(old: OldEngine | None, rounds: int) -> float:
     return engine
 
 
+def string_cost(rounds: int) -> tuple[int, float, float]:
+    """Section 6: cost per step and per Fig. 6 open-loop run against N."""
+    n_mode2 = torsional_elements_needed(REFERENCE_KAPPA, REFERENCE.rho, mode=2, rel_tol=0.01)
+    sizes = sorted({1, 4, 16, 64, n_mode2})
+    opts = EngineOptions(torsional_stick=True)
+
+    def run(n: int) -> tuple[float, int]:
+        t0 = time.perf_counter()
+        r = simulate(
+            REFERENCE,
+            60.0,
+            initial={"dphi": -4.9},
+            options=opts,
+            string=StringParams(elements=n),
+            progress=False,
+        )
+        return time.perf_counter() - t0, r.counters["steps"]
+
+    walls: dict[int, list[float]] = {n: [] for n in sizes}
+    steps: dict[int, int] = {}
+    for n in sizes:
+        run(n)  # compiled and warm
+    for _ in range(rounds):
+        for n in sizes:  # interleaved: each round runs every N once
+            w, steps[n] = run(n)
+            walls[n].append(w)
+    print(f"\n6. The distributed string: Fig. 6 open loop, tau in [0, 60], medians of {rounds}")
+    print(
+        f"   {'N':>4}  {'run s':>8}  {'ns/step':>8}  {'run / N=1':>9}  {'(run/N=1 - 1)/(N-1)':>20}"
+    )
+    base = float(np.median(walls[1]))
+    for n in sizes:
+        w = float(np.median(walls[n]))
+        slope = (w / base - 1.0) / (n - 1) if n > 1 else float("nan")
+        print(f"   {n:4d}  {w:8.3f}  {w / steps[n] * 1e9:8.0f}  {w / base:9.2f}  {slope:20.4f}")
+    ratio = float(np.median(walls[n_mode2])) / base
+    growth = float(np.median(walls[64])) / float(np.median(walls[16]))
+    print(f"   second mode within 1 % at N = {n_mode2}: {ratio:.2f}x the N = 1 run (target <= 5)")
+    print(f"   run(64) / run(16) = {growth:.2f} (linear in N: at most 4)")
+    return n_mode2, ratio, growth
+
+
 def _timed(fn: Callable[[], object]) -> float:
     t0 = time.perf_counter()
     fn()
@@ -547,6 +597,7 @@ def main() -> None:
             per_sample = sampling(old, 3 if args.quick else 7)
             plain, identical = plain_python(0.5 if args.quick else 2.0)
             build = prehistory(old, 3 if args.quick else 7)
+            n_mode2, string_ratio, growth = string_cost(3 if args.quick else 7)
         finally:
             if old is not None:
                 old.close()
@@ -559,6 +610,10 @@ def main() -> None:
         f"   plain Python per step              {plain * 1e6:8.1f}   us, bit-identical: {identical}"
     )
     print(f"   Engine() at h = 1.25e-5            {build * 1e3:8.2f}   ms")
+    print(
+        f"   string at N = {n_mode2} (mode 2 to 1 %)      {string_ratio:8.2f}x  the N = 1 run "
+        f"(target <= 5); run(64)/run(16) {growth:.2f} (<= 4)"
+    )
 
 
 if __name__ == "__main__":
