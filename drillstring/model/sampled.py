@@ -25,6 +25,7 @@ from drillstring.model.engine import Engine, EngineOptions, InitialState, Status
 from drillstring.model.experiments import DEFAULT_DT_OUT
 from drillstring.model.laws import Law
 from drillstring.model.params import ScaledParams
+from drillstring.model.pipe import StringParams
 from drillstring.model.prehistory import HistoryFunction
 from drillstring.model.simulate import COLUMNS, SimulationResult
 from drillstring.validation import check_real
@@ -96,6 +97,7 @@ def simulate_sampled(
     history: HistoryFunction | None = None,
     options: EngineOptions | None = None,
     dt_out: float = DEFAULT_DT_OUT,
+    string: StringParams | None = None,
 ) -> SampledResult:
     """Simulate the full model (11)-(14), (17) under a digital controller with zero-order hold.
 
@@ -122,6 +124,9 @@ def simulate_sampled(
         steps no longer than h.
     dt_out : float
         Output sampling, a multiple of ``Ts``.
+    string : StringParams, optional
+        The drill pipe (default: the paper's one-mode string; ``docs/model.md``, "The
+        distributed string"). The rows hold the bit's and the table's signals.
 
     Returns
     -------
@@ -151,7 +156,7 @@ def simulate_sampled(
                 f"the observer was discretised with Ts = {obs.Ts!r}, the loop samples with "
                 f"Ts = {Ts!r}"
             )
-    engine = Engine(params, options=options, initial=initial, history=history)
+    engine = Engine(params, options=options, initial=initial, history=history, string=string)
     block = controller.block(params)
     rows = np.empty((n // every + 2, ROW_SIZE))
     acc = np.array([-math.inf, math.inf, 0.0, 0.0])
@@ -190,6 +195,7 @@ def simulate_sampled(
         events=engine.events,
         status=status,
         counters=engine.counters,
+        string=engine.string,
         Ts=Ts,
         controller=controller,
     )
