@@ -13,8 +13,10 @@ import numpy as np
 import pytest
 
 import drillstring as ds
+from drillstring.apps.simulate import simulate_main
 from drillstring.model.engine import Engine, EngineOptions
-from drillstring.model.pipe import REFERENCE_KAPPA, StringParams, torsional_chain
+from drillstring.model.params import get_params
+from drillstring.model.pipe import REFERENCE_KAPPA, StringParams, rig_string, torsional_chain
 
 TSTICK = EngineOptions(torsional_stick=True)
 
@@ -33,7 +35,9 @@ def test_one_paper_element_is_the_paper_model_bit_for_bit() -> None:
     for c in ("u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n"):
         assert np.array_equal(a.data[c], b.data[c]), c
     # on one element the top-of-string torque is the twist of (12)-(13)
-    assert np.array_equal(a.top_torque_minus_R0, a.theta - a.phi)
+    assert np.allclose(a.top_torque_minus_R0, a.theta - a.phi, rtol=0.0, atol=1e-12)
+    # and it is the first element's torque of the profiles
+    assert np.allclose(a.top_torque_minus_R0, a.profiles["torque_minus_R0"][:, 0], atol=1e-12)
 
 
 def test_a_lumped_single_element_is_not_the_paper_model() -> None:
@@ -148,8 +152,6 @@ def test_the_state_round_trips_with_the_string() -> None:
 
 
 def test_simulate_command_writes_the_string_along_its_length(tmp_path) -> None:
-    from drillstring.apps.simulate import simulate_main
-
     out = tmp_path / "run"
     argv = ["--tau-end", "1", "--dphi0", "-2.5", "--elements", "4", "--dt-out", "0.5"]
     assert simulate_main([*argv, "--out", str(out)]) == 0
@@ -169,17 +171,12 @@ def test_simulate_command_writes_the_string_along_its_length(tmp_path) -> None:
 
 
 def test_simulate_command_refuses_a_bad_element_count(tmp_path, capsys) -> None:
-    from drillstring.apps.simulate import simulate_main
-
     assert simulate_main(["--elements", "0", "--out", str(tmp_path / "x")]) == 2
     assert "elements must be a positive integer, got 0" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
 
 
 def test_the_pipe_rig_distributes_the_axial_string_too() -> None:
-    from drillstring.model.params import get_params
-    from drillstring.model.pipe import rig_string
-
     p = get_params("pipe-rig")
     string = rig_string("pipe-rig", 8)
     assert string.axial_distributed
