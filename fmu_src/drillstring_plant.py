@@ -48,6 +48,7 @@ from drillstring.model.engine import (
 )
 from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, PhysicalParams, ScaledParams
+from drillstring.model.pipe import MAX_ELEMENTS, REFERENCE_KAPPA, StringParams
 from drillstring.model.units import PLANT_SI, SIScaling, si_scale
 
 SCALED, SI = units.SCALED, units.SI
@@ -232,7 +233,65 @@ def _declarations() -> tuple[units.Declared, ...]:
                 'docs/model.md, "Validity"): 1 = stop, 2 = continue',
                 start=_ENGINE_DEFAULTS.on_invalid, items=ON_INVALID, type_name="OnInvalid"),
     ]  # fmt: skip
+    out += _string_declarations()
     return tuple(out)
+
+
+def _string_check(field: str) -> Callable[[Any], Any]:
+    """Check of one field of the string (:class:`~drillstring.model.pipe.StringParams`) on its
+    own, its other fields at a value that admits it."""
+
+    def check(value: Any) -> Any:
+        if field == "elements":
+            StringParams(elements=value, lumping="lumped")
+        else:
+            StringParams(**{field: value})
+        return value
+
+    return check
+
+
+def _si_ratio_check(name: str) -> Callable[[Any], Any]:
+    def check(value: Any) -> Any:
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{name} must be >= 0, got {value!r}")
+        return value
+
+    return check
+
+
+def _string_declarations() -> list[units.Declared]:
+    """The distributed string (``docs/model.md``, "The distributed string"): declared after the
+    paper's variables, so theirs keep their value references."""
+    kappa = REFERENCE_KAPPA
+    below3 = math.nextafter(3.0, 0.0)  # kappa and mu must be < 3: the largest accepted value
+    return [
+        declare(("top_torque_minus_R0", "top_torque"), "Real", "output",
+                "Torque at the top of the string, what a sub under the top drive measures",
+                si_unit="N.m", si_display="kN.m",
+                scaled_note=": its deviation from R0 (scaled; theta - phi on one element)",
+                si_note=": absolute"),
+        declare("string_elements", "Integer", "parameter",
+                "Elements N of the distributed drill pipe (docs/model.md, 'The distributed "
+                "string'); 1: the paper's one-mode string, a massless spring (eqs. (11)-(13))",
+                start=1, min=1, max=MAX_ELEMENTS, check=_string_check("elements")),
+        declare(("pipe_inertia_ratio", None), "Real", "parameter",
+                "Polar inertia of the drill pipe over I1, kappa in [0, 3) (the bit end keeps "
+                "1 - kappa/3); used with string_elements > 1", start=kappa, min=0.0,
+                max=below3, check=_string_check("kappa")),
+        declare(("pipe_mass_ratio", None), "Real", "parameter",
+                "Mass of the drill pipe over M, mu in [0, 3) (0: a massless axial spring, as "
+                "the paper's); used with string_elements > 1", start=0.0, min=0.0,
+                max=below3, check=_string_check("axial_mass_ratio")),
+        declare((None, "I_pipe"), "Real", "parameter",
+                "Polar inertia of the drill pipe, below 3 I1 (I1 keeps a third of it); used "
+                "with string_elements > 1", si_start=kappa * REFERENCE_RIG.I1,
+                si_unit="kg.m2", min=0.0, check=_si_ratio_check("I_pipe")),
+        declare((None, "M_pipe"), "Real", "parameter",
+                "Mass of the drill pipe, below 3 M (0: a massless axial spring, as the "
+                "paper's); used with string_elements > 1", si_start=0.0, si_unit="kg", min=0.0,
+                check=_si_ratio_check("M_pipe")),
+    ]  # fmt: skip
 
 
 DECLARED = _declarations()
@@ -317,8 +376,9 @@ class PlantFmu(fmu.FmuModel):
 
     def engine_setup(
         self, v: Mapping[str, Any]
-    ) -> tuple[ScaledParams, EngineOptions, Mapping[str, float]]:
-        """The engine's parameters, options and initial perturbation from the FMU's values.
+    ) -> tuple[ScaledParams, EngineOptions, Mapping[str, float], StringParams]:
+        """The engine's parameters, options, initial perturbation and string from the FMU's
+        values.
 
         The options ``h`` and ``event_tol`` are converted by the dimension their variables
         declare (:data:`_OPTION_DIMENSIONS`, time: divided by t* of the FMU's rig in SI)."""
@@ -351,9 +411,14 @@ class PlantFmu(fmu.FmuModel):
             **scaled, torsional_stick=bool(v["torsional_stick_model"]), on_invalid=on_invalid,
             keep_events=False,
         )  # fmt: skip
+        if scaling is None:
+            kappa, mu = v["pipe_inertia_ratio"], v["pipe_mass_ratio"]
+        else:
+            kappa, mu = v["I_pipe"] / scaling.rig.I1, v["M_pipe"] / scaling.rig.M
+        string = StringParams(elements=v["string_elements"], kappa=kappa, axial_mass_ratio=mu)
         if scaling is not None:
             self.scaling = scaling
-        return params, options, initial
+        return params, options, initial, string
 
     def engine_input(self) -> float:
         """The engine's input R - R0 (scaled) from the FMU's input."""
@@ -393,8 +458,8 @@ class PlantFmu(fmu.FmuModel):
         self._use(self._new_engine(values))
 
     def _new_engine(self, v: Mapping[str, Any]) -> Engine:
-        params, options, initial = self.engine_setup(v)
-        return Engine(params, options=options, initial=initial)
+        params, options, initial, string = self.engine_setup(v)
+        return Engine(params, options=options, initial=initial, string=string)
 
     def _use(self, eng: Engine) -> None:
         """Make ``eng`` the plant's engine: the io block of the step takes the unit system's

@@ -41,6 +41,7 @@ from drillstring.model.control import LATCH_MODES
 from drillstring.model.digital.controller import OperatingPoint
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
+from drillstring.model.pipe import StringParams
 from drillstring.model.sensing import Sensing
 
 pytestmark = pytest.mark.fmu
@@ -288,7 +289,7 @@ def test_plant_outputs_independent_of_input(built):
     outputs = [v for v in md.modelVariables if v.causality == "output"]
     assert [v.name for v in outputs] == [
         "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n",
-        "mode", "stick_events", "bit_bounce", "torsional_stick",
+        "mode", "stick_events", "bit_bounce", "torsional_stick", "top_torque_minus_R0",
     ]  # fmt: skip
     # dependencies="" (no direct feedthrough), not absent (which would mean "all inputs")
     assert [u.variable.name for u in md.outputs] == [v.name for v in outputs]
@@ -336,13 +337,21 @@ def test_declared_ranges_are_the_validators(built):
     ranges = _ranges(built.plant)
     assert set(ranges) == {
         "n", "psi", "gamma", "eta", "lambda", "beta", "rho", "v0", "omega0", "h", "event_tol",
+        "string_elements", "pipe_inertia_ratio", "pipe_mass_ratio",
     }  # fmt: skip
     fields = {"lambda": "lam"}
+    string = {
+        "string_elements": "elements",
+        "pipe_inertia_ratio": "kappa",
+        "pipe_mass_ratio": "axial_mass_ratio",
+    }
 
     def accepted(name, value):
         try:
             if name in ("h", "event_tol"):
                 EngineOptions(**{name: value})
+            elif name in string:
+                StringParams(**{string[name]: value, "lumping": "lumped"})
             else:
                 ScaledParams(**{**REFERENCE.__dict__, fields.get(name, name): value})
         except ValueError:

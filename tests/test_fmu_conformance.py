@@ -529,6 +529,26 @@ def _table(sy: System, H: float) -> list[Case]:
             r"value 2 for torsional_stick_model is neither fmi2True \(1\) nor fmi2False \(0\)",
         ),
         Case(
+            "P20",
+            P,
+            "instantiated",
+            "string_elements = 0 (Integer, out of range)",
+            _set(INT, "string_elements", 0),
+            ERROR,
+            r"parameter string_elements = 0 rejected: StringParams\.elements must be a positive "
+            r"integer, got 0",
+        ),
+        Case(
+            "P21",
+            P,
+            "instantiated",
+            "string_elements = 5000 (more than the 4096 allowed)",
+            _set(INT, "string_elements", 5000),
+            ERROR,
+            r"parameter string_elements = 5000 rejected: StringParams\.elements must be <= 4096, "
+            r"got 5000",
+        ),
+        Case(
             "C1",
             C,
             "instantiated",

@@ -193,7 +193,8 @@ def test_io_layout_is_its_table():
     # the four slots every FMU's block begins with, then the plant's entries in order
     assert P[:4] == (native.IO_STALE, native.IO_RESUME, native.IO_TIME, native.IO_NSTEPS)
     offsets = list(P)
-    assert offsets == sorted(offsets) and P.size == P.out + 16
+    # the outputs: the 13 SI quantities (the top-of-string torque the last) and 4 integers
+    assert offsets == sorted(offsets) and P.size == P.out + 17
     assert P.k + native.N_K == P.tau and native.PLANT_IO_SIZE == P.size
     layout = native.io_layout("L", (("a", 1), ("b", 3), ("c", 2)))
     assert (layout.a, layout.b, layout.c, layout.size) == (0, 1, 4, 6)

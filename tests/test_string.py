@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 
 import drillstring as ds
+from drillstring.analysis.string_figures import write_string_fig6
 from drillstring.apps.simulate import simulate_main
+from drillstring.controller.gains import PAPER_F
+from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import get_params
 from drillstring.model.pipe import REFERENCE_KAPPA, StringParams, rig_string, torsional_chain
@@ -189,3 +192,37 @@ def test_the_pipe_rig_distributes_the_axial_string_too() -> None:
     assert np.max(np.abs(u[-1] - straight[-1])) > 1e-3
     # the reference rig keeps the paper's massless axial spring
     assert not rig_string("reference-rig", 8).axial_distributed
+
+
+def test_fig6_on_both_strings_is_written_in_si(tmp_path) -> None:
+    p = ds.REFERENCE
+    law = AffineFeedback(PAPER_F, 0.18, -0.18)
+    info = write_string_fig6(tmp_path, law, elements=8)
+    data = np.genfromtxt(info["csv"], delimiter=",", names=True)
+    assert set(data.dtype.names) == {
+        "time_s",
+        "bit_speed_rpm_one_mode",
+        "bit_speed_rpm_string",
+        "top_torque_kNm_one_mode",
+        "top_torque_kNm_string",
+    }
+    rig = ds.REFERENCE_RIG
+    # at t = 0 both start from dphi/dtau = -4.9 of the nominal 51.76 rpm, with the nominal
+    # torque R0 = 1037.9 N m at the top of the string (docs/reference_rig.md)
+    start_rpm = (p.omega0 - 4.9) / rig.t_star * 60 / (2 * math.pi)
+    assert data["bit_speed_rpm_one_mode"][0] == pytest.approx(start_rpm, rel=1e-12)
+    assert data["bit_speed_rpm_string"][0] == pytest.approx(start_rpm, rel=1e-12)
+    assert data["top_torque_kNm_string"][0] == pytest.approx(rig.R0 / 1e3, rel=1e-9)
+    assert data["time_s"][-1] <= ds.FIG6.tau_end * rig.t_star * (1 + 1e-12)
+    assert info["png"].stat().st_size > 10_000
+    # the one-mode run is the plain engine run of Fig. 6 with that law
+    ref = ds.simulate(
+        p,
+        ds.FIG6.tau_end,
+        control=AffineFeedback(PAPER_F, 0.18, -0.18, t_on=ds.FIG6.t_on, latch="angle"),
+        initial=ds.FIG6.initial(),
+        options=TSTICK,
+        progress=False,
+    )
+    speed = (p.omega0 + ref.dphi) / rig.t_star * 60 / (2 * math.pi)
+    assert np.allclose(data["bit_speed_rpm_one_mode"], speed[: data.size], rtol=1e-12, atol=0)

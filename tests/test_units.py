@@ -56,6 +56,7 @@ def test_nominal_motion_in_si_is_the_rigs_nominal_point():
         "torque_on_bit": rig.T0,
         "bit_angle": rig.Omega0 * t,
         "bit_position": rig.V0 * t,
+        "top_torque": rig.R0,  # the nominal torque all along a steadily turning string
     }
     for name, value in expect.items():
         assert out[name] == pytest.approx(value, rel=1e-13), name

@@ -12,7 +12,9 @@
 3. ``drillstring demo --design out/design --fmus build --out out`` (:func:`run_demo`):
    Section III (Fig. 2, Fig. 3, Fig. 4 with the design's own line reused), then Figs. 5 and 6
    by co-simulation of the FMUs on the fmpy master with the monolithic solver of the same loop
-   overlaid, and their measured agreement; then Fig. 5 in SI units from the SSP package in Ecos
+   overlaid, and their measured agreement; Fig. 6 on the one-mode model and on the distributed
+   string with the string's modes (``out/string/``); then Fig. 5 in SI units from the SSP
+   package in Ecos
    and in the project's master, against the monolithic solver in SI; then the controllers on the
    reference rig's top drive: every one switched on from the Fig. 6 state, and a map of their
    outcomes over surface speed and weight on bit (Dask). ``summary.json`` lists every file and
@@ -36,12 +38,14 @@ from drillstring.analysis.figures import (
     write_limit_cycle_figure,
     write_stability_diagram,
 )
+from drillstring.analysis.string_figures import write_string_fig6
 from drillstring.apps.controllers import (
     format_comparison,
     write_controller_comparison,
     write_controller_map,
 )
 from drillstring.apps.cosim import run_si_demo, si_demo_lines
+from drillstring.apps.modes import modes_main
 from drillstring.controller.design import CONSTRAINED_FILE, FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import replace_dir, write_json
@@ -66,6 +70,7 @@ class DemoSummary:
     fig5: dict[str, Any] = field(default_factory=dict)
     fig6: dict[str, Any] = field(default_factory=dict)
     si: dict[str, Any] = field(default_factory=dict)
+    string: dict[str, Any] = field(default_factory=dict)
     controllers: list[dict[str, Any]] = field(default_factory=list)
     controller_map: list[dict[str, Any]] = field(default_factory=list)
     map_points: int = 0
@@ -150,6 +155,21 @@ def run_demo(
     summary.fig6 = dict(write_fig6(out / "fig6", fmus_dir, H=H))
     summary.figures["fig6"] = {k: str(summary.fig6.pop(k)) for k in ("png", "csv")}
     summary.seconds["fig6"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    log("Fig. 6 on the one-mode model and on the distributed string; the string's modes")
+    law = AffineFeedback(gains.F, gains.K0, gains.R_ff)
+    summary.string = dict(write_string_fig6(out / "string", law))
+    summary.figures["fig6_string"] = {k: str(summary.string.pop(k)) for k in ("png", "csv")}
+    n = summary.string["elements"]
+    modes_dir = out / "string" / "modes"
+    if modes_main(["--elements", str(n), "--table", "held", "--out", str(modes_dir)]) != 0:
+        raise ValueError(f"drillstring modes failed for {n} elements")
+    summary.figures["string_modes"] = {
+        "json": str(modes_dir / "modes.json"),
+        "png": str(modes_dir / "modes.png"),
+    }
+    summary.seconds["string"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     log("Fig. 5 in SI units from the SSP package, in Ecos and in the project's master")
@@ -252,6 +272,18 @@ def print_summary(summary: DemoSummary) -> None:
             f"({r['max_abs_diff_dphi_rel']:.3g} of "
             f"|dphi/dtau(0)|); late max |dphi/dtau| {r['late_max_abs_dphi_cosim']:.4g}"
         )
+    s = summary.string
+    if s:
+        for name, label in (
+            ("one_mode", "one-mode model"),
+            ("string", f"string, N = {s['elements']}"),
+        ):
+            r = s[name]
+            print(
+                f"   fig6 on the {label}: {r['status']}, lowest bit speed after the switch-on "
+                f"{r['min_bit_speed_after_t_on_rpm']:.1f} rpm, peak top torque "
+                f"{r['max_top_torque_after_t_on_kNm']:.1f} kN m"
+            )
     r = summary.fig6
     print(
         f"   fig6: torsional stick entries before/after t_on "

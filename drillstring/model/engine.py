@@ -736,12 +736,10 @@ class Engine:
             into axial stick, of bit-bounce episodes and of torsional sticks; all as floats.
         """
         s = self._s
-        D, I = s.diag.tolist(), s.ints.tolist()  # noqa: E741
-        y = _to_perturbation(self._params_tuple, self.tau, *s.y.tolist())
-        values = (
-            *y, D[S.D_D], D[S.D_G], D[S.D_TAUN], D[S.D_R],
-            I[S.I_MODE], I[S.I_NSTICK], I[S.I_NBOUNCE], I[S.I_NTSTICK],
-        )  # fmt: skip
+        row = np.empty(S.OUT_SIZE)
+        self._stepper.write_sample(s, row)
+        I = s.ints  # noqa: E741
+        values = (*row[1:].tolist(), I[S.I_NSTICK], I[S.I_NBOUNCE], I[S.I_NTSTICK])
         return dict(zip(OUTPUT_KEYS, map(float, values), strict=True))
 
     # ----------------------------------------------------------------- state

@@ -110,7 +110,7 @@ N_K = 12
 #: Output slots of the scaled plant: Engine.outputs() keys, in order.
 PLANT_SCALED_KEYS = (
     "u", "du", "phi", "dphi", "theta", "dtheta", "d", "g", "tau_n", "R_minus_R0",
-    "mode", "stick_events", "bit_bounce", "torsional_stick",
+    "mode", "top_torque_minus_R0", "stick_events", "bit_bounce", "torsional_stick",
 )  # fmt: skip
 #: Output slots of the SI plant: units.PLANT_SI names, then the counters.
 PLANT_SI_KEYS = (
@@ -277,7 +277,7 @@ def write_plant_outputs(io, s, si, K):
         o = PLANT.out
         v = _units.si_plant_values(K, io[PLANT.tau], io[o], io[o + 1], io[o + 2], io[o + 3],
                                    io[o + 4], io[o + 5], D[S.D_D], D[S.D_G], D[S.D_TAUN],
-                                   D[S.D_TOB])  # fmt: skip
+                                   D[S.D_TOB], io[PLANT.out + S.OUT_TOP - 1])  # fmt: skip
         for i in range(_N_SI):
             io[o + i] = v[i]
         o += _N_SI

@@ -293,7 +293,6 @@ def simulate(
     rows = rows[:n_done]
     data = {c: rows[:, j].copy() for j, c in enumerate(COLUMNS)}
     profiles = string_profiles(params, engine.string, data, nodes[:n_done])
-    data["top_torque_minus_R0"] = profiles["torque_minus_R0"][:, 0].copy()
     return SimulationResult(
         params=params,
         options=engine.options,

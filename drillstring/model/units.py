@@ -419,6 +419,12 @@ PLANT_SI: tuple[Quantity, ...] = (
         "Rate of penetration: mean axial bit speed over the last blade passage, d/t_n",
     ),
     Quantity("contact", "1", None, "Wearflat contact multiplier g in [0, 1] of eq. (17)"),
+    Quantity(
+        "top_torque",
+        "N.m",
+        "kN.m",
+        "Torque at the top of the string, what a sub under the top drive measures",
+    ),
 )
 
 
@@ -473,7 +479,7 @@ def si_torque_deviation(C: Any, twist0: Any, R: Any) -> Any:
 
 def si_plant_values(
     k: tuple[float, ...], tau: Any, u: Any, du: Any, phi: Any, dphi: Any, theta: Any,
-    dtheta: Any, d: Any, g: Any, tau_n: Any, T: Any,
+    dtheta: Any, d: Any, g: Any, tau_n: Any, T: Any, top: Any,
 ) -> tuple[Any, ...]:  # fmt: skip
     """The SI plant outputs (:data:`PLANT_SI` order) of the scaled ones at time ``tau``.
 
@@ -498,14 +504,17 @@ def si_plant_values(
         Scaled delay of (14), > 0.
     T : float or ndarray
         Scaled torque on bit (T/C).
+    top : float or ndarray
+        Scaled torque at the top of the string less R0 (``top_torque_minus_R0``).
 
     Returns
     -------
-    tuple of 12 float or ndarray
+    tuple of 13 float or ndarray
         Bit angle [rad], bit speed [rad/s], table angle [rad], table speed [rad/s], bit
         position [m], bit velocity [m/s], weight on bit [N] (eqs. (4) and (7),
         :func:`~drillstring.model.params.weight_on_bit`), torque on bit C*T [N m], depth of cut
-        [m], delay [s], rate of penetration [m/s] and the contact multiplier g.
+        [m], delay [s], rate of penetration [m/s], the contact multiplier g and the torque at
+        the top of the string C*(R0/C + top) [N m].
     """
     omega0, v0, ts, Ls, twist0, C, n, a, zeta, eps, l, sigma_bar = k  # noqa: E741
     d_si = Ls * d
@@ -523,6 +532,7 @@ def si_plant_values(
         delay,
         d_si / delay,
         g,
+        C * (twist0 + top),
     )
 
 
@@ -634,7 +644,9 @@ class SIScaling:
         Parameters
         ----------
         values : mapping
-            Scaled outputs ``u, du, phi, dphi, theta, dtheta, d, g, tau_n`` (floats or arrays,
+            Scaled outputs ``u, du, phi, dphi, theta, dtheta, d, g, tau_n`` and, on the
+            distributed string, ``top_torque_minus_R0`` (else the one-mode twist theta - phi)
+            (floats or arrays,
             e.g. :meth:`Engine.outputs` or a :class:`SimulationResult`'s columns); any of
             ``mode, stick_events, bit_bounce, torsional_stick`` are passed on unchanged.
         tau : float or array
@@ -654,6 +666,7 @@ class SIScaling:
         si = si_plant_values(
             self.plant_constants, tau, v["u"], v["du"], v["phi"], v["dphi"], v["theta"],
             v["dtheta"], v["d"], v["g"], v["tau_n"], T,
+            v["top_torque_minus_R0"] if "top_torque_minus_R0" in v else v["theta"] - v["phi"],
         )  # fmt: skip
         out = dict(zip((q.name for q in PLANT_SI), si, strict=True))
         if torque_on_bit is None:

@@ -185,7 +185,8 @@ OUT_G = 8
 OUT_TAUN = 9
 OUT_R = 10  # the torque R - R0 the kernel applied
 OUT_MODE = 11
-OUT_SIZE = 12
+OUT_TOP = 12  # torque at the top of the string less R0 (what a sub under the top drive reads)
+OUT_SIZE = 13
 #: Names of the output columns, in order (``drillstring.model.simulate`` columns).
 OUTPUT_COLUMNS = (
     "tau",
@@ -200,6 +201,7 @@ OUTPUT_COLUMNS = (
     "tau_n",
     "R_minus_R0",
     "mode",
+    "top_torque_minus_R0",
 )
 
 # --- contact modes ---------------------------------------------------------------------------

@@ -96,8 +96,10 @@ from drillstring.model.kernel.state import (
     OUT_TAU,
     OUT_TAUN,
     OUT_THETA,
+    OUT_TOP,
     OUT_U,
     P_BLADE,
+    P_KT,
     P_NA,
     P_NT,
     P_OMEGA0,
@@ -618,6 +620,8 @@ def write_sample(s: KernelState, row: np.ndarray) -> None:
     row[OUT_TAUN] = D[D_TAUN]
     row[OUT_R] = D[D_R]
     row[OUT_MODE] = s.ints[I_MODE]
+    top_nb = Y[Y_PHI] if int(P[P_NT]) == 0 else s.chain[Z_NOW, 0]
+    row[OUT_TOP] = P[P_KT] * (Y[Y_THETA] - top_nb)
 
 
 @jit
