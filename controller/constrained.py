@@ -22,9 +22,13 @@ Razumikhin argument needs) in the ellipsoid ``E = {x : x^T S^-1 x <= 1}``, which
 invariant. (c) says ``max over E of |F x| = sqrt(F S F^T) <= sqrt(mu)``, ``F = X S^-1``: from any
 switch-on state the feedback torque never exceeds ``sqrt(mu)`` (on the averaged model). The
 objective is the smallest such peak feedback torque: the least gain that the required decay
-``sigma`` allows from these states. With a torque limit ``u_max`` (the top drive's range around
-the nominal torque, :func:`torque_budget`) the design is refused when even the smallest peak
-exceeds it. alpha runs over the grid of the paper's design, refined around the best point.
+``sigma`` allows from these states. With a torque limit ``u_max`` (the smaller of the top
+drive's two margins about the operating torque, :func:`torque_budget`: the range need not be
+symmetric, and on the centred ellipsoid the smaller margin binds exactly) the design is refused
+when even the smallest peak exceeds it; :func:`least_braking` then finds, by bisection on the
+braking limit (-R_min) with the solve above, the least braking at which a design is certified
+(``docs/controllers.md``, "Braking"). alpha runs over the grid of the paper's design, refined
+around the best point.
 
 The required decay defaults to :data:`DEFAULT_DECAY`, the rate at which a deviation halves in
 three torsional periods of the string (``docs/controllers.md``, "The input-constrained design").

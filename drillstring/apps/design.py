@@ -9,6 +9,11 @@ line search, the gain F (and the paper's gain for comparison), the certificate (
 margins and the closed-loop spectral abscissa over the delay sweep, then writes
 ``out/design/gains.json`` and, when A is computed rather than given with ``--A``, the points of
 the axial fit ``out/design/axial_fit.csv`` (the Fig. 4 line the slope A comes from).
+
+With ``--torque-limit DRIVE`` also the input-constrained design (``gains_constrained.json``);
+``--braking-limit KNM`` sets the drive's most negative torque (0: no braking). Exit 0: done;
+1: no certified constrained design at the drive's limits (the message names the braking limit and
+the least braking a certified design needs); 2: a bad argument or input.
 """
 
 from __future__ import annotations
