@@ -22,9 +22,13 @@ Razumikhin argument needs) in the ellipsoid ``E = {x : x^T S^-1 x <= 1}``, which
 invariant. (c) says ``max over E of |F x| = sqrt(F S F^T) <= sqrt(mu)``, ``F = X S^-1``: from any
 switch-on state the feedback torque never exceeds ``sqrt(mu)`` (on the averaged model). The
 objective is the smallest such peak feedback torque: the least gain that the required decay
-``sigma`` allows from these states. With a torque limit ``u_max`` (the top drive's range around
-the nominal torque, :func:`torque_budget`) the design is refused when even the smallest peak
-exceeds it. alpha runs over the grid of the paper's design, refined around the best point.
+``sigma`` allows from these states. With a torque limit ``u_max`` (the smaller of the top
+drive's two margins about the operating torque, :func:`torque_budget`: the range need not be
+symmetric, and on the centred ellipsoid the smaller margin binds exactly) the design is refused
+when even the smallest peak exceeds it; :func:`least_braking` then finds, by bisection on the
+braking limit (-R_min) with the solve above, the least braking at which a design is certified
+(``docs/controllers.md``, "Braking"). alpha runs over the grid of the paper's design, refined
+around the best point.
 
 The required decay defaults to :data:`DEFAULT_DECAY`, the rate at which a deviation halves in
 three torsional periods of the string (``docs/controllers.md``, "The input-constrained design").
@@ -73,16 +77,20 @@ from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
+    "BRAKING_TOL",
     "DEFAULT_DECAY",
     "HALF_LIFE_PERIODS",
     "ConstrainedCertificate",
+    "ConstrainedInfeasible",
     "ConstrainedResult",
     "check_constrained",
+    "least_braking",
     "recheck_constrained",
     "solve_constrained_lmi",
     "switch_on_states",
     "synthesize_constrained",
     "torque_budget",
+    "torque_margins",
 ]
 
 #: Half-life of a deviation of the averaged closed loop that the default decay requires, in
@@ -97,6 +105,9 @@ HALF_LIFE_PERIODS = 3
 #: against the drive's no-reverse speed limit, which the certificate does not bound; at three
 #: periods no sample is limited (``docs/controllers.md``, "The input-constrained design").
 DEFAULT_DECAY = math.log(2.0) / (HALF_LIFE_PERIODS * 2.0 * math.pi / OMEGA_S)
+#: Default tolerance of the bisection on the braking limit (:func:`least_braking`), units of C
+#: (0.05 C = 11.8 N m on the reference rig; ``drillstring design`` bisects to 0.01 kN m).
+BRAKING_TOL = 0.05
 _OK = ("optimal", "optimal_inaccurate")
 #: Relative slack of the state and torque constraints inside the LMI program.
 _SLACK = 1e-6
@@ -109,8 +120,10 @@ class ConstrainedCertificate:
     ``lmi_max_eig`` is the largest eigenvalue of the shifted (32) with ``P = S^-1`` over both
     ends of the delay factor (must be < 0); ``state_max`` the largest ``x_i^T S^-1 x_i`` (must be
     <= 1); ``peak_torque`` is ``sqrt(F S F^T)``, the largest feedback torque on the ellipsoid
-    (<= ``u_max``); ``abscissa_nominal`` and ``abscissa`` the closed-loop spectral abscissae at
-    tau_n0 and over ``taus`` (must be <= -sigma).
+    (<= ``u_max``, the smaller of the drive's two margins about the operating torque);
+    ``abscissa_nominal`` and ``abscissa`` the closed-loop spectral abscissae at tau_n0 and over
+    ``taus`` (must be <= -sigma); ``braking_limit`` the drive's braking limit the lower margin
+    came from (-R_min, units of C; None: not known to the check).
     """
 
     lmi_max_eig: float
@@ -121,6 +134,7 @@ class ConstrainedCertificate:
     abscissa_nominal: float
     taus: NDArray[np.float64]
     abscissa: NDArray[np.float64]
+    braking_limit: float | None = None
 
     @property
     def passed(self) -> bool:
@@ -163,9 +177,55 @@ class ConstrainedResult:
     certificate: ConstrainedCertificate
 
 
+class ConstrainedInfeasible(SynthesisInfeasible):
+    """No constrained design within the drive's torque range: the least peak feedback torque
+    found (``least_peak``, at ``alpha``) is above the budget ``u_max``.
+
+    ``braking_limit`` is the drive's braking limit (-R_min, units of C) and ``least_braking``
+    the least braking limit at which a design is certified (found by :func:`least_braking`;
+    None: not searched, or no braking limit helps because the margin above the operating torque
+    is itself too small), to within ``tol``.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        least_peak: float | None,
+        alpha: float | None,
+        u_max: float,
+        braking_limit: float | None = None,
+        least_braking: float | None = None,
+        tol: float | None = None,
+    ) -> None:
+        super().__init__(message, ())
+        self.least_peak = least_peak
+        self.alpha = alpha
+        self.u_max = u_max
+        self.braking_limit = braking_limit
+        self.least_braking = least_braking
+        self.tol = tol
+
+
+def torque_margins(params: ScaledParams, top_drive: TopDrive, R_ff: float) -> tuple[float, float]:
+    """The drive's two margins about the operating torque R0 + R_ff: ``(R0 + R_ff - R_min,
+    R_max - R0 - R_ff)``, below (braking side) and above (absolute torques, units of C).
+
+    The range [R_min, R_max] need not be symmetric about R0: a drive without braking has
+    R_min = 0, so its margin below is the operating torque itself."""
+    bias = params.R0 + check_real("R_ff", R_ff)
+    return bias - top_drive.R_min, top_drive.R_max - bias
+
+
 def torque_budget(params: ScaledParams, top_drive: TopDrive, R_ff: float) -> float:
-    """The feedback torque the top drive leaves around the feed-forward: ``min(R_max - (R0 +
-    R_ff), (R0 + R_ff) - R_min)`` (absolute torques, units of C; eq. (8), (31)).
+    """The feedback torque the top drive leaves around the feed-forward: the smaller of its two
+    margins (:func:`torque_margins`), ``min(R_max - (R0 + R_ff), (R0 + R_ff) - R_min)``
+    (absolute torques, units of C; eq. (8), (31)).
+
+    The ellipsoid E of the certificate is symmetric about x = 0, so the feedback torque F x
+    takes the values [-sqrt(F S F^T), +sqrt(F S F^T)] on it: for the torque to stay within an
+    asymmetric range from every state of E, the smaller margin binds, exactly
+    (``docs/controllers.md``, "Braking").
 
     Raises
     ------
@@ -173,7 +233,7 @@ def torque_budget(params: ScaledParams, top_drive: TopDrive, R_ff: float) -> flo
         The feed-forward torque itself is outside the drive's range.
     """
     bias = params.R0 + check_real("R_ff", R_ff)
-    budget = min(top_drive.R_max - bias, bias - top_drive.R_min)
+    budget = min(torque_margins(params, top_drive, R_ff))
     if not budget > 0.0:
         raise ValueError(
             f"the feed-forward torque R0 + R_ff = {bias!r} is not inside the top drive's range "
@@ -299,8 +359,10 @@ def check_constrained(
     sigma: float = DEFAULT_DECAY,
     tau_max: float | None = None,
     taus: Sequence[float] | NDArray[np.float64] | None = None,
+    braking_limit: float | None = None,
 ) -> ConstrainedCertificate:
-    """Check a constrained design without the solver (module docstring).
+    """Check a constrained design without the solver (module docstring); ``braking_limit`` is
+    only recorded in the result (``u_max`` already holds the margin it gives).
 
     Returns
     -------
@@ -323,7 +385,15 @@ def check_constrained(
     nominal = float(closed_loop_roots(model, Fv, None, 1)[0].real)
     sweep = np.asarray(spectral_abscissa_sweep(model, Fv, taus_arr), dtype=float)
     return ConstrainedCertificate(
-        lmi_max, state_max, peak, float(u_max), float(sigma), nominal, taus_arr, sweep
+        lmi_max,
+        state_max,
+        peak,
+        float(u_max),
+        float(sigma),
+        nominal,
+        taus_arr,
+        sweep,
+        None if braking_limit is None else float(braking_limit),
     )
 
 
@@ -364,9 +434,9 @@ def synthesize_constrained(
 
     Raises
     ------
-    SynthesisInfeasible
+    ConstrainedInfeasible
         No alpha gives a gain whose peak torque is within ``u_max``; the message gives the
-        smallest peak found.
+        smallest peak found (and the exception its alpha).
     """
     u_max = check_real("u_max", u_max, lower=0.0)
     sigma = check_real("sigma", sigma, lower=0.0, strict=False)
@@ -397,10 +467,12 @@ def synthesize_constrained(
             run(float(a))
     if best is None or best[0] > u_max:
         found = "none solved" if best is None else f"the smallest peak is {best[0]:.4g}"
-        raise SynthesisInfeasible(
+        raise ConstrainedInfeasible(
             f"no gain keeps the feedback torque within u_max = {u_max:.4g} (units of C) from the "
             f"{len(X0)} switch-on states at decay {sigma:g}: {found}",
-            (),
+            least_peak=None if best is None else best[0],
+            alpha=None if best is None else best[1],
+            u_max=u_max,
         )
     peak, alpha, solver, status, S, F = best
     cert = check_constrained(model, F, S, alpha, X0, u_max, sigma=sigma, tau_max=tau_max)
@@ -421,13 +493,86 @@ def synthesize_constrained(
     )
 
 
+def least_braking(
+    model: AveragedModel,
+    states: ArrayLike,
+    alpha: float,
+    *,
+    operating_torque: float,
+    R_max: float,
+    braking_limit: float = 0.0,
+    sigma: float = DEFAULT_DECAY,
+    tau_max: float | None = None,
+    tol: float = BRAKING_TOL,
+    margin: float = LMI_MARGIN,
+    solvers: Sequence[str] = SOLVERS,
+) -> tuple[float | None, int]:
+    """The least braking limit b (R_min = -b, units of C) at which the program of the module
+    docstring is feasible at ``alpha`` with the budget ``u_max(b) = min(operating_torque + b,
+    R_max - operating_torque)``: a bisection on b with :func:`solve_constrained_lmi` (its
+    constraint (d) on) deciding each step.
+
+    ``braking_limit`` is a limit already refused (the lower end of the bracket); the upper end
+    is the limit at which the two margins are equal, ``R_max - 2 operating_torque``: more
+    braking does not raise the budget. The bisection stops when the bracket is narrower than
+    ``tol``; the answer is its upper end, a limit at which the solve succeeded (so within
+    ``tol`` above the least one; ``alpha`` should be the alpha of the least peak the design
+    found, where the smallest budget is feasible).
+
+    Returns
+    -------
+    (least, solves)
+        ``least`` None when even the upper end of the bracket is not feasible (the margin above
+        the operating torque is itself too small); ``solves`` the number of LMI solves.
+    """
+    tol = check_real("tol", tol, lower=0.0)
+    lo = check_real("braking_limit", braking_limit, lower=0.0, strict=False)
+    bias = check_real("operating_torque", operating_torque, lower=0.0)
+    X0 = np.atleast_2d(np.asarray(states, dtype=float))
+    solves = 0
+
+    def feasible(b: float) -> bool:
+        nonlocal solves
+        solves += 1
+        u = min(bias + b, R_max - bias)
+        if not u > 0.0:
+            return False
+        S = solve_constrained_lmi(
+            model, X0, alpha, sigma=sigma, tau_max=tau_max, u_max=u, margin=margin,
+            solvers=solvers,
+        )[2]  # fmt: skip
+        return S is not None
+
+    if math.isfinite(R_max):
+        hi = R_max - 2.0 * bias
+        if not (hi > lo and feasible(hi)):
+            return None, solves
+    else:  # no upper limit: double until feasible (1e6 C is far beyond any drive)
+        hi = max(2.0 * lo, 1.0)
+        while not feasible(hi):
+            if hi > 1e6:
+                return None, solves
+            lo, hi = hi, 2.0 * hi
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        if feasible(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi, solves
+
+
 def recheck_constrained(gains: GainsFile) -> ConstrainedCertificate:
     """The certificate of an input-constrained design checked again from its gains file alone.
 
     The averaged model (29)-(31) is rebuilt from the file's parameter set, A and taubar_crit;
     :func:`check_constrained` then runs on the file's F, alpha, ellipsoid S, switch-on states,
-    u_max, decay and tau_max (the ``constraint`` record, written by
-    :func:`drillstring.controller.design.design_constrained`).
+    decay and tau_max (the ``constraint`` record, written by
+    :func:`drillstring.controller.design.design_constrained`) and the budget: the smallest of
+    the recorded u_max and the two margins of the recorded drive about the operating torque R0 +
+    R_ff, below from the braking limit (``braking_limit``, -R_min; from ``torque_limit`` in a
+    file written before it was recorded) and above from R_max, so a file whose braking limit is
+    lowered below what the design needs fails.
 
     Parameters
     ----------
@@ -455,13 +600,24 @@ def recheck_constrained(gains: GainsFile) -> ConstrainedCertificate:
             "cannot be checked from the file (design again: drillstring design --torque-limit)"
         )
     model = averaged_model(gains.params, gains.A, gains.taubar_crit)
+    bias = gains.params.R0 + gains.R_ff
+    u_max = float(record["u_max"])
+    limit = record.get("torque_limit")
+    braking = record.get("braking_limit")
+    if braking is None and limit is not None:
+        braking = -float(limit[0])
+    if braking is not None:
+        u_max = min(u_max, bias + float(braking))
+    if limit is not None:
+        u_max = min(u_max, float(limit[1]) - bias)
     return check_constrained(
         model,
         gains.F,
         np.asarray(record["S"], dtype=float),
         gains.alpha,
         np.asarray(record["switch_on_states"], dtype=float),
-        float(record["u_max"]),
+        u_max,
         sigma=float(record["decay"]),
         tau_max=float(record["tau_max"]),
+        braking_limit=braking,
     )

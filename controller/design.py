@@ -24,11 +24,15 @@ from drillstring.analysis.figures import write_average_points
 from drillstring.analysis.limit_cycles import AxialDesignInputs, design_inputs
 from drillstring.controller.averaged import AveragedModel, averaged_model
 from drillstring.controller.constrained import (
+    BRAKING_TOL,
     DEFAULT_DECAY,
+    ConstrainedInfeasible,
     ConstrainedResult,
+    least_braking,
     switch_on_states,
     synthesize_constrained,
     torque_budget,
+    torque_margins,
 )
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.synthesis import (
@@ -93,8 +97,15 @@ def design_constrained(
     decay: float = DEFAULT_DECAY,
     label: str = "",
     alphas: Sequence[float] | None = None,
+    braking_tol: float = BRAKING_TOL,
 ) -> ConstrainedDesign:
     """The input-constrained design for a top drive, from an experiment's switch-on states.
+
+    The drive's range [R_min, R_max] need not be symmetric about the operating torque R0 + R_ff:
+    the budget is the smaller margin (:func:`~drillstring.controller.constrained.torque_budget`),
+    and a drive that brakes less (R_min = -braking limit; 0: no braking) than the design needs is
+    refused with the least braking limit that a certified design needs, found by bisection
+    (:func:`~drillstring.controller.constrained.least_braking`) to ``braking_tol``.
 
     Parameters
     ----------
@@ -116,6 +127,8 @@ def design_constrained(
     alphas : sequence of float, optional
         The alpha grid (default the synthesis' :data:`~drillstring.controller.synthesis.
         ALPHA_GRID`, refined around its best point; given: no refinement).
+    braking_tol : float
+        Tolerance of the bisection on the braking limit after a refusal (units of C).
 
     Returns
     -------
@@ -123,15 +136,19 @@ def design_constrained(
 
     Raises
     ------
-    drillstring.controller.synthesis.SynthesisInfeasible
-        No gain keeps the torque within the drive's range from those states.
+    drillstring.controller.constrained.ConstrainedInfeasible
+        No gain keeps the torque within the drive's range from those states; its
+        ``least_braking`` is the least braking limit (-R_min) that a certified design needs,
+        within ``braking_tol`` above (None: no braking limit helps, the margin above the
+        operating torque is too small).
     """
     states = switch_on_states(params, model, experiment, latch=experiment.latch)
     u_max = torque_budget(params, top_drive, model.R_ff)
-    if alphas is None:
-        result = synthesize_constrained(model, states, u_max, sigma=decay)
-    else:
-        result = synthesize_constrained(model, states, u_max, sigma=decay, alphas=alphas, refine=0)
+    grid = {} if alphas is None else {"alphas": alphas, "refine": 0}
+    try:
+        result = synthesize_constrained(model, states, u_max, sigma=decay, **grid)
+    except ConstrainedInfeasible as exc:
+        raise _refusal(params, model, top_drive, states, decay, braking_tol, exc) from None
     cert = result.certificate
     gains = GainsFile(
         F=tuple(float(v) for v in result.F),  # type: ignore[arg-type]
@@ -151,6 +168,9 @@ def design_constrained(
             "decay": result.sigma,
             "tau_max": result.tau_max,
             "torque_limit": [top_drive.R_min, top_drive.R_max],
+            # the most negative torque the drive applies, as a positive number (0: no braking):
+            # the margin below the operating torque, which the re-check takes from here
+            "braking_limit": -top_drive.R_min + 0.0,
             "top_drive": label,
             "states": int(len(states)),
             "experiment": experiment.name,
@@ -161,6 +181,50 @@ def design_constrained(
         },
     )
     return ConstrainedDesign(result=result, gains=gains, top_drive=top_drive, label=label)
+
+
+def _refusal(
+    params: ScaledParams,
+    model: AveragedModel,
+    top_drive: TopDrive,
+    states,
+    decay: float,
+    tol: float,
+    exc: ConstrainedInfeasible,
+) -> ConstrainedInfeasible:
+    """The refusal of a constrained design, with the least braking limit that would certify."""
+    below, above = torque_margins(params, top_drive, model.R_ff)
+    braking = -top_drive.R_min + 0.0
+    least = None
+    note = ""
+    if exc.alpha is not None and exc.least_peak is not None and below < above:
+        least, solves = least_braking(
+            model, states, exc.alpha, operating_torque=params.R0 + model.R_ff,
+            R_max=top_drive.R_max, braking_limit=max(braking, 0.0), sigma=decay, tol=tol,
+        )  # fmt: skip
+        note = f" ({solves} LMI solves at alpha = {exc.alpha:.4g}, to {tol:.3g})"
+    if exc.alpha is None:
+        what = "no alpha of the grid was solved"
+    elif least is not None:
+        what = (
+            f"a certified design needs a braking limit of at least {least:.4g} (units of C, "
+            f"{least / params.R0:.3g} R0; bisection{note})"
+        )
+    else:
+        what = (
+            "no braking limit gives a certified design: the margin above the operating torque, "
+            f"R_max - R0 - R_ff = {above:.4g}, is itself below what the design needs"
+        )
+    return ConstrainedInfeasible(
+        f"no certificate at the braking limit {braking:.4g} (R_min = {top_drive.R_min:.4g}, "
+        f"units of C): {exc}; {what}",
+        least_peak=exc.least_peak,
+        alpha=exc.alpha,
+        u_max=exc.u_max,
+        braking_limit=braking,
+        least_braking=least,
+        tol=tol,
+    )
 
 
 def design_controller(
@@ -174,6 +238,7 @@ def design_controller(
     top_drive: TopDrive | None = None,
     top_drive_label: str = "",
     decay: float = DEFAULT_DECAY,
+    braking_tol: float = BRAKING_TOL,
 ) -> Design:
     """Design the torsional controller (29)-(31) for ``params`` by Theorem 1 (LMI (33)).
 
@@ -198,6 +263,8 @@ def design_controller(
         The drive's name for its gains file.
     decay : float
         Required decay rate of the constrained design.
+    braking_tol : float
+        Tolerance of the bisection on the braking limit when the constrained design is refused.
 
     Returns
     -------
@@ -210,7 +277,8 @@ def design_controller(
     ValueError
         For bad ``A``, ``taubar_crit`` or ``gain_max``.
     drillstring.controller.synthesis.SynthesisInfeasible
-        When no alpha gives an admissible certified gain.
+        When no alpha gives an admissible certified gain (the constrained design's refusal is
+        its subclass :class:`~drillstring.controller.constrained.ConstrainedInfeasible`).
     """
     axial = None
     if A is None:
@@ -226,7 +294,7 @@ def design_controller(
     constrained = None
     if top_drive is not None:
         constrained = design_constrained(
-            params, model, top_drive, decay=decay, label=top_drive_label
+            params, model, top_drive, decay=decay, label=top_drive_label, braking_tol=braking_tol
         )
     return Design(
         params=params,

@@ -9,14 +9,17 @@ JSON layout (``format_version`` 1)::
       "certificate": {"lmi32_max_eig": ..., ...}, "spectral_abscissa": ...,
       "solver": "CLARABEL", "solver_status": "optimal",
       "constraint": null | {"u_max": ..., "peak_torque": ..., "decay": ..., "tau_max": ...,
-                            "torque_limit": ..., "top_drive": "<rating>", "states": <count>,
+                            "torque_limit": [R_min, R_max], "braking_limit": -R_min,
+                            "top_drive": "<rating>", "states": <count>,
                             "experiment": "fig6", "S": [4 x 4], "switch_on_states": [k x 4]}
     }
 
 ``constraint`` (optional) records an input-constrained design
 (:mod:`drillstring.controller.constrained`): the feedback torque budget ``u_max`` (units of C),
 the certified peak feedback torque from the switch-on states, the required decay, the largest
-delay covered, the drive's torque limit and rating, and the ellipsoid ``S`` of the certificate
+delay covered, the drive's torque limit and rating, its braking limit (the most negative
+torque it applies, as a positive number, units of C; 0: no braking; it must be -R_min of
+``torque_limit``), and the ellipsoid ``S`` of the certificate
 (E = {x : x^T S^-1 x <= 1}) with the switch-on states it holds, so that the certificate can be
 checked again from the file (:func:`~drillstring.controller.constrained.recheck_constrained`);
 ``certificate`` then holds that design's margins. Reading checks that ``S`` is a finite,
@@ -166,6 +169,27 @@ def _ellipsoid(value: Any, F: tuple[float, ...], peak: float | None) -> list[lis
     return S
 
 
+def _braking(record: dict[str, Any]) -> None:
+    """The braking limit of a constrained design: a number >= 0, -R_min of the torque limit."""
+    braking = _real("constraint['braking_limit']", record["braking_limit"])
+    if braking < 0.0:
+        raise GainsFileError(
+            f"gains file: constraint['braking_limit'] must be >= 0, got {braking!r}"
+        )
+    limit = record.get("torque_limit")
+    if limit is not None:
+        if not isinstance(limit, list | tuple) or len(limit) != 2:
+            raise GainsFileError(
+                f"gains file: constraint['torque_limit'] must be [R_min, R_max]: {limit!r}"
+            )
+        R_min = _real("constraint['torque_limit'][0]", limit[0])
+        if not math.isclose(-R_min, braking, rel_tol=1e-12, abs_tol=1e-15):
+            raise GainsFileError(
+                f"gains file: constraint['braking_limit'] = {braking!r} is not -R_min = "
+                f"{-R_min!r} of the torque limit"
+            )
+
+
 def _states(value: Any, count: Any) -> list[list[float]]:
     """The switch-on states of a constrained design: rows of 4, ``count`` of them if given."""
     rows = _matrix("switch_on_states", value, 4)
@@ -232,6 +256,8 @@ class GainsFile:
                     "does not meet its own limit"
                 )
             record = dict(self.constraint)
+            if "braking_limit" in record:
+                _braking(record)
             if "S" in record:
                 record["S"] = _ellipsoid(record["S"], F, cert.get("peak_torque"))
             if "switch_on_states" in record:

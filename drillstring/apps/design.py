@@ -9,11 +9,18 @@ line search, the gain F (and the paper's gain for comparison), the certificate (
 margins and the closed-loop spectral abscissa over the delay sweep, then writes
 ``out/design/gains.json`` and, when A is computed rather than given with ``--A``, the points of
 the axial fit ``out/design/axial_fit.csv`` (the Fig. 4 line the slope A comes from).
+
+With ``--torque-limit DRIVE`` also the input-constrained design (``gains_constrained.json``);
+``--braking-limit KNM`` sets the drive's most negative torque (0: no braking). Exit 0: done;
+1: no certified constrained design at the drive's limits (the message names the braking limit and
+the least braking a certified design needs); 2: a bad argument or input.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,7 +28,12 @@ from pathlib import Path
 import numpy as np
 
 from drillstring.controller.averaged import AveragedModel, ode_poles, open_loop_roots
-from drillstring.controller.constrained import DEFAULT_DECAY, recheck_constrained
+from drillstring.controller.constrained import (
+    BRAKING_TOL,
+    DEFAULT_DECAY,
+    ConstrainedInfeasible,
+    recheck_constrained,
+)
 from drillstring.controller.design import (
     CONSTRAINED_FILE,
     Design,
@@ -30,12 +42,33 @@ from drillstring.controller.design import (
 )
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F, GainsFileError, read_gains
 from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
-from drillstring.model.params import KNOWN_PHYSICAL, ParameterError, ScaledParams, params_from_spec
-from drillstring.model.topdrive import top_drive_from_spec
+from drillstring.model.params import (
+    KNOWN_PHYSICAL,
+    ParameterError,
+    PhysicalParams,
+    ScaledParams,
+    params_from_spec,
+)
+from drillstring.model.topdrive import TopDrive, top_drive_from_spec
 
-__all__ = ["build_parser", "design_main", "print_design"]
+__all__ = ["BRAKING_TOL_KNM", "build_parser", "design_main", "print_design"]
 
 DEFAULT_OUT = DEFAULT_GAINS_PATH.parent
+#: Tolerance of the bisection on the braking limit after a refusal on a physical rig [kN m].
+BRAKING_TOL_KNM = 0.01
+
+
+def _braking_limit(text: str) -> float:
+    """``--braking-limit``: a finite number >= 0 (kN m)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of kN m >= 0, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(
+            f"expected a finite number of kN m >= 0 (0: a drive that cannot brake), got {text!r}"
+        )
+    return value
 
 
 def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
@@ -94,6 +127,16 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
         help="also the input-constrained design for this top drive, written to "
         f"{CONSTRAINED_FILE}: a rating (tds-11sa: the reference rig's drive), a multiple of the "
         "nominal torque (50R0) or a torque in N m on the rig (52kNm)",
+    )
+    ap.add_argument(
+        "--braking-limit",
+        type=_braking_limit,
+        default=None,
+        metavar="KNM",
+        help="with --torque-limit: the most negative torque the drive applies, in kN m on the "
+        "rig (0: a drive that cannot brake; default the drive's own, -rating for tds-11sa); "
+        "the range need not be symmetric about the operating torque. Exit 1 when no design is "
+        "certified at that limit, naming the least braking a certified design needs",
     )
     ap.add_argument(
         "--decay",
@@ -232,7 +275,44 @@ def print_design(design: Design) -> None:
             f"{cert.abscissa_nominal:.5f} at tau_n0, max over the sweep "
             f"{float(np.max(cert.abscissa)):.5f}"
         )
+        bias = params.R0 + model.R_ff
+        print(
+            f"  braking limit {-td.R_min:.4g} (R_min): margins about the operating torque "
+            f"{bias:.4g}: {bias - td.R_min:.4g} below, {td.R_max - bias:.4g} above; the smaller "
+            "binds (u_max)"
+        )
         print(f"  certificate {'PASSED' if cert.passed else 'FAILED'}")
+
+
+def _with_braking(drive: TopDrive, knm: float, rig: PhysicalParams | None, spec: str) -> TopDrive:
+    """The drive with its torque range's lower end at -``knm`` kN m on ``rig``."""
+    if rig is None:
+        raise ValueError(
+            f"--braking-limit {knm:g} (kN m) needs a physical rig: the parameter set is not one "
+            "of the known rigs"
+        )
+    R_min = -knm * 1e3 / rig.C + 0.0  # no -0.0: a drive without braking has R_min = 0
+    if not R_min < drive.R_max:
+        raise ValueError(f"--braking-limit {knm:g}: the drive {spec!r} has no torque above it")
+    return dataclasses.replace(drive, R_min=R_min, braking="four-quadrant" if knm > 0 else "none")
+
+
+def _refused(exc: ConstrainedInfeasible, knm: float, rig: PhysicalParams | None, spec: str) -> str:
+    """The refusal of the constrained design as the command line says it (kN m on a rig)."""
+    if rig is None:
+        return f"drillstring design: {exc}"
+    kNm = rig.C / 1e3
+    head = f"drillstring design: no certificate exists at the braking limit {knm:.4g} kN m "
+    if exc.least_braking is None:
+        return f"{head}(--torque-limit {spec}), nor at any other: {exc}"
+    least = math.ceil(exc.least_braking * kNm * 100.0) / 100.0
+    return (
+        f"{head}(--torque-limit {spec}): the least braking a certified design needs is "
+        f"{least:.2f} kN m (bisection on the braking limit with the LMI solve, tolerance "
+        f"{BRAKING_TOL_KNM:g} kN m; rounded up: certified there); the least peak feedback torque "
+        f"from the switch-on is {(exc.least_peak or math.nan) * kNm:.2f} kN m about the operating "
+        f"torque\n  ({exc})"
+    )
 
 
 def _same(a: ScaledParams, b: ScaledParams) -> bool:
@@ -244,7 +324,8 @@ def _same(a: ScaledParams, b: ScaledParams) -> bool:
 
 
 def design_main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``design`` subcommand; returns the process exit code (0 ok, 2 error).
+    """Run the ``design`` subcommand; returns the process exit code (0 ok, 1 no certified
+    constrained design at the drive's limits, 2 error).
 
     Designs the controller for ``--params``, prints the design (:func:`print_design`) and
     writes it into ``--out`` (:func:`~drillstring.controller.design.write_design`).
@@ -265,9 +346,14 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     try:
         params: ScaledParams = params_from_spec(args.params)
         drive = None
+        rig = next((r for r in KNOWN_PHYSICAL.values() if _same(r.to_scaled(), params)), None)
         if args.torque_limit is not None:
-            rig = next((r for r in KNOWN_PHYSICAL.values() if _same(r.to_scaled(), params)), None)
             drive = top_drive_from_spec(args.torque_limit, params.R0, rig)
+            if args.braking_limit is not None:
+                drive = _with_braking(drive, args.braking_limit, rig, args.torque_limit)
+        elif args.braking_limit is not None:
+            raise ValueError("--braking-limit needs --torque-limit (the drive it limits)")
+        tol = BRAKING_TOL if rig is None else BRAKING_TOL_KNM * 1e3 / rig.C
         if args.A is None:
             print("Computing the slope A of (22) from axial limit cycles ...", flush=True)
         design = design_controller(
@@ -280,7 +366,15 @@ def design_main(argv: Sequence[str] | None = None) -> int:
             top_drive=drive,
             top_drive_label=args.torque_limit or "",
             decay=args.decay,
+            braking_tol=tol,
         )
+    except ConstrainedInfeasible as exc:
+        braking = math.nan if exc.braking_limit is None else exc.braking_limit
+        knm = args.braking_limit if args.braking_limit is not None else braking
+        if args.braking_limit is None and rig is not None:
+            knm = braking * rig.C / 1e3
+        print(_refused(exc, knm, rig, args.torque_limit), file=sys.stderr)
+        return 1
     except (ParameterError, ValueError, OSError, SynthesisInfeasible) as exc:
         print(f"drillstring design: {exc}", file=sys.stderr)
         return 2
@@ -305,6 +399,8 @@ def _check_main(path: Path) -> int:
         return 2
     for name, value in cert.margins().items():
         print(f"  {name}: {value:.6g}")
+    if cert.braking_limit is not None:
+        print(f"  braking limit {cert.braking_limit:.6g} (units of C, -R_min)")
     print(
         f"  u_max {cert.u_max:.6g}, decay {cert.sigma:.6g}: certificate "
         f"{'PASSED' if cert.passed else 'FAILED'} (checked from {path})"
