@@ -232,6 +232,9 @@ def test_what_the_string_does_to_each_law(abscissae) -> None:
     # the constrained LMI: -0.540 on one mode, strongly unstable on the string
     assert abscissae["lmi-constrained"][0] == pytest.approx(-0.540, abs=5e-4)
     assert abscissae["lmi-constrained"][-1] > 0.8
+    # not from the pipe's inertia on table and bit alone: lumped half at each end of one element
+    one = StringParams(elements=1, lumping="lumped")
+    assert string_abscissa(MODEL, LAWS["lmi-constrained"], one) < -0.4
 
 
 # ------------------------------------------------------------------------------------------

@@ -299,7 +299,9 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
         write_json(
             out / "string_spectrum.json",
             {
-                "command": " ".join(["drillstring string-spectrum", *(argv or sys.argv[1:])]),
+                "command": " ".join(
+                    ["drillstring string-spectrum", *(sys.argv[1:] if argv is None else argv)]
+                ),
                 "gains": str(args.gains),
                 "constrained": None if path is None else str(path),
                 "elements": list(elements),
