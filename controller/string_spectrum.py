@@ -261,6 +261,7 @@ def string_roots(
     bit: str = "delay",
     tau: float | None = None,
     n_roots: int = N_ROOTS_DEFAULT,
+    re_min: float | None = None,
 ) -> NDArray[np.complex128]:
     """Rightmost characteristic roots of ``law``'s linearised closed loop on the string.
 
@@ -280,6 +281,10 @@ def string_roots(
         Constant delay > 0 (default: the nominal tau_n0 of (14)); unused in the Taylor form.
     n_roots : int
         Return at most this many roots.
+    re_min : float, optional
+        Every root with Re s >= re_min (then :func:`~drillstring.analysis.spectrum.dde_roots`
+        raises ValueError if that needs a Chebyshev degree above its maximum); default: the
+        automatic region, which holds every root within min(1, 2/tau) of the rightmost one.
 
     Returns
     -------
@@ -298,9 +303,16 @@ def string_roots(
     n = string.elements
     rigid = _has_rigid_mode(A0, A1, n)
     scale = float(np.linalg.norm(A0, 1) + np.linalg.norm(A1, 1))
+    tol = _RIGID_TOL * max(1.0, scale)
+    # the region asked for, widened past the origin's cluster when it reaches the origin
+    lo = None if re_min is None else check_real("re_min", re_min)
+    near_origin = rigid and (lo is None or lo <= tol)
+    query = None if lo is None else (min(lo, -2.0 * tol) if near_origin else lo)
     if bit == "taylor":
         roots = np.linalg.eigvals(A0).astype(complex)
         roots = roots[np.lexsort((-roots.imag, -roots.real))]
+        if query is not None:
+            roots = roots[roots.real >= query]
     else:
         tau = model.tau_n0 if tau is None else check_real("tau", tau, lower=0.0)
         _, (d, _) = scipy.linalg.matrix_balance(
@@ -308,9 +320,11 @@ def string_roots(
         )
         A0b = A0 / d[:, None] * d[None, :]
         A1b = A1 / d[:, None] * d[None, :]
-        roots = np.asarray(dde_roots(A0b, [(tau, A1b)], reduced=True), dtype=complex)
-    if rigid:
+        roots = np.asarray(dde_roots(A0b, [(tau, A1b)], re_min=query, reduced=True), dtype=complex)
+    if near_origin:
         roots = _drop_rigid(roots, scale)
+    if lo is not None:
+        roots = roots[roots.real >= lo]
     return roots[:n_roots]
 
 

@@ -220,8 +220,9 @@ def test_what_the_string_does_to_each_law(abscissae) -> None:
     string = rig_string("reference-rig", 64)
     held = torsional_modes(string, REFERENCE.rho, "held", 4).omega
 
-    def unstable(name):
-        r = string_roots(MODEL, LAWS[name], string, n_roots=200)
+    def unstable(name):  # every root in the right half plane, the rigid one left out
+        r = string_roots(MODEL, LAWS[name], string, n_roots=1000, re_min=0.0)
+        assert np.all(r.real >= 0.0)
         return np.sort(r.imag[(r.real > 0) & (r.imag > 0)])
 
     # stiff PI: unstable in modes 1, 2 and 3 (the table nearly held)
@@ -229,6 +230,9 @@ def test_what_the_string_does_to_each_law(abscissae) -> None:
     # SoftSpeed: stable on one mode, weakly unstable in mode 2 (and 3, 4) on the string
     assert abscissae["soft-speed"][0] < 0.0 < abscissae["soft-speed"][-1] < 0.05
     assert unstable("soft-speed")[0] == pytest.approx(held[1], rel=0.03)
+    # the paper's LMI: its automatic region (1 below the abscissa, 2.1) holds 6 of them
+    assert unstable("lmi").size == 32
+    assert string_roots(MODEL, LAWS["lmi"], string, n_roots=1000).real.min() > 1.0
     # the constrained LMI: -0.540 on one mode, strongly unstable on the string
     assert abscissae["lmi-constrained"][0] == pytest.approx(-0.540, abs=5e-4)
     assert abscissae["lmi-constrained"][-1] > 0.8

@@ -57,8 +57,8 @@ COLUMNS = (
     "unstable_roots",
     "unstable_frequencies_hz",
 )
-#: How many rightmost roots are kept per loop (every root within 1 of the abscissa is found).
-N_ROOTS = 400
+#: How many rightmost roots are kept per loop (all with Re s > 0 when the loop is unstable).
+N_ROOTS = 4000
 
 
 class _UsageError(ValueError):
@@ -209,6 +209,9 @@ def spectrum_table(
             string = StringParams(elements=n, kappa=kappa)
             r = string_roots(model, law, string, torque=torque, bit=bit, n_roots=N_ROOTS)
             top = r[0]
+            if top.real > 0.0:  # every unstable root, not only those near the rightmost
+                kw = {"torque": torque, "bit": bit, "n_roots": N_ROOTS, "re_min": 0.0}
+                r = string_roots(model, law, string, **kw)
             up = r[(r.real > 0.0) & (r.imag >= 0.0)]
             rows.append(
                 {
