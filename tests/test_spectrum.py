@@ -178,3 +178,17 @@ def test_bad_options_are_rejected() -> None:
         dde_roots(-1.0, [(1.0, 0.5)], n_cheb=1)
     with pytest.raises(ValueError, match="re_min"):
         dde_roots(-1.0, [(1.0, 0.5)], re_min=float("nan"))
+
+
+def test_reduced_generator_finds_the_same_roots() -> None:
+    # a delay on one component of a 5-state system: the past of that component alone suffices
+    rng = np.random.default_rng(3)
+    a0 = rng.normal(size=(5, 5)) - 2.0 * np.eye(5)
+    a1 = np.zeros((5, 5))
+    a1[:, 2] = rng.normal(size=5)
+    full = dde_roots(a0, [(0.7, a1)], re_min=-4.0)
+    reduced = dde_roots(a0, [(0.7, a1)], re_min=-4.0, reduced=True)
+    assert full.size == reduced.size >= 3
+    np.testing.assert_allclose(reduced, full, rtol=1e-10, atol=1e-12)
+    sys_ = DDESystem(a0, [(0.7, a1)])
+    assert chebyshev_generator(sys_, 20, reduced=True).shape == (5 + 20, 5 + 20)

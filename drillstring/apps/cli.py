@@ -23,6 +23,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "axial": ("drillstring.apps.axial", "axial_main", "Section III: Figs. 2-4"),
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
     "modes": ("drillstring.apps.modes", "modes_main", "modes of the distributed string"),
+    "string-spectrum": (
+        "drillstring.apps.string_spectrum",
+        "string_spectrum_main",
+        "every law's linearised spectrum on the N-element string",
+    ),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),

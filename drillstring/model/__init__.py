@@ -27,6 +27,7 @@ from drillstring.model.params import (
     read_params,
     save_params,
 )
+from drillstring.model.pipe import StringParams
 from drillstring.model.sampled import SampledResult, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 
@@ -53,6 +54,7 @@ __all__ = [
     "SimulationResult",
     "SpeedPI",
     "Status",
+    "StringParams",
     "ZTorque",
     "get_params",
     "get_physical",
