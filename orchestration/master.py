@@ -58,7 +58,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import extract
 from tqdm import tqdm
 
 from drillstring.model.units import UnitDef, UnitMismatch, unit_conversion
@@ -68,6 +68,7 @@ from drillstring.orchestration.connections import (
     System,
     Unit,
     build_system,
+    read_fmu_description,
     unit_definitions,
     variable_unit,
 )
@@ -244,7 +245,10 @@ class Master:
             units = []
             for comp in package.components:
                 fmu = Path(replaced.get(comp.name, package.fmu(comp.name)))
-                units.append(Unit(comp.name, fmu, _typed_values(comp.name, fmu, values[comp.name])))
+                # a packaged FMU is named by its path in the package, not the unpacked copy's
+                shown = None if comp.name in replaced else f"{comp.source!r} of {Path(path).name}"
+                start = _typed_values(comp.name, fmu, values[comp.name], shown)
+                units.append(Unit(comp.name, fmu, start))
             _check_connected_units(package)
             if record is None:
                 record = [
@@ -502,11 +506,13 @@ class Master:
         )
 
 
-def _typed_values(component: str, fmu: Path, values: Mapping[str, SspParameter]) -> dict:
+def _typed_values(
+    component: str, fmu: Path, values: Mapping[str, SspParameter], shown: str | None = None
+) -> dict:
     """Start values of a component's parameters for its FMU's variables: an ``ssv:Enumeration``
     item name becomes its value, a Real given in another unit is converted into the
     variable's; a parameter the FMU does not have is an error (not silently ignored)."""
-    md = read_model_description(str(fmu))
+    md = read_fmu_description(f"component {component!r}", fmu, shown)
     variables = {v.name: v for v in md.modelVariables}
     defs = unit_definitions(md)
     out = {}

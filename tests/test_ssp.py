@@ -1096,6 +1096,73 @@ def test_cosim_command_writes_cross_check_csv_and_png(built, tmp_path, capsys):
     assert code == 2 and "no parameter set 'gains'" in capsys.readouterr().err
 
 
+def _forge_guid(fmu: Path) -> str:
+    """Rewrite the GUID in ``fmu``'s modelDescription.xml (the FMU's binary keeps its own);
+    returns the forged GUID."""
+    with zipfile.ZipFile(fmu) as z:
+        members = {i.filename: z.read(i) for i in z.infolist()}
+    md = members["modelDescription.xml"].decode()
+    guid = re.search(r'guid="([^"]+)"', md).group(1)
+    forged = "{00000000-0000-0000-0000-000000000000}"
+    assert guid != forged
+    members["modelDescription.xml"] = md.replace(guid, forged).encode()
+    with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    return forged
+
+
+def test_cosim_refused_input_exits_2_with_one_line(built, tmp_path, capsys):
+    """Whatever the FMUs or the command refuse before the first step is bad input: exit status 2
+    and one line naming the component, the variable and the value (no traceback), the results
+    up to there written (``cosim.json`` says the run did not complete)."""
+
+    def refused(package: Path, out: Path) -> str:
+        capsys.readouterr()
+        with kept_sys_path():
+            code = cosim_main([str(package), "--out", str(out), "--stop-time", "0.1",
+                               "--no-progress"])  # fmt: skip
+        err = capsys.readouterr().err
+        assert code == 2, err
+        assert len(err.strip().splitlines()) == 1, err
+        return err
+
+    # a negative psi in the plant's .ssv: the FMU refuses it at t = 0
+    folder = _unpack(built.ssp, tmp_path / "psi")
+    ssv = folder / "resources" / "fig5.plant.ssv"
+    text = ssv.read_text()
+    psi = re.search(r'name="psi">\s*<ssv:Real value="([^"]+)"', text).group(1)
+    _edit(ssv, f'name="psi">\n      <ssv:Real value="{psi}"', 'name="psi">\n      '
+          '<ssv:Real value="-1.5"')  # fmt: skip
+    err = refused(folder, tmp_path / "out_psi")
+    assert "component 'plant'" in err and "psi = -1.5" in err, err
+    summary = json.loads((tmp_path / "out_psi" / "cosim.json").read_text())
+    assert summary["completed"] is False and "psi = -1.5" in summary["failure"]
+    # a GUID that is not the FMU's
+    folder = _unpack(built.ssp, tmp_path / "guid")
+    forged = _forge_guid(folder / "resources" / built.plant.fmu.name)
+    err = refused(folder, tmp_path / "out_guid")
+    assert "component 'plant'" in err and f"GUID {forged}" in err, err
+    # an FMU that is not a zip archive, in a folder and in an archive
+    folder = _unpack(built.ssp, tmp_path / "notzip")
+    member = f"resources/{built.controller.fmu.name}"
+    (folder / member).write_text("not a zip archive")
+    err = refused(folder, tmp_path / "out_notzip")
+    assert f"component 'controller': '{member}' of notzip is not a readable FMU: not a zip" in err
+    archive = tmp_path / "notzip.ssp"
+    with zipfile.ZipFile(archive, "w") as z:
+        for f in sorted(folder.rglob("*")):
+            z.write(f, f.relative_to(folder).as_posix())
+    err = refused(archive, tmp_path / "out_notzip_ssp")
+    assert f"component 'controller': '{member}' of notzip.ssp is not a readable FMU" in err, err
+    # --out naming an existing file, or a folder in one
+    (tmp_path / "a_file").write_text("")
+    err = refused(built.ssp, tmp_path / "a_file")
+    assert f"--out '{tmp_path / 'a_file'}' is a file, not a folder" in err, err
+    err = refused(built.ssp, tmp_path / "a_file" / "sub")
+    assert f"'{tmp_path / 'a_file'}' is a file, not a folder" in err, err
+
+
 def test_cosim_parameter_sets_apply_in_order(built, tmp_path, capsys):
     """``--parameter-set A,B``: B's values win where both set one (complete sets: B's run)."""
     ssp = built.topdrive_ssp
