@@ -32,6 +32,7 @@ from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F, GainsFileE
 from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
 from drillstring.model.params import KNOWN_PHYSICAL, ParameterError, ScaledParams, params_from_spec
 from drillstring.model.topdrive import top_drive_from_spec
+from drillstring.validation import check_out_folder, check_real
 
 __all__ = ["build_parser", "design_main", "print_design"]
 
@@ -263,6 +264,9 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     if args.check is not None:
         return _check_main(args.check)
     try:
+        check_out_folder("--out", args.out)
+        # the option as typed, not the design's name for it (sigma)
+        check_real("--decay", args.decay, lower=0.0, strict=False)
         params: ScaledParams = params_from_spec(args.params)
         drive = None
         if args.torque_limit is not None:
