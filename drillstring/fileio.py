@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -133,6 +134,10 @@ def write_csv(
 def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     """Write ``obj`` as indented JSON with sorted keys, atomically.
 
+    JSON has no NaN or infinity (Python's ``json`` would write the bare words ``NaN`` and
+    ``Infinity``, which ``JSON.parse`` and other strict readers refuse): a float that is not
+    finite (a metric without a value) is written as ``null``.
+
     Parameters
     ----------
     path : path-like
@@ -150,8 +155,19 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     TypeError
         ``obj`` is not JSON-serialisable (nothing is written).
     """
-    data = (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode()
+    data = (json.dumps(_finite(obj), indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
     return atomic_write(path, lambda fh: fh.write(data))
+
+
+def _finite(obj: Any) -> Any:
+    """``obj`` with every float that is not finite replaced by None (dicts, lists, tuples)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite(v) for v in obj]
+    return obj
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
