@@ -633,6 +633,61 @@ def test_ecos_pitfalls_the_documentation_names(built, tmp_path, clean_home):
     assert proc.returncode in (-signal.SIGFPE, 128 + signal.SIGFPE), proc.returncode
 
 
+#: The Enumeration variables Ecos ignores, by package kind, as docs/ssp.md names them.
+ECOS_IGNORED = {
+    "lmi": {("controller", n) for n in ("latch", "on_saturation", "braking", "downhole", "torque")}
+    | {("plant", "on_invalid")},
+    "topdrive": {("controller", n) for n in ("anti_windup", "braking", "downhole", "torque")}
+    | {("plant", "on_invalid")},
+}
+
+
+def _ecos_paragraph() -> str:
+    text = (ROOT / "docs" / "ssp.md").read_text()
+    start = text.index("Both Ecos and libcosim ignore FMI 2.0 Enumeration variables")
+    return " ".join(text[start:].split("\n\n")[0].split())
+
+
+@pytest.mark.parametrize("package", list(PACKAGES))
+def test_ecos_warns_of_the_enumerations_the_documentation_names(
+    built, tmp_path, clean_home, package
+):
+    """Ecos warns of every Enumeration a set gives (it sets none of them), exactly those that
+    docs/ssp.md lists for the package; each keeps the FMU's start value, which is the set's own
+    but for Fig. 5's latch (``none``, the same run: docs/ssp.md)."""
+    make, variant = PACKAGES[package]
+    ssp = make(built)
+    work = tmp_path / "enum"
+    work.mkdir()
+    proc = _ecos(["--path", str(ssp), "--stepSize", "0.001", "--stopTime", "0.02",
+                  "--parameterSet", "fig5"], work, clean_home)  # fmt: skip
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    warned = re.findall(r"No variable named '(\w+)' of type int registered for instance '(\w+)'",
+                        proc.stdout + proc.stderr)  # fmt: skip
+    kind = "topdrive" if package.startswith("topdrive") else "lmi"
+    assert {(unit, name) for name, unit in warned} == ECOS_IGNORED[kind]
+    assert len(warned) == len(ECOS_IGNORED[kind])  # once each
+    said = _ecos_paragraph()
+    count = {"lmi": "six times for the LMI packages", "topdrive": "five times for the top-drive"}
+    assert count[kind] in said
+    listed = said.split(count[kind])[1].split(")")[0]
+    assert {n for _, n in ECOS_IGNORED[kind]} == set(re.findall(r"`(\w+)`", listed))
+    # what the sets give (ssv:Integer, as FMI 2.0 sets an Enumeration): the FMUs' start values,
+    # but Fig. 5's latch
+    folder = _unpack(ssp, work / "pkg")
+    for unit, name in ECOS_IGNORED[kind]:
+        fmu = folder / read_ssp(folder).component(unit).source
+        (var,) = [v for v in read_model_description(str(fmu)).modelVariables if v.name == name]
+        assert var.type == "Enumeration", (unit, name)
+        items = {int(i.value): i.name for i in var.declaredType.items}
+        for e in loop_experiments(variant):
+            given = read_ssp(folder, unpack=False, variant=e.name).parameters()[unit][name]
+            if (unit, name, e.name) == ("controller", "latch", "fig5"):
+                assert (items[int(given.value)], items[int(var.start)]) == ("none", "angle")
+            else:
+                assert int(given.value) == int(var.start), (unit, name, e.name)
+
+
 #: The stop time of the controller-only run: a little past the plant's validity stop (54.017 s).
 ECOS_LONG = 54.5
 
