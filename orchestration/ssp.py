@@ -49,6 +49,10 @@ from lxml import etree
 from drillstring.model.units import BASE_UNITS, UnitDef
 
 __all__ = [
+    "MAX_DESCRIPTION_BYTES",
+    "MAX_MEMBERS",
+    "MAX_MEMBER_BYTES",
+    "MAX_UNPACKED_BYTES",
     "SSD_FILE",
     "NS",
     "SspComponent",
@@ -65,6 +69,16 @@ __all__ = [
 
 SSD_FILE = "SystemStructure.ssd"
 DOC_INDEX = "documentation/index.html"
+#: Limits on an archive, checked from its central directory before any member is read or
+#: extracted: a small archive can declare gigabytes (a 4 MB package with a 3 GiB member). The
+#: project's largest package, self-contained, holds two FMUs of 97 MiB (191 MiB in all).
+MAX_MEMBER_BYTES = 1 << 30  # 1 GiB unpacked, per member
+MAX_UNPACKED_BYTES = 4 << 30  # 4 GiB unpacked, the whole package
+MAX_MEMBERS = 10_000
+#: The descriptions read into memory (``.ssd``, ``.ssv``): each at most 16 MiB (the project's
+#: are a few kB); of the other members only the names are read before extraction.
+MAX_DESCRIPTION_BYTES = 16 << 20
+_DESCRIPTIONS = (".ssd", ".ssv")
 #: The namespaces, with the prefixes the tools expect (libcosim and Ecos match element names
 #: with their prefixes, ``ssd:Component``, ``osp:Algorithm``).
 NS = {
@@ -605,17 +619,65 @@ def _validate_entries(entries: Mapping[str, bytes]) -> list[str]:
 
 
 def _package_entries(path: Path) -> dict[str, bytes]:
+    """Member name -> content for the descriptions (``.ssd``, ``.ssv``), ``b""`` for the other
+    members (FMUs, documentation: only their names are needed to validate the package). An
+    archive's directory is checked against the limits first (:func:`_check_archive`)."""
     if path.is_dir():
-        return {
-            p.relative_to(path).as_posix(): p.read_bytes()
-            for p in sorted(path.rglob("*"))
-            if p.is_file()
-        }
+        entries = {}
+        for p in sorted(path.rglob("*")):
+            if p.is_file():
+                name = p.relative_to(path).as_posix()
+                if name.endswith(_DESCRIPTIONS):
+                    _check_description(path.name, name, p.stat().st_size)
+                    entries[name] = p.read_bytes()
+                else:
+                    entries[name] = b""
+        return entries
     try:
         with zipfile.ZipFile(path) as z:
-            return {i.filename: z.read(i.filename) for i in z.infolist() if not i.is_dir()}
+            _check_archive(z, path.name)
+            return {
+                i.filename: z.read(i.filename) if i.filename.endswith(_DESCRIPTIONS) else b""
+                for i in z.infolist()
+                if not i.is_dir()
+            }
     except (zipfile.BadZipFile, OSError) as exc:
         raise SspError(f"{path}: not an SSP archive ({exc})") from None
+
+
+def _check_description(label: str, name: str, size: int) -> None:
+    if size > MAX_DESCRIPTION_BYTES:
+        raise SspError(
+            f"{label}: {name!r} is {size} bytes, more than the limit of {MAX_DESCRIPTION_BYTES} "
+            "bytes for a description (.ssd, .ssv)"
+        )
+
+
+def _check_archive(z: zipfile.ZipFile, label: str) -> None:
+    """Refuse an archive whose directory declares more than the limits allow: too many
+    members, a member or all of them together unpacking to more bytes (a member whose data
+    is longer than declared fails its CRC on extraction: zipfile stops at the declared size)."""
+    infos = z.infolist()
+    if len(infos) > MAX_MEMBERS:
+        raise SspError(f"{label}: {len(infos)} members, more than the limit of {MAX_MEMBERS}")
+    total = 0
+    for info in infos:
+        size = info.file_size
+        if size > MAX_MEMBER_BYTES:
+            raise SspError(
+                f"{label}: member {info.filename!r} unpacks to {size} bytes ({size / 2**20:.0f} "
+                f"MiB), more than the limit of {MAX_MEMBER_BYTES} bytes per member; nothing "
+                "was extracted"
+            )
+        if info.filename.endswith(_DESCRIPTIONS):
+            _check_description(label, info.filename, size)
+        total += size
+        if total > MAX_UNPACKED_BYTES:
+            raise SspError(
+                f"{label}: unpacked, the members up to {info.filename!r} take {total} bytes "
+                f"({total / 2**20:.0f} MiB), more than the limit of {MAX_UNPACKED_BYTES} bytes "
+                "for a package; nothing was extracted"
+            )
 
 
 def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
@@ -1035,10 +1097,13 @@ def read_ssp(
         root.mkdir(parents=True, exist_ok=True)
         try:
             with zipfile.ZipFile(path) as z:
+                _check_archive(z, path.name)  # the archive read above may have been replaced
                 z.extractall(root)
-        except Exception:
+        except Exception as exc:
             if unpack_to is None:
                 shutil.rmtree(root, ignore_errors=True)
+            if isinstance(exc, zipfile.BadZipFile):  # "Bad CRC-32 for file 'resources/...'"
+                raise SspError(f"{path.name}: cannot be unpacked: {exc}") from None
             raise
     return SspPackage(
         path=given,

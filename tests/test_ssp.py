@@ -41,6 +41,7 @@ import math
 import re
 import shutil
 import signal
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -82,6 +83,10 @@ from drillstring.orchestration.loop_ssp import (
 )
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.ssp import (
+    MAX_DESCRIPTION_BYTES,
+    MAX_MEMBER_BYTES,
+    MAX_MEMBERS,
+    MAX_UNPACKED_BYTES,
     NS,
     SSD_FILE,
     SspComponent,
@@ -210,6 +215,88 @@ def test_broken_packages_are_reported(built, tmp_path):
     assert validate_ssp(folder) == [
         "documentation/ without its entry point documentation/index.html (SSP 1.0)"
     ]
+
+
+def _declare_size(archive: Path, member: str, size: int) -> None:
+    """Forge the unpacked size the archive's central directory declares for ``member`` (the
+    data and the local header stay as they are): what a zip bomb's directory says."""
+    data = bytearray(archive.read_bytes())
+    at = 0
+    while (at := data.find(b"PK\x01\x02", at)) >= 0:
+        n = int.from_bytes(data[at + 28 : at + 30], "little")
+        if data[at + 46 : at + 46 + n].decode() == member:
+            data[at + 24 : at + 28] = size.to_bytes(4, "little")
+            archive.write_bytes(bytes(data))
+            return
+        at += 46
+    raise AssertionError(f"{member} not in {archive}")
+
+
+def _small_archive(path: Path, members: dict[str, bytes]) -> Path:
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED) as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    return path
+
+
+def test_archives_beyond_the_limits_are_refused_before_anything_is_unpacked(tmp_path, capsys):
+    """The central directory is checked before any member is read or extracted: a member
+    declaring 3 GiB (in an archive of a few kB), members that together declare more than the
+    package's limit, and too many members are refused naming the member and the limit."""
+    ssd = b"<not read: the directory is refused first/>"
+    bomb = _small_archive(tmp_path / "bomb.ssp",
+                          {SSD_FILE: ssd, "resources/Plant.fmu": b"\0" * 4096})  # fmt: skip
+    _declare_size(bomb, "resources/Plant.fmu", 3 << 30)
+    assert bomb.stat().st_size < 10_000
+    message = (f"bomb.ssp: member 'resources/Plant.fmu' unpacks to {3 << 30} bytes (3072 MiB), "
+               f"more than the limit of {MAX_MEMBER_BYTES} bytes per member")  # fmt: skip
+    unpacked = tmp_path / "unpacked"
+    with pytest.raises(SspError, match=re.escape(message)):
+        read_ssp(bomb, unpack_to=unpacked)
+    assert not unpacked.exists()
+    with pytest.raises(SspError, match=re.escape(message)):
+        validate_ssp(bomb)
+    with pytest.raises(SspError, match=re.escape(message)):
+        Master.from_ssp(bomb)
+    assert cosim_main([str(bomb), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    assert message in capsys.readouterr().err and not (tmp_path / "out").exists()
+    # each member at the limit, all of them (with the SSD's bytes) beyond the package's
+    n = MAX_UNPACKED_BYTES // MAX_MEMBER_BYTES
+    many = _small_archive(tmp_path / "many.ssp", {
+        SSD_FILE: ssd, **{f"resources/F{k}.fmu": b"\0" * 64 for k in range(n)}})  # fmt: skip
+    for k in range(n):
+        _declare_size(many, f"resources/F{k}.fmu", MAX_MEMBER_BYTES)
+    with pytest.raises(SspError, match=re.escape(
+            f"many.ssp: unpacked, the members up to 'resources/F{n - 1}.fmu' take "
+            f"{n * MAX_MEMBER_BYTES + len(ssd)} bytes")):  # fmt: skip
+        read_ssp(many, unpack_to=unpacked)
+    # a description larger than a description can sensibly be
+    big = _small_archive(tmp_path / "big.ssp", {SSD_FILE: ssd})
+    _declare_size(big, SSD_FILE, MAX_DESCRIPTION_BYTES + 1)
+    with pytest.raises(SspError, match=f"'{SSD_FILE}' is {MAX_DESCRIPTION_BYTES + 1} bytes"):
+        read_ssp(big)
+    # too many members
+    crowd = _small_archive(tmp_path / "crowd.ssp",
+                           {f"m{k}": b"" for k in range(MAX_MEMBERS + 1)})  # fmt: skip
+    with pytest.raises(SspError, match=f"{MAX_MEMBERS + 1} members, more than the limit"):
+        read_ssp(crowd)
+    assert not unpacked.exists()
+
+
+def test_a_member_longer_than_declared_is_refused_on_unpacking(built, tmp_path):
+    """A member whose data is longer than its directory entry says is cut at the declared size
+    and fails its CRC: the package is refused naming the member, nothing is left behind."""
+    forged = tmp_path / "forged.ssp"
+    shutil.copyfile(built.ssp, forged)
+    member = f"resources/{built.plant.fmu.name}"
+    _declare_size(forged, member, 1000)
+    with pytest.raises(SspError, match=re.escape(
+            f"forged.ssp: cannot be unpacked: Bad CRC-32 for file '{member}'")):  # fmt: skip
+        read_ssp(forged, unpack_to=tmp_path / "unpacked")
+    before = set(Path(tempfile.gettempdir()).glob("cosim_ssp_*"))
+    with pytest.raises(SspError, match="Bad CRC-32"):
+        Master.from_ssp(forged)
+    assert set(Path(tempfile.gettempdir()).glob("cosim_ssp_*")) == before
 
 
 def test_write_ssp_refuses_what_would_be_invalid(built, tmp_path):
