@@ -612,9 +612,59 @@ def _validate_entries(entries: Mapping[str, bytes]) -> list[str]:
                 for ref in refs
                 if ref is not None and ref not in entries
             ]
+        problems += _system_problems(ssd, label)
     docs = [n for n in entries if n.startswith("documentation/")]
     if docs and DOC_INDEX not in entries:
         problems.append(f"documentation/ without its entry point {DOC_INDEX} (SSP 1.0)")
+    return problems
+
+
+def _system_problems(ssd: etree._Element, label: str) -> list[str]:
+    """What the schema cannot see in an SSD's system: two elements of one name, a connection
+    to an element or connector the system does not declare, a connector's unit that the SSD's
+    ``ssd:Units`` do not define (SSP 1.0: a connector's unit refers to them)."""
+    system = ssd.find("ssd:System", NS)
+    defined = {u.get("name") for u in ssd.iterfind("ssd:Units/ssc:Unit", NS)}
+    problems = []
+
+    def connectors(element: etree._Element, what: str) -> set[str]:
+        names = set()
+        for k in element.iterfind("ssd:Connectors/ssd:Connector", NS):
+            names.add(k.get("name"))
+            for typ in k:
+                unit = typ.get("unit") if etree.QName(typ).namespace == NS["ssc"] else None
+                if unit is not None and unit not in defined:
+                    problems.append(
+                        f"{label}{what}: connector {k.get('name')!r} is in unit {unit!r}, which "
+                        "the SSD's Units do not define"
+                    )
+        return names
+
+    own = connectors(system, f"system {system.get('name')!r}")
+    elements: dict[str, set[str]] = {}
+    for element in system.iterfind("ssd:Elements/*", NS):
+        name = element.get("name")
+        kind = etree.QName(element).localname.lower()
+        if name in elements:
+            problems.append(
+                f"{label}two elements of the system are named {name!r} (SSP 1.0: each element "
+                "of a system has a name of its own)"
+            )
+        elements.setdefault(name, set()).update(connectors(element, f"{kind} {name!r}"))
+    for e in system.iterfind("ssd:Connections/ssd:Connection", NS):
+        con = (
+            f"{e.get('startElement') or '<system>'}.{e.get('startConnector')} -> "
+            f"{e.get('endElement') or '<system>'}.{e.get('endConnector')}"
+        )
+        for end in ("start", "end"):
+            element, connector = e.get(f"{end}Element"), e.get(f"{end}Connector")
+            if element is not None and element not in elements:
+                problems.append(f"{label}connection {con}: the system has no element {element!r}")
+            elif connector not in (own if element is None else elements[element]):
+                whose = "the system" if element is None else f"component {element!r}"
+                problems.append(
+                    f"{label}connection {con}: {whose} declares no connector {connector!r}"
+                )
     return problems
 
 
@@ -686,7 +736,9 @@ def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
     The schemas are those fmpy ships (``SystemStructureDescription.xsd``,
     ``SystemStructureParameterValues.xsd``), for every SSD at the root and every ``.ssv``; the
     references: every FMU and ``.ssv`` an SSD names is in the package; the SSDs' names are
-    distinct; ``documentation/`` has its ``index.html``.
+    distinct; each system's elements have distinct names, its connections join connectors
+    its elements declare, its connectors' units are defined in the SSD's ``ssd:Units``;
+    ``documentation/`` has its ``index.html``.
 
     Parameters
     ----------

@@ -299,6 +299,53 @@ def test_a_member_longer_than_declared_is_refused_on_unpacking(built, tmp_path):
     assert set(Path(tempfile.gettempdir()).glob("cosim_ssp_*")) == before
 
 
+def test_inconsistent_systems_are_refused_naming_the_element(built, tmp_path):
+    """What the schema lets through is refused by validate_ssp, read_ssp and the master, naming
+    the element: a connection to a connector its component does not declare (the FMU has the
+    variable: the run would go on), a connector's unit defined nowhere, two components of one
+    name (which the master reported as a missing FMU variable of the second)."""
+
+    def edited(name: str, edit) -> Path:
+        folder = _unpack(built.si.ssp, tmp_path / name)
+        ssd = etree.parse(str(folder / SSD_FILE))
+        edit(ssd.getroot())
+        ssd.write(str(folder / SSD_FILE), xml_declaration=True, encoding="UTF-8")
+        return folder
+
+    def component(root, name):
+        (c,) = root.findall(f"ssd:System/ssd:Elements/ssd:Component[@name='{name}']", NS)
+        return c
+
+    def undeclare(root):
+        c = component(root, "controller")
+        (k,) = c.findall("ssd:Connectors/ssd:Connector[@name='bit_angle']", NS)
+        k.getparent().remove(k)
+
+    def undefined_unit(root):
+        c = component(root, "plant")
+        (k,) = c.findall("ssd:Connectors/ssd:Connector[@name='bit_speed']/ssc:Real", NS)
+        k.set("unit", "rpm")
+
+    def twice(root):
+        component(root, "controller").set("name", "plant")
+
+    cases = {
+        "undeclared": (undeclare, "connection plant.bit_angle -> controller.bit_angle: "
+                       "component 'controller' declares no connector 'bit_angle'"),
+        "unit": (undefined_unit, "component 'plant': connector 'bit_speed' is in unit 'rpm', "
+                 "which the SSD's Units do not define"),
+        "twice": (twice, "two elements of the system are named 'plant'"),
+    }  # fmt: skip
+    for name, (edit, message) in cases.items():
+        folder = edited(name, edit)
+        problems = validate_ssp(folder)
+        assert any(message in p for p in problems), (name, problems)
+        with pytest.raises(SspError, match=re.escape(message)):
+            read_ssp(folder, unpack=False)
+        with pytest.raises(SspError, match=re.escape(message)):
+            Master.from_ssp(folder)
+
+
 def test_write_ssp_refuses_what_would_be_invalid(built, tmp_path):
     p = read_ssp(built.si.ssp)
     try:
