@@ -49,8 +49,6 @@ from __future__ import annotations
 
 import logging
 import math
-import shutil
-import tempfile
 import time as _time
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
@@ -61,6 +59,7 @@ import numpy as np
 from fmpy import extract
 from tqdm import tqdm
 
+from drillstring.fileio import temporary_folder
 from drillstring.model.units import UnitDef, UnitMismatch, unit_conversion
 from drillstring.orchestration.adaptive import run_adaptive
 from drillstring.orchestration.connections import (
@@ -103,7 +102,8 @@ class Master:
     """Co-simulation master for FMI 2.0 co-simulation units (see the module docstring).
 
     FMUs are extracted once, into a temporary directory removed by :meth:`close` (or on
-    garbage collection); each :meth:`run` instantiates fresh units and frees them.
+    garbage collection, at exit, and on SIGTERM: :func:`drillstring.fileio.temporary_folder`);
+    each :meth:`run` instantiates fresh units and frees them.
 
     Parameters
     ----------
@@ -164,8 +164,9 @@ class Master:
 
         #: the SSP package the master was made from (:meth:`from_ssp`), else None
         self.ssp: SspPackage | None = None
-        self._tmp = tempfile.mkdtemp(prefix="cosim_master_")
-        self._finalizer = weakref.finalize(self, shutil.rmtree, self._tmp, True)
+        tmp, remove = temporary_folder("cosim_master_")  # removed on SIGTERM too
+        self._tmp = str(tmp)
+        self._finalizer = weakref.finalize(self, remove)
         self._unzipdirs: list[str] = []
         extracted: dict[str, str] = {}
         for i, unit in enumerate(sysm.units):
@@ -235,7 +236,7 @@ class Master:
             (other than "1") and that does not suppress unit conversion (naming both ends, their
             FMUs and the unit), and the errors of :class:`Master`.
         """
-        tmp = tempfile.mkdtemp(prefix="cosim_ssp_")
+        tmp, remove = temporary_folder("cosim_ssp_")  # removed on SIGTERM too
         try:
             package = read_ssp(path, unpack_to=Path(tmp) / "package", variant=variant)
             values = package.parameters(parameter_set)
@@ -273,10 +274,10 @@ class Master:
                 log_categories=log_categories,
             )
         except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
+            remove()
             raise
         master.ssp = package
-        weakref.finalize(master, shutil.rmtree, tmp, True)
+        weakref.finalize(master, remove)
         return master
 
     # -- lifecycle -------------------------------------------------------------------

@@ -38,10 +38,14 @@ from __future__ import annotations
 import html
 import json
 import math
+import os
 import re
 import shutil
 import signal
+import subprocess
+import sys
 import tempfile
+import time
 import zipfile
 from pathlib import Path
 
@@ -1350,6 +1354,38 @@ def test_cosim_refused_input_exits_2_with_one_line(built, tmp_path, capsys):
     assert f"--out '{tmp_path / 'a_file'}' is a file, not a folder" in err, err
     err = refused(built.ssp, tmp_path / "a_file" / "sub")
     assert f"'{tmp_path / 'a_file'}' is a file, not a folder" in err, err
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_cosim_removes_its_temporary_folders_when_terminated(built, tmp_path, signum):
+    """``drillstring cosim`` killed with SIGTERM (or interrupted) in the middle of a run removes
+    the unpacked package and FMUs (``cosim_ssp_*``, ``cosim_master_*``) as on a normal exit;
+    SIGTERM still ends it as the signal does, Ctrl-C with status 130."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    cmd = [sys.executable, "-m", "drillstring.apps.cli", "cosim", str(built.si.ssp), "--out",
+           str(tmp_path / "out"), "--stop-time", "1e5", "--no-progress"]  # fmt: skip
+    proc = subprocess.Popen(cmd, env={**os.environ, "TMPDIR": str(tmp)}, cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while len({p.name.split("_")[1] for p in tmp.glob("cosim_*")}) < 2:
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "no temporary folders within 120 s"
+            time.sleep(0.05)
+        time.sleep(1.0)  # in the run (the folders are made before it starts)
+        assert proc.poll() is None
+        proc.send_signal(signum)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    expected = -signal.SIGTERM if signum == signal.SIGTERM else 130
+    assert proc.returncode == expected, (proc.returncode, err)
+    if signum == signal.SIGINT:
+        assert err.strip().splitlines()[-1] == "drillstring cosim: interrupted", err
+    assert sorted(p.name for p in tmp.iterdir()) == []
 
 
 def test_cosim_parameter_sets_apply_in_order(built, tmp_path, capsys):

@@ -24,15 +24,19 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
+import signal
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drillstring.fileio import save_figure, write_json
+from drillstring.fileio import remove_temporary_folders, save_figure, write_json
 from drillstring.model.units import UNITS
 from drillstring.orchestration.closed_loop import (
     SI,
@@ -170,7 +174,8 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
         2 bad input (package, values or files, an FMU that is not one, or an FMU refusing a
         value before the first step: a parameter, its GUID; the results up to there are
         written; also argparse's code for bad options, raised as ``SystemExit``), each with
-        one line naming the component, the variable and the value.
+        one line naming the component, the variable and the value; 130 interrupted (Ctrl-C;
+        a SIGTERM ends it as the signal does, 143), the extracted package and FMUs removed.
     """
     args = _parser().parse_args(argv)
     # a unit's failure is reported here, on one line: not also as the master's log warning
@@ -178,9 +183,36 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
     level = master_log.level
     master_log.setLevel(logging.ERROR)
     try:
-        return _cosim(args)
+        with _ctrl_c_ends_the_command():
+            return _cosim(args)
+    except KeyboardInterrupt:  # the extracted files are removed on the way out
+        print("drillstring cosim: interrupted", file=sys.stderr)
+        return 130
     finally:
         master_log.setLevel(level)
+
+
+@contextmanager
+def _ctrl_c_ends_the_command() -> Iterator[None]:
+    """Ctrl-C ends the command at once, exit status 130, with the extracted package and FMUs
+    removed. Python's KeyboardInterrupt cannot do that here: raised in the FMUs' own Python
+    code it becomes an FMU error (``fmi2Fatal`` naming KeyboardInterrupt), in a ctypes callback
+    it is lost and the run goes on. From the main thread only (elsewhere: Python's handling)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupted(signum: int, frame: Any) -> None:
+        remove_temporary_folders()
+        sys.stdout.flush()
+        print("drillstring cosim: interrupted", file=sys.stderr, flush=True)
+        os._exit(130)
+
+    previous = signal.signal(signal.SIGINT, interrupted)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _cosim(args: argparse.Namespace) -> int:
