@@ -566,8 +566,9 @@ def test_readme_states_what_the_packages_documentation_says(built):
         for page in pages:
             assert " ".join(html.unescape(page_says.format(stop=ECOS_DEFAULT_STOP)).split()) in page
     assert "documentation/index.html" in flat
-    # the command lines run what they say
-    (cmd,) = re.findall(r"`ecos simulate ([^`]*)`", flat)
+    # the command lines run what they say (the Ecos one runs verbatim:
+    # test_readme_ecos_command_runs_as_printed)
+    (cmd,) = re.findall(r"`drillstring ecos simulate ([^`]*)`", flat)
     args = dict(zip(cmd.split()[::2], cmd.split()[1::2], strict=True))
     _, stop, step = loop_default_experiment(SI, FIG5)
     assert Path(args["--path"]).name == SI.ssp
@@ -576,6 +577,27 @@ def test_readme_states_what_the_packages_documentation_says(built):
     (cosim,) = re.findall(r"`drillstring cosim ([^`]*)`", flat)
     variant = cosim.split("--variant ")[1].split()[0]
     assert variant in read_ssp(built.si.ssp, unpack=False).variants
+
+
+def test_readme_ecos_command_runs_as_printed(built, tmp_path, clean_home):
+    """The README's Ecos command, exactly as printed, in a shell whose PATH has the project's
+    environment (as after ``make demo`` or activating ``.venv``) and nothing else of this
+    process's, in a folder with ``build/`` of the session's build: it runs Fig. 5 in SI to the
+    default experiment's stop time and writes its CSV into that folder (there is no ``ecos`` on
+    any PATH: ``drillstring ecos`` starts ecospy's binary through the loader)."""
+    flat = " ".join(_readme_ssp_section().split())
+    (command,) = re.findall(r"`(drillstring ecos simulate [^`]*)`", flat)
+    (tmp_path / "build").mkdir()
+    shutil.copyfile(built.si.ssp, tmp_path / "build" / built.si.ssp.name)
+    env = tl.clean_env(clean_home, TMPDIR=str(tmp_path))
+    env["PATH"] = f"{Path(sys.executable).parent}:{env['PATH']}"
+    assert shutil.which("ecos", path=env["PATH"]) is None
+    proc = tl.run_clean(["bash", "-c", command], env, tmp_path)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    header, data = tl.read_ecos_csv(tmp_path / f"{built.si.ssp.stem}.csv")
+    _, stop, step = loop_default_experiment(SI, FIG5)
+    assert data[-1, header.index("time")] == pytest.approx(stop, abs=2 * step)
+    assert data[0, header.index("plant::dphi0[REAL]")] == pytest.approx(FIG5.dphi0 / TS, abs=1e-6)
 
 
 # ------------------------------------------------------------------------------------------------

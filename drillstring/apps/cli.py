@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "design": ("drillstring.apps.design", "design_main", "Sections IV-V: LMI design, gains"),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
+    "ecos": ("drillstring.apps.ecos", "ecos_main", "Ecos's command line (ecospy's ecos)"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
     "controllers": ("drillstring.apps.controllers", "controllers_main", "industrial vs LMI"),
     "fmus": ("drillstring.apps.export.cli", "export_main", "build the FMUs and SSP packages"),
