@@ -458,7 +458,7 @@ def test_grid_size_is_checked_before_the_points(tmp_path, capsys):
                                   "num": 10**8}])  # fmt: skip
     message = (
         f"the grid has {10**16} points (sweep[0].num = {10**8} x sweep[1].num = {10**8}), "
-        f"more than the limit of {MAX_POINTS} (allow it with --max-points {10**16})"
+        f"more than the limit of {MAX_POINTS} (drillstring sweep --max-points {10**16} allows it)"
     )
     with pytest.raises(SweepSpecError, match=re.escape(message)):
         spec_from_dict(huge)

@@ -895,7 +895,7 @@ def _spec_from_dict(
         nums = " x ".join(f"sweep[{k}].num = {a.num}" for k, a in enumerate(axes))
         raise SweepSpecError(
             f"the grid has {n_points} points ({nums}), more than the limit of {max_points} "
-            f"(allow it with --max-points {n_points})"
+            f"(drillstring sweep --max-points {n_points} allows it)"
         )
     if len(axes) == 2:
         a, b = axes[0].param, axes[1].param
