@@ -1,13 +1,17 @@
-"""Atomic file output: results are never half-written (temp file in the folder, then rename)."""
+"""Atomic file output: results are never half-written (temp file in the folder, then rename);
+temporary folders that are removed also when the process is terminated."""
 
 from __future__ import annotations
 
 import csv
 import io
 import json
+import math
 import os
 import shutil
+import signal
 import tempfile
+import threading
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -133,6 +137,10 @@ def write_csv(
 def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     """Write ``obj`` as indented JSON with sorted keys, atomically.
 
+    JSON has no NaN or infinity (Python's ``json`` would write the bare words ``NaN`` and
+    ``Infinity``, which ``JSON.parse`` and other strict readers refuse): a float that is not
+    finite (a metric without a value) is written as ``null``.
+
     Parameters
     ----------
     path : path-like
@@ -150,8 +158,19 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     TypeError
         ``obj`` is not JSON-serialisable (nothing is written).
     """
-    data = (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode()
+    data = (json.dumps(_finite(obj), indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
     return atomic_write(path, lambda fh: fh.write(data))
+
+
+def _finite(obj: Any) -> Any:
+    """``obj`` with every float that is not finite replaced by None (dicts, lists, tuples)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite(v) for v in obj]
+    return obj
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
@@ -213,3 +232,77 @@ def replace_dir(staging: str | os.PathLike[str], target: str | os.PathLike[str])
     if had_old:
         shutil.rmtree(aside, ignore_errors=True)
     return target
+
+
+# ------------------------------------------------------------------------------------------------
+# temporary folders removed on exit, on SIGTERM too
+# ------------------------------------------------------------------------------------------------
+
+#: The temporary folders of :func:`temporary_folder` not removed yet (an insertion-ordered set).
+_TEMPORARY: dict[str, None] = {}
+#: The SIGTERM disposition found when :func:`temporary_folder` installed its handler.
+_PREVIOUS_SIGTERM: Any = None
+_LOCK = threading.Lock()
+
+
+def temporary_folder(prefix: str) -> tuple[Path, Callable[[], None]]:
+    """A new temporary folder and the function that removes it.
+
+    The caller removes it (a context manager's exit, a ``weakref.finalize`` that also runs at
+    a normal exit, and on Ctrl-C, which ends the process by an exception); a SIGTERM, whose
+    default is to end the process at once, removes every such folder first: the handler
+    installed here (from the main thread, once) removes them and then does what the previous
+    disposition did (the default: the process ends by the signal, exit status 143).
+
+    Parameters
+    ----------
+    prefix : str
+        The folder's name starts with it (in ``tempfile.gettempdir()``).
+
+    Returns
+    -------
+    (Path, callable)
+        The folder, and the function that removes it (idempotent).
+    """
+    path = tempfile.mkdtemp(prefix=prefix)
+    with _LOCK:
+        _TEMPORARY[path] = None
+    _handle_sigterm()
+
+    def remove() -> None:
+        with _LOCK:
+            _TEMPORARY.pop(path, None)
+        shutil.rmtree(path, ignore_errors=True)
+
+    return Path(path), remove
+
+
+def _handle_sigterm() -> None:
+    global _PREVIOUS_SIGTERM
+    if threading.current_thread() is not threading.main_thread():
+        return  # signal handlers are the main thread's; a folder made here is removed as usual
+    current = signal.getsignal(signal.SIGTERM)
+    if current is _on_sigterm:
+        return
+    _PREVIOUS_SIGTERM = current
+    signal.signal(signal.SIGTERM, _on_sigterm)
+
+
+def remove_temporary_folders() -> None:
+    """Remove every folder of :func:`temporary_folder` not removed yet (a process that ends
+    without unwinding: a signal's handler)."""
+    with _LOCK:
+        paths = list(_TEMPORARY)
+        _TEMPORARY.clear()
+    for path in paths:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    remove_temporary_folders()
+    previous = _PREVIOUS_SIGTERM
+    if callable(previous):
+        previous(signum, frame)
+    elif previous != signal.SIG_IGN:  # the default (or unknown: None): end as the signal does
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["is_finite_real", "check_int", "check_real", "check_choice"]
+__all__ = ["is_finite_real", "check_int", "check_real", "check_choice", "check_out_folder"]
 
 E = TypeVar("E", bound=ValueError)
 
@@ -174,3 +176,44 @@ def check_choice(
     if not isinstance(value, str) or value not in choices:
         raise error(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
     return value
+
+
+def check_out_folder(
+    name: str,
+    path: str | os.PathLike[str],
+    *,
+    error: type[E] = ValueError,  # type: ignore[assignment]
+) -> Path:
+    """Return ``path`` if it is a folder or can be made one, else raise ``error`` naming it.
+
+    Checked before any work is done, so that a command does not compute for minutes and then
+    fail to write: ``path`` must be an existing folder, or its nearest existing ancestor must
+    be a folder (the missing ones are created when the results are written).
+
+    Parameters
+    ----------
+    name : str
+        What the path is, as the message should call it (the option, ``"--out"``).
+    path : path-like
+        The output folder.
+    error : type
+        Exception class raised (a ``ValueError`` subclass).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    error
+        ``path``, or the ancestor it would be created in, exists and is not a folder.
+    """
+    out = Path(path)
+    for existing in (out, *out.parents):
+        if existing.exists():
+            if not existing.is_dir():
+                where = "" if existing == out else f": {str(existing)!r}"
+                raise error(f"{name} {str(out)!r}{where} is a file, not a folder")
+            break
+    return out

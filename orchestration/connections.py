@@ -22,6 +22,7 @@ values unchanged and is not checked: the explicit way to couple such ends.
 
 from __future__ import annotations
 
+import zipfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,6 +44,7 @@ from drillstring.orchestration.schedule import (
 )
 
 __all__ = [
+    "read_fmu_description",
     "Unit",
     "Connection",
     "VarRef",
@@ -220,8 +222,40 @@ def _split(key: str) -> tuple[str, str]:
     return unit_name, var
 
 
+def read_fmu_description(what: str, fmu: str | Path, shown: str | None = None) -> Any:
+    """The model description of an FMU file, or a ``ValueError`` naming ``what`` uses it.
+
+    Parameters
+    ----------
+    what : str
+        Who uses the FMU, as the message should name it (``"unit 'plant'"``, ``"component
+        'plant'"``).
+    fmu : path
+        The FMU file.
+    shown : str, optional
+        How the message names the file (default: its path), e.g. its path in an SSP package.
+
+    Returns
+    -------
+    fmpy.model_description.ModelDescription
+        As ``fmpy.read_model_description`` returns it.
+
+    Raises
+    ------
+    ValueError
+        The file is missing, not a zip archive, has no readable ``modelDescription.xml``
+        (fmpy raises ``BadZipFile``, ``KeyError``, XML errors or a plain ``Exception``).
+    """
+    try:
+        return read_model_description(str(fmu))
+    except Exception as exc:  # noqa: BLE001 -- fmpy's errors are of many kinds, re-raised named
+        reason = "not a zip archive" if isinstance(exc, zipfile.BadZipFile) else str(exc)
+        name = repr(str(fmu)) if shown is None else shown
+        raise ValueError(f"{what}: {name} is not a readable FMU: {reason}") from exc
+
+
 def _load(unit: Unit) -> tuple[Any, dict[str, Any]]:
-    md = read_model_description(str(unit.fmu))
+    md = read_fmu_description(f"unit {unit.name!r}", unit.fmu)
     if md.fmiVersion != "2.0":
         raise ValueError(f"unit {unit.name!r}: FMI version {md.fmiVersion!r}, need 2.0")
     if md.coSimulation is None:

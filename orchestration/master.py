@@ -49,8 +49,6 @@ from __future__ import annotations
 
 import logging
 import math
-import shutil
-import tempfile
 import time as _time
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
@@ -58,9 +56,10 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import extract
 from tqdm import tqdm
 
+from drillstring.fileio import temporary_folder
 from drillstring.model.units import UnitDef, UnitMismatch, unit_conversion
 from drillstring.orchestration.adaptive import run_adaptive
 from drillstring.orchestration.connections import (
@@ -68,6 +67,7 @@ from drillstring.orchestration.connections import (
     System,
     Unit,
     build_system,
+    read_fmu_description,
     unit_definitions,
     variable_unit,
 )
@@ -102,7 +102,8 @@ class Master:
     """Co-simulation master for FMI 2.0 co-simulation units (see the module docstring).
 
     FMUs are extracted once, into a temporary directory removed by :meth:`close` (or on
-    garbage collection); each :meth:`run` instantiates fresh units and frees them.
+    garbage collection, at exit, and on SIGTERM: :func:`drillstring.fileio.temporary_folder`);
+    each :meth:`run` instantiates fresh units and frees them.
 
     Parameters
     ----------
@@ -163,8 +164,9 @@ class Master:
 
         #: the SSP package the master was made from (:meth:`from_ssp`), else None
         self.ssp: SspPackage | None = None
-        self._tmp = tempfile.mkdtemp(prefix="cosim_master_")
-        self._finalizer = weakref.finalize(self, shutil.rmtree, self._tmp, True)
+        tmp, remove = temporary_folder("cosim_master_")  # removed on SIGTERM too
+        self._tmp = str(tmp)
+        self._finalizer = weakref.finalize(self, remove)
         self._unzipdirs: list[str] = []
         extracted: dict[str, str] = {}
         for i, unit in enumerate(sysm.units):
@@ -234,7 +236,7 @@ class Master:
             (other than "1") and that does not suppress unit conversion (naming both ends, their
             FMUs and the unit), and the errors of :class:`Master`.
         """
-        tmp = tempfile.mkdtemp(prefix="cosim_ssp_")
+        tmp, remove = temporary_folder("cosim_ssp_")  # removed on SIGTERM too
         try:
             package = read_ssp(path, unpack_to=Path(tmp) / "package", variant=variant)
             values = package.parameters(parameter_set)
@@ -244,7 +246,10 @@ class Master:
             units = []
             for comp in package.components:
                 fmu = Path(replaced.get(comp.name, package.fmu(comp.name)))
-                units.append(Unit(comp.name, fmu, _typed_values(comp.name, fmu, values[comp.name])))
+                # a packaged FMU is named by its path in the package, not the unpacked copy's
+                shown = None if comp.name in replaced else f"{comp.source!r} of {Path(path).name}"
+                start = _typed_values(comp.name, fmu, values[comp.name], shown)
+                units.append(Unit(comp.name, fmu, start))
             _check_connected_units(package)
             if record is None:
                 record = [
@@ -269,10 +274,10 @@ class Master:
                 log_categories=log_categories,
             )
         except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
+            remove()
             raise
         master.ssp = package
-        weakref.finalize(master, shutil.rmtree, tmp, True)
+        weakref.finalize(master, remove)
         return master
 
     # -- lifecycle -------------------------------------------------------------------
@@ -502,11 +507,13 @@ class Master:
         )
 
 
-def _typed_values(component: str, fmu: Path, values: Mapping[str, SspParameter]) -> dict:
+def _typed_values(
+    component: str, fmu: Path, values: Mapping[str, SspParameter], shown: str | None = None
+) -> dict:
     """Start values of a component's parameters for its FMU's variables: an ``ssv:Enumeration``
     item name becomes its value, a Real given in another unit is converted into the
     variable's; a parameter the FMU does not have is an error (not silently ignored)."""
-    md = read_model_description(str(fmu))
+    md = read_fmu_description(f"component {component!r}", fmu, shown)
     variables = {v.name: v for v in md.modelVariables}
     defs = unit_definitions(md)
     out = {}

@@ -39,6 +39,25 @@ class FmuFailure:
         msg = "; ".join(self.messages[-3:]) if self.messages else "no log message"
         return f"unit {self.unit!r}: {self.function} returned {self.status} at {where}: {msg}"
 
+    @property
+    def in_setup(self) -> bool:
+        """Whether the unit failed before the first macro step: in instantiation, setting up
+        the experiment, setting start values or initialization, i.e. it refused its input
+        (a GUID, a parameter value) rather than leaving its model during the run."""
+        return self.function != "fmi2DoStep"
+
+    def line(self, kind: str = "unit") -> str:
+        """The failure on one line: the unit (called ``kind``: an SSP component), the call, the
+        time and what the unit logged at error level (its last messages if none), so that a
+        bad value is named with its variable, e.g. ``unit 'plant': fmi2SetReal (psi) returned
+        error at t=0.0: [error] ... parameter psi = -1.5 rejected: ScaledParams.psi must be
+        > 0, got -1.5 ...``."""
+        errors = [m for m in self.messages if m.startswith(("[error]", "[fatal]"))]
+        msg = "; ".join(errors[-3:] or self.messages[-3:]) or "no log message"
+        where = f"t={self.time!r}" + (f", h={self.step_size!r}" if self.step_size else "")
+        text = f"{kind} {self.unit!r}: {self.function} returned {self.status} at {where}: {msg}"
+        return " ".join(text.split())
+
 
 @dataclass(frozen=True)
 class StepStats:

@@ -49,6 +49,10 @@ from lxml import etree
 from drillstring.model.units import BASE_UNITS, UnitDef
 
 __all__ = [
+    "MAX_DESCRIPTION_BYTES",
+    "MAX_MEMBERS",
+    "MAX_MEMBER_BYTES",
+    "MAX_UNPACKED_BYTES",
     "SSD_FILE",
     "NS",
     "SspComponent",
@@ -65,6 +69,16 @@ __all__ = [
 
 SSD_FILE = "SystemStructure.ssd"
 DOC_INDEX = "documentation/index.html"
+#: Limits on an archive, checked from its central directory before any member is read or
+#: extracted: a small archive can declare gigabytes (a 4 MB package with a 3 GiB member). The
+#: project's largest package, self-contained, holds two FMUs of 97 MiB (191 MiB in all).
+MAX_MEMBER_BYTES = 1 << 30  # 1 GiB unpacked, per member
+MAX_UNPACKED_BYTES = 4 << 30  # 4 GiB unpacked, the whole package
+MAX_MEMBERS = 10_000
+#: The descriptions read into memory (``.ssd``, ``.ssv``): each at most 16 MiB (the project's
+#: are a few kB); of the other members only the names are read before extraction.
+MAX_DESCRIPTION_BYTES = 16 << 20
+_DESCRIPTIONS = (".ssd", ".ssv")
 #: The namespaces, with the prefixes the tools expect (libcosim and Ecos match element names
 #: with their prefixes, ``ssd:Component``, ``osp:Algorithm``).
 NS = {
@@ -598,24 +612,122 @@ def _validate_entries(entries: Mapping[str, bytes]) -> list[str]:
                 for ref in refs
                 if ref is not None and ref not in entries
             ]
+        problems += _system_problems(ssd, label)
     docs = [n for n in entries if n.startswith("documentation/")]
     if docs and DOC_INDEX not in entries:
         problems.append(f"documentation/ without its entry point {DOC_INDEX} (SSP 1.0)")
     return problems
 
 
+def _system_problems(ssd: etree._Element, label: str) -> list[str]:
+    """What the schema cannot see in an SSD's system: two elements of one name, a connection
+    to an element or connector the system does not declare, a connector's unit that the SSD's
+    ``ssd:Units`` do not define (SSP 1.0: a connector's unit refers to them)."""
+    system = ssd.find("ssd:System", NS)
+    defined = {u.get("name") for u in ssd.iterfind("ssd:Units/ssc:Unit", NS)}
+    problems = []
+
+    def connectors(element: etree._Element, what: str) -> set[str]:
+        names = set()
+        for k in element.iterfind("ssd:Connectors/ssd:Connector", NS):
+            names.add(k.get("name"))
+            for typ in k:
+                unit = typ.get("unit") if etree.QName(typ).namespace == NS["ssc"] else None
+                if unit is not None and unit not in defined:
+                    problems.append(
+                        f"{label}{what}: connector {k.get('name')!r} is in unit {unit!r}, which "
+                        "the SSD's Units do not define"
+                    )
+        return names
+
+    own = connectors(system, f"system {system.get('name')!r}")
+    elements: dict[str, set[str]] = {}
+    for element in system.iterfind("ssd:Elements/*", NS):
+        name = element.get("name")
+        kind = etree.QName(element).localname.lower()
+        if name in elements:
+            problems.append(
+                f"{label}two elements of the system are named {name!r} (SSP 1.0: each element "
+                "of a system has a name of its own)"
+            )
+        elements.setdefault(name, set()).update(connectors(element, f"{kind} {name!r}"))
+    for e in system.iterfind("ssd:Connections/ssd:Connection", NS):
+        con = (
+            f"{e.get('startElement') or '<system>'}.{e.get('startConnector')} -> "
+            f"{e.get('endElement') or '<system>'}.{e.get('endConnector')}"
+        )
+        for end in ("start", "end"):
+            element, connector = e.get(f"{end}Element"), e.get(f"{end}Connector")
+            if element is not None and element not in elements:
+                problems.append(f"{label}connection {con}: the system has no element {element!r}")
+            elif connector not in (own if element is None else elements[element]):
+                whose = "the system" if element is None else f"component {element!r}"
+                problems.append(
+                    f"{label}connection {con}: {whose} declares no connector {connector!r}"
+                )
+    return problems
+
+
 def _package_entries(path: Path) -> dict[str, bytes]:
+    """Member name -> content for the descriptions (``.ssd``, ``.ssv``), ``b""`` for the other
+    members (FMUs, documentation: only their names are needed to validate the package). An
+    archive's directory is checked against the limits first (:func:`_check_archive`)."""
     if path.is_dir():
-        return {
-            p.relative_to(path).as_posix(): p.read_bytes()
-            for p in sorted(path.rglob("*"))
-            if p.is_file()
-        }
+        entries = {}
+        for p in sorted(path.rglob("*")):
+            if p.is_file():
+                name = p.relative_to(path).as_posix()
+                if name.endswith(_DESCRIPTIONS):
+                    _check_description(path.name, name, p.stat().st_size)
+                    entries[name] = p.read_bytes()
+                else:
+                    entries[name] = b""
+        return entries
     try:
         with zipfile.ZipFile(path) as z:
-            return {i.filename: z.read(i.filename) for i in z.infolist() if not i.is_dir()}
+            _check_archive(z, path.name)
+            return {
+                i.filename: z.read(i.filename) if i.filename.endswith(_DESCRIPTIONS) else b""
+                for i in z.infolist()
+                if not i.is_dir()
+            }
     except (zipfile.BadZipFile, OSError) as exc:
         raise SspError(f"{path}: not an SSP archive ({exc})") from None
+
+
+def _check_description(label: str, name: str, size: int) -> None:
+    if size > MAX_DESCRIPTION_BYTES:
+        raise SspError(
+            f"{label}: {name!r} is {size} bytes, more than the limit of {MAX_DESCRIPTION_BYTES} "
+            "bytes for a description (.ssd, .ssv)"
+        )
+
+
+def _check_archive(z: zipfile.ZipFile, label: str) -> None:
+    """Refuse an archive whose directory declares more than the limits allow: too many
+    members, a member or all of them together unpacking to more bytes (a member whose data
+    is longer than declared fails its CRC on extraction: zipfile stops at the declared size)."""
+    infos = z.infolist()
+    if len(infos) > MAX_MEMBERS:
+        raise SspError(f"{label}: {len(infos)} members, more than the limit of {MAX_MEMBERS}")
+    total = 0
+    for info in infos:
+        size = info.file_size
+        if size > MAX_MEMBER_BYTES:
+            raise SspError(
+                f"{label}: member {info.filename!r} unpacks to {size} bytes ({size / 2**20:.0f} "
+                f"MiB), more than the limit of {MAX_MEMBER_BYTES} bytes per member; nothing "
+                "was extracted"
+            )
+        if info.filename.endswith(_DESCRIPTIONS):
+            _check_description(label, info.filename, size)
+        total += size
+        if total > MAX_UNPACKED_BYTES:
+            raise SspError(
+                f"{label}: unpacked, the members up to {info.filename!r} take {total} bytes "
+                f"({total / 2**20:.0f} MiB), more than the limit of {MAX_UNPACKED_BYTES} bytes "
+                "for a package; nothing was extracted"
+            )
 
 
 def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
@@ -624,7 +736,9 @@ def validate_ssp(path: str | os.PathLike[str]) -> list[str]:
     The schemas are those fmpy ships (``SystemStructureDescription.xsd``,
     ``SystemStructureParameterValues.xsd``), for every SSD at the root and every ``.ssv``; the
     references: every FMU and ``.ssv`` an SSD names is in the package; the SSDs' names are
-    distinct; ``documentation/`` has its ``index.html``.
+    distinct; each system's elements have distinct names, its connections join connectors
+    its elements declare, its connectors' units are defined in the SSD's ``ssd:Units``;
+    ``documentation/`` has its ``index.html``.
 
     Parameters
     ----------
@@ -1035,10 +1149,13 @@ def read_ssp(
         root.mkdir(parents=True, exist_ok=True)
         try:
             with zipfile.ZipFile(path) as z:
+                _check_archive(z, path.name)  # the archive read above may have been replaced
                 z.extractall(root)
-        except Exception:
+        except Exception as exc:
             if unpack_to is None:
                 shutil.rmtree(root, ignore_errors=True)
+            if isinstance(exc, zipfile.BadZipFile):  # "Bad CRC-32 for file 'resources/...'"
+                raise SspError(f"{path.name}: cannot be unpacked: {exc}") from None
             raise
     return SspPackage(
         path=given,

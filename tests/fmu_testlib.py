@@ -1,10 +1,11 @@
 """Shared helpers of the FMU tests (``tests/test_fmu_*.py``; this module is not collected).
 
 * :func:`built_fmus` designs the controller and builds the six FMUs and the four SSP packages
-  once per test session with the real command (``python build_fmus.py --gains ... --out ...`` in
-  a subprocess, so the test process is not touched by pythonfmu's builder; the gains file does
-  not exist yet, so the command designs it first); :func:`build_only` builds one or two FMUs
-  more where a test needs a build of its own (other gains, the installed package);
+  once per test session with the real command (``python build_fmus.py --gains ... --design
+  --out ...`` in a subprocess, so the test process is not touched by pythonfmu's builder; the
+  gains file does not exist yet, so the command designs it first); :func:`build_only` builds
+  one or two FMUs more where a test needs a build of its own (other gains, the installed
+  package);
 * :func:`build_small_fmus` builds the master's small test FMUs of ``tests/fmus/``;
 * :class:`Slave` drives one FMU instance with fmpy, records its log messages (formatted as a C
   host formats them) and returns raw statuses;
@@ -196,11 +197,14 @@ def run_build(
     env: dict[str, str] | None = None,
     *,
     base: Mapping[str, str] | None = None,
+    design: bool = False,
 ) -> subprocess.CompletedProcess:
-    """``python build_fmus.py --gains GAINS --out OUT`` in the environment ``base`` (this
-    process's by default) updated with ``env``; raises with its output on failure."""
+    """``python build_fmus.py --gains GAINS --out OUT`` (with ``--design``: the controller
+    designed into GAINS if it does not exist) in the environment ``base`` (this process's by
+    default) updated with ``env``; raises with its output on failure."""
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "build_fmus.py"), "--gains", str(gains), "--out", str(out)],
+        [sys.executable, str(ROOT / "build_fmus.py"), "--gains", str(gains), "--out", str(out)]
+        + (["--design"] if design else []),
         capture_output=True,
         text=True,
         env={**(os.environ if base is None else base), **(env or {})},
@@ -282,13 +286,14 @@ def _unit(model: str, fmu: Path, root: Path) -> Unit:
 
 def built_fmus(root: Path, environ: Mapping[str, str]) -> Built:
     """Design the controller and build the FMUs into ``root`` (once per session: conftest's
-    ``built``): ``python build_fmus.py --gains GAINS --out OUT`` in the environment ``environ``,
-    where GAINS does not exist yet, so the command designs the controller first (the synthesis
-    with its certificate) and writes GAINS, then builds every FMU and SSP package with it."""
+    ``built``): ``python build_fmus.py --gains GAINS --design --out OUT`` in the environment
+    ``environ``, where GAINS does not exist yet, so the command designs the controller first
+    (the synthesis with its certificate) and writes GAINS, then builds every FMU and SSP package
+    with it."""
     gains = root / "design" / "gains.json"
     assert not gains.exists()
     out = root / "build"
-    log = run_build(out, gains, base=environ).stderr
+    log = run_build(out, gains, base=environ, design=True).stderr
     designed = read_gains(gains)
     values = {"F": list(designed.F), "K0": designed.K0, "R_ff": designed.R_ff}
     scaled = Built(

@@ -31,6 +31,7 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
+from drillstring.apps.cli import main
 from drillstring.apps.export.archive import validate
 from drillstring.apps.export.build import build_packages
 from drillstring.apps.export.front_layer import compile_front_layer, find_compiler, model_header
@@ -563,10 +564,32 @@ def test_bad_gains_file_fails_loudly(tmp_path):
     assert not (tmp_path / "out").exists()  # nothing built
 
 
+def test_fmus_command_names_itself_and_refuses_a_missing_gains_file(tmp_path, capsys):
+    """``drillstring fmus -h`` is the usage of ``drillstring fmus`` (``build_fmus.py`` in a
+    checkout); a ``--gains`` file that does not exist is bad input (exit 2 naming it, nothing
+    designed or built) unless ``--design`` asks for the synthesis into it; an ``--out`` that is
+    a file likewise."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["fmus", "-h"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: drillstring fmus ")
+    proc = subprocess.run([sys.executable, str(tl.ROOT / "build_fmus.py"), "-h"],
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 0 and proc.stdout.startswith("usage: build_fmus.py "), proc
+    gains, out = tmp_path / "nosuch.json", tmp_path / "out"
+    assert main(["fmus", "--gains", str(gains), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"drillstring fmus: --gains {str(gains)!r}: no such file" in err and "--design" in err
+    assert not gains.exists() and not out.exists()
+    (tmp_path / "a_file").write_text("")
+    assert main(["fmus", "--out", str(tmp_path / "a_file")]) == 2
+    assert f"--out {str(tmp_path / 'a_file')!r} is a file" in capsys.readouterr().err
+
+
 def test_missing_gains_file_runs_the_synthesis(built):
-    """The session's build had no gains file (:func:`fmu_testlib.built_fmus`): the command
-    designed the controller and wrote one, and the controller FMU's start values are its
-    gains."""
+    """The session's build had no gains file (:func:`fmu_testlib.built_fmus`): the command, given
+    ``--design``, designed the controller and wrote one, and the controller FMU's start values
+    are its gains."""
     assert f"no gains file at {built.gains}: designing the controller" in built.build_log
     designed = read_gains(built.gains)  # a valid gains file ...
     assert designed.certificate and designed.solver != "none (test fixture)"

@@ -38,9 +38,14 @@ from __future__ import annotations
 import html
 import json
 import math
+import os
 import re
 import shutil
 import signal
+import subprocess
+import sys
+import tempfile
+import time
 import zipfile
 from pathlib import Path
 
@@ -82,6 +87,10 @@ from drillstring.orchestration.loop_ssp import (
 )
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.ssp import (
+    MAX_DESCRIPTION_BYTES,
+    MAX_MEMBER_BYTES,
+    MAX_MEMBERS,
+    MAX_UNPACKED_BYTES,
     NS,
     SSD_FILE,
     SspComponent,
@@ -210,6 +219,135 @@ def test_broken_packages_are_reported(built, tmp_path):
     assert validate_ssp(folder) == [
         "documentation/ without its entry point documentation/index.html (SSP 1.0)"
     ]
+
+
+def _declare_size(archive: Path, member: str, size: int) -> None:
+    """Forge the unpacked size the archive's central directory declares for ``member`` (the
+    data and the local header stay as they are): what a zip bomb's directory says."""
+    data = bytearray(archive.read_bytes())
+    at = 0
+    while (at := data.find(b"PK\x01\x02", at)) >= 0:
+        n = int.from_bytes(data[at + 28 : at + 30], "little")
+        if data[at + 46 : at + 46 + n].decode() == member:
+            data[at + 24 : at + 28] = size.to_bytes(4, "little")
+            archive.write_bytes(bytes(data))
+            return
+        at += 46
+    raise AssertionError(f"{member} not in {archive}")
+
+
+def _small_archive(path: Path, members: dict[str, bytes]) -> Path:
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED) as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    return path
+
+
+def test_archives_beyond_the_limits_are_refused_before_anything_is_unpacked(tmp_path, capsys):
+    """The central directory is checked before any member is read or extracted: a member
+    declaring 3 GiB (in an archive of a few kB), members that together declare more than the
+    package's limit, and too many members are refused naming the member and the limit."""
+    ssd = b"<not read: the directory is refused first/>"
+    bomb = _small_archive(tmp_path / "bomb.ssp",
+                          {SSD_FILE: ssd, "resources/Plant.fmu": b"\0" * 4096})  # fmt: skip
+    _declare_size(bomb, "resources/Plant.fmu", 3 << 30)
+    assert bomb.stat().st_size < 10_000
+    message = (f"bomb.ssp: member 'resources/Plant.fmu' unpacks to {3 << 30} bytes (3072 MiB), "
+               f"more than the limit of {MAX_MEMBER_BYTES} bytes per member")  # fmt: skip
+    unpacked = tmp_path / "unpacked"
+    with pytest.raises(SspError, match=re.escape(message)):
+        read_ssp(bomb, unpack_to=unpacked)
+    assert not unpacked.exists()
+    with pytest.raises(SspError, match=re.escape(message)):
+        validate_ssp(bomb)
+    with pytest.raises(SspError, match=re.escape(message)):
+        Master.from_ssp(bomb)
+    assert cosim_main([str(bomb), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    assert message in capsys.readouterr().err and not (tmp_path / "out").exists()
+    # each member at the limit, all of them (with the SSD's bytes) beyond the package's
+    n = MAX_UNPACKED_BYTES // MAX_MEMBER_BYTES
+    many = _small_archive(tmp_path / "many.ssp", {
+        SSD_FILE: ssd, **{f"resources/F{k}.fmu": b"\0" * 64 for k in range(n)}})  # fmt: skip
+    for k in range(n):
+        _declare_size(many, f"resources/F{k}.fmu", MAX_MEMBER_BYTES)
+    with pytest.raises(SspError, match=re.escape(
+            f"many.ssp: unpacked, the members up to 'resources/F{n - 1}.fmu' take "
+            f"{n * MAX_MEMBER_BYTES + len(ssd)} bytes")):  # fmt: skip
+        read_ssp(many, unpack_to=unpacked)
+    # a description larger than a description can sensibly be
+    big = _small_archive(tmp_path / "big.ssp", {SSD_FILE: ssd})
+    _declare_size(big, SSD_FILE, MAX_DESCRIPTION_BYTES + 1)
+    with pytest.raises(SspError, match=f"'{SSD_FILE}' is {MAX_DESCRIPTION_BYTES + 1} bytes"):
+        read_ssp(big)
+    # too many members
+    crowd = _small_archive(tmp_path / "crowd.ssp",
+                           {f"m{k}": b"" for k in range(MAX_MEMBERS + 1)})  # fmt: skip
+    with pytest.raises(SspError, match=f"{MAX_MEMBERS + 1} members, more than the limit"):
+        read_ssp(crowd)
+    assert not unpacked.exists()
+
+
+def test_a_member_longer_than_declared_is_refused_on_unpacking(built, tmp_path):
+    """A member whose data is longer than its directory entry says is cut at the declared size
+    and fails its CRC: the package is refused naming the member, nothing is left behind."""
+    forged = tmp_path / "forged.ssp"
+    shutil.copyfile(built.ssp, forged)
+    member = f"resources/{built.plant.fmu.name}"
+    _declare_size(forged, member, 1000)
+    with pytest.raises(SspError, match=re.escape(
+            f"forged.ssp: cannot be unpacked: Bad CRC-32 for file '{member}'")):  # fmt: skip
+        read_ssp(forged, unpack_to=tmp_path / "unpacked")
+    before = set(Path(tempfile.gettempdir()).glob("cosim_ssp_*"))
+    with pytest.raises(SspError, match="Bad CRC-32"):
+        Master.from_ssp(forged)
+    assert set(Path(tempfile.gettempdir()).glob("cosim_ssp_*")) == before
+
+
+def test_inconsistent_systems_are_refused_naming_the_element(built, tmp_path):
+    """What the schema lets through is refused by validate_ssp, read_ssp and the master, naming
+    the element: a connection to a connector its component does not declare (the FMU has the
+    variable: the run would go on), a connector's unit defined nowhere, two components of one
+    name (which the master reported as a missing FMU variable of the second)."""
+
+    def edited(name: str, edit) -> Path:
+        folder = _unpack(built.si.ssp, tmp_path / name)
+        ssd = etree.parse(str(folder / SSD_FILE))
+        edit(ssd.getroot())
+        ssd.write(str(folder / SSD_FILE), xml_declaration=True, encoding="UTF-8")
+        return folder
+
+    def component(root, name):
+        (c,) = root.findall(f"ssd:System/ssd:Elements/ssd:Component[@name='{name}']", NS)
+        return c
+
+    def undeclare(root):
+        c = component(root, "controller")
+        (k,) = c.findall("ssd:Connectors/ssd:Connector[@name='bit_angle']", NS)
+        k.getparent().remove(k)
+
+    def undefined_unit(root):
+        c = component(root, "plant")
+        (k,) = c.findall("ssd:Connectors/ssd:Connector[@name='bit_speed']/ssc:Real", NS)
+        k.set("unit", "rpm")
+
+    def twice(root):
+        component(root, "controller").set("name", "plant")
+
+    cases = {
+        "undeclared": (undeclare, "connection plant.bit_angle -> controller.bit_angle: "
+                       "component 'controller' declares no connector 'bit_angle'"),
+        "unit": (undefined_unit, "component 'plant': connector 'bit_speed' is in unit 'rpm', "
+                 "which the SSD's Units do not define"),
+        "twice": (twice, "two elements of the system are named 'plant'"),
+    }  # fmt: skip
+    for name, (edit, message) in cases.items():
+        folder = edited(name, edit)
+        problems = validate_ssp(folder)
+        assert any(message in p for p in problems), (name, problems)
+        with pytest.raises(SspError, match=re.escape(message)):
+            read_ssp(folder, unpack=False)
+        with pytest.raises(SspError, match=re.escape(message)):
+            Master.from_ssp(folder)
 
 
 def test_write_ssp_refuses_what_would_be_invalid(built, tmp_path):
@@ -428,8 +566,9 @@ def test_readme_states_what_the_packages_documentation_says(built):
         for page in pages:
             assert " ".join(html.unescape(page_says.format(stop=ECOS_DEFAULT_STOP)).split()) in page
     assert "documentation/index.html" in flat
-    # the command lines run what they say
-    (cmd,) = re.findall(r"`ecos simulate ([^`]*)`", flat)
+    # the command lines run what they say (the Ecos one runs verbatim:
+    # test_readme_ecos_command_runs_as_printed)
+    (cmd,) = re.findall(r"`drillstring ecos simulate ([^`]*)`", flat)
     args = dict(zip(cmd.split()[::2], cmd.split()[1::2], strict=True))
     _, stop, step = loop_default_experiment(SI, FIG5)
     assert Path(args["--path"]).name == SI.ssp
@@ -438,6 +577,27 @@ def test_readme_states_what_the_packages_documentation_says(built):
     (cosim,) = re.findall(r"`drillstring cosim ([^`]*)`", flat)
     variant = cosim.split("--variant ")[1].split()[0]
     assert variant in read_ssp(built.si.ssp, unpack=False).variants
+
+
+def test_readme_ecos_command_runs_as_printed(built, tmp_path, clean_home):
+    """The README's Ecos command, exactly as printed, in a shell whose PATH has the project's
+    environment (as after ``make demo`` or activating ``.venv``) and nothing else of this
+    process's, in a folder with ``build/`` of the session's build: it runs Fig. 5 in SI to the
+    default experiment's stop time and writes its CSV into that folder (there is no ``ecos`` on
+    any PATH: ``drillstring ecos`` starts ecospy's binary through the loader)."""
+    flat = " ".join(_readme_ssp_section().split())
+    (command,) = re.findall(r"`(drillstring ecos simulate [^`]*)`", flat)
+    (tmp_path / "build").mkdir()
+    shutil.copyfile(built.si.ssp, tmp_path / "build" / built.si.ssp.name)
+    env = tl.clean_env(clean_home, TMPDIR=str(tmp_path))
+    env["PATH"] = f"{Path(sys.executable).parent}:{env['PATH']}"
+    assert shutil.which("ecos", path=env["PATH"]) is None
+    proc = tl.run_clean(["bash", "-c", command], env, tmp_path)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    header, data = tl.read_ecos_csv(tmp_path / f"{built.si.ssp.stem}.csv")
+    _, stop, step = loop_default_experiment(SI, FIG5)
+    assert data[-1, header.index("time")] == pytest.approx(stop, abs=2 * step)
+    assert data[0, header.index("plant::dphi0[REAL]")] == pytest.approx(FIG5.dphi0 / TS, abs=1e-6)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -631,6 +791,61 @@ def test_ecos_pitfalls_the_documentation_names(built, tmp_path, clean_home):
     proc = _ecos(["--path", str(folder), "--stepSize", "0.001", "--stopTime", "0.009",
                   "--parameterSet", "fig6"], work, clean_home)  # fmt: skip
     assert proc.returncode in (-signal.SIGFPE, 128 + signal.SIGFPE), proc.returncode
+
+
+#: The Enumeration variables Ecos ignores, by package kind, as docs/ssp.md names them.
+ECOS_IGNORED = {
+    "lmi": {("controller", n) for n in ("latch", "on_saturation", "braking", "downhole", "torque")}
+    | {("plant", "on_invalid")},
+    "topdrive": {("controller", n) for n in ("anti_windup", "braking", "downhole", "torque")}
+    | {("plant", "on_invalid")},
+}
+
+
+def _ecos_paragraph() -> str:
+    text = (ROOT / "docs" / "ssp.md").read_text()
+    start = text.index("Both Ecos and libcosim ignore FMI 2.0 Enumeration variables")
+    return " ".join(text[start:].split("\n\n")[0].split())
+
+
+@pytest.mark.parametrize("package", list(PACKAGES))
+def test_ecos_warns_of_the_enumerations_the_documentation_names(
+    built, tmp_path, clean_home, package
+):
+    """Ecos warns of every Enumeration a set gives (it sets none of them), exactly those that
+    docs/ssp.md lists for the package; each keeps the FMU's start value, which is the set's own
+    but for Fig. 5's latch (``none``, the same run: docs/ssp.md)."""
+    make, variant = PACKAGES[package]
+    ssp = make(built)
+    work = tmp_path / "enum"
+    work.mkdir()
+    proc = _ecos(["--path", str(ssp), "--stepSize", "0.001", "--stopTime", "0.02",
+                  "--parameterSet", "fig5"], work, clean_home)  # fmt: skip
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    warned = re.findall(r"No variable named '(\w+)' of type int registered for instance '(\w+)'",
+                        proc.stdout + proc.stderr)  # fmt: skip
+    kind = "topdrive" if package.startswith("topdrive") else "lmi"
+    assert {(unit, name) for name, unit in warned} == ECOS_IGNORED[kind]
+    assert len(warned) == len(ECOS_IGNORED[kind])  # once each
+    said = _ecos_paragraph()
+    count = {"lmi": "six times for the LMI packages", "topdrive": "five times for the top-drive"}
+    assert count[kind] in said
+    listed = said.split(count[kind])[1].split(")")[0]
+    assert {n for _, n in ECOS_IGNORED[kind]} == set(re.findall(r"`(\w+)`", listed))
+    # what the sets give (ssv:Integer, as FMI 2.0 sets an Enumeration): the FMUs' start values,
+    # but Fig. 5's latch
+    folder = _unpack(ssp, work / "pkg")
+    for unit, name in ECOS_IGNORED[kind]:
+        fmu = folder / read_ssp(folder).component(unit).source
+        (var,) = [v for v in read_model_description(str(fmu)).modelVariables if v.name == name]
+        assert var.type == "Enumeration", (unit, name)
+        items = {int(i.value): i.name for i in var.declaredType.items}
+        for e in loop_experiments(variant):
+            given = read_ssp(folder, unpack=False, variant=e.name).parameters()[unit][name]
+            if (unit, name, e.name) == ("controller", "latch", "fig5"):
+                assert (items[int(given.value)], items[int(var.start)]) == ("none", "angle")
+            else:
+                assert int(given.value) == int(var.start), (unit, name, e.name)
 
 
 #: The stop time of the controller-only run: a little past the plant's validity stop (54.017 s).
@@ -1094,6 +1309,105 @@ def test_cosim_command_writes_cross_check_csv_and_png(built, tmp_path, capsys):
     assert code == 2 and "no variant 'fig7'" in capsys.readouterr().err
     code = cosim_main([str(built.ssp), "--out", str(tmp_path / "x"), "--parameter-set", "gains"])
     assert code == 2 and "no parameter set 'gains'" in capsys.readouterr().err
+
+
+def _forge_guid(fmu: Path) -> str:
+    """Rewrite the GUID in ``fmu``'s modelDescription.xml (the FMU's binary keeps its own);
+    returns the forged GUID."""
+    with zipfile.ZipFile(fmu) as z:
+        members = {i.filename: z.read(i) for i in z.infolist()}
+    md = members["modelDescription.xml"].decode()
+    guid = re.search(r'guid="([^"]+)"', md).group(1)
+    forged = "{00000000-0000-0000-0000-000000000000}"
+    assert guid != forged
+    members["modelDescription.xml"] = md.replace(guid, forged).encode()
+    with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    return forged
+
+
+def test_cosim_refused_input_exits_2_with_one_line(built, tmp_path, capsys):
+    """Whatever the FMUs or the command refuse before the first step is bad input: exit status 2
+    and one line naming the component, the variable and the value (no traceback), the results
+    up to there written (``cosim.json`` says the run did not complete)."""
+
+    def refused(package: Path, out: Path) -> str:
+        capsys.readouterr()
+        with kept_sys_path():
+            code = cosim_main([str(package), "--out", str(out), "--stop-time", "0.1",
+                               "--no-progress"])  # fmt: skip
+        err = capsys.readouterr().err
+        assert code == 2, err
+        assert len(err.strip().splitlines()) == 1, err
+        return err
+
+    # a negative psi in the plant's .ssv: the FMU refuses it at t = 0
+    folder = _unpack(built.ssp, tmp_path / "psi")
+    ssv = folder / "resources" / "fig5.plant.ssv"
+    text = ssv.read_text()
+    psi = re.search(r'name="psi">\s*<ssv:Real value="([^"]+)"', text).group(1)
+    _edit(ssv, f'name="psi">\n      <ssv:Real value="{psi}"', 'name="psi">\n      '
+          '<ssv:Real value="-1.5"')  # fmt: skip
+    err = refused(folder, tmp_path / "out_psi")
+    assert "component 'plant'" in err and "psi = -1.5" in err, err
+    summary = json.loads((tmp_path / "out_psi" / "cosim.json").read_text())
+    assert summary["completed"] is False and "psi = -1.5" in summary["failure"]
+    # a GUID that is not the FMU's
+    folder = _unpack(built.ssp, tmp_path / "guid")
+    forged = _forge_guid(folder / "resources" / built.plant.fmu.name)
+    err = refused(folder, tmp_path / "out_guid")
+    assert "component 'plant'" in err and f"GUID {forged}" in err, err
+    # an FMU that is not a zip archive, in a folder and in an archive
+    folder = _unpack(built.ssp, tmp_path / "notzip")
+    member = f"resources/{built.controller.fmu.name}"
+    (folder / member).write_text("not a zip archive")
+    err = refused(folder, tmp_path / "out_notzip")
+    assert f"component 'controller': '{member}' of notzip is not a readable FMU: not a zip" in err
+    archive = tmp_path / "notzip.ssp"
+    with zipfile.ZipFile(archive, "w") as z:
+        for f in sorted(folder.rglob("*")):
+            z.write(f, f.relative_to(folder).as_posix())
+    err = refused(archive, tmp_path / "out_notzip_ssp")
+    assert f"component 'controller': '{member}' of notzip.ssp is not a readable FMU" in err, err
+    # --out naming an existing file, or a folder in one
+    (tmp_path / "a_file").write_text("")
+    err = refused(built.ssp, tmp_path / "a_file")
+    assert f"--out '{tmp_path / 'a_file'}' is a file, not a folder" in err, err
+    err = refused(built.ssp, tmp_path / "a_file" / "sub")
+    assert f"'{tmp_path / 'a_file'}' is a file, not a folder" in err, err
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_cosim_removes_its_temporary_folders_when_terminated(built, tmp_path, signum):
+    """``drillstring cosim`` killed with SIGTERM (or interrupted) in the middle of a run removes
+    the unpacked package and FMUs (``cosim_ssp_*``, ``cosim_master_*``) as on a normal exit;
+    SIGTERM still ends it as the signal does, Ctrl-C with status 130."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    cmd = [sys.executable, "-m", "drillstring.apps.cli", "cosim", str(built.si.ssp), "--out",
+           str(tmp_path / "out"), "--stop-time", "1e5", "--no-progress"]  # fmt: skip
+    proc = subprocess.Popen(cmd, env={**os.environ, "TMPDIR": str(tmp)}, cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while len({p.name.split("_")[1] for p in tmp.glob("cosim_*")}) < 2:
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "no temporary folders within 120 s"
+            time.sleep(0.05)
+        time.sleep(1.0)  # in the run (the folders are made before it starts)
+        assert proc.poll() is None
+        proc.send_signal(signum)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    expected = -signal.SIGTERM if signum == signal.SIGTERM else 130
+    assert proc.returncode == expected, (proc.returncode, err)
+    if signum == signal.SIGINT:
+        assert err.strip().splitlines()[-1] == "drillstring cosim: interrupted", err
+    assert sorted(p.name for p in tmp.iterdir()) == []
 
 
 def test_cosim_parameter_sets_apply_in_order(built, tmp_path, capsys):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ import pytest
 
 from drillstring.apps.sweep.runner import SweepError, columns, read_results, run_sweep, sweep_main
 from drillstring.apps.sweep.spec import (
+    MAX_POINTS,
     OPTION_DEFAULTS,
     SweepOptions,
     SweepSpecError,
@@ -76,7 +78,8 @@ def serial_3x3(tmp_path_factory):
 def test_dask_local_cluster_equals_serial(serial_3x3, tmp_path):
     spec, serial = serial_3x3
     report = run_sweep(spec, tmp_path, workers=2, progress=False)
-    assert report.complete and serial.complete
+    # every point has its row; not complete: omega0 = 25 fails (below)
+    assert report.finished and serial.finished and not report.complete
     a, b = rows_of(serial.results), rows_of(report.results)
     assert [int(r["index"]) for r in b] == list(range(9))  # sorted, every point once
     for ra, rb in zip(a, b, strict=True):
@@ -179,10 +182,14 @@ def test_resume_after_interrupt_has_every_point_once(tmp_path):
     assert CALLS == [] and again.n_computed == 0 and len(rows_of(again.results)) == 6
 
 
-def test_failed_point_records_error_and_sweep_completes(tmp_path):
+def test_failed_point_records_error_and_sweep_finishes(tmp_path):
+    """A failed point records its error and the sweep goes on to the end: it is finished (every
+    point has its row, the maps are drawn) but not complete (not every point succeeded)."""
     spec = spec_from_dict(AXIAL_1D)
     report = run_sweep(spec, tmp_path, serial=True, progress=False, point_fn=failing_on({1, 4}))
-    assert report.complete and report.n_failed == 2
+    assert report.finished and not report.complete and report.n_failed == 2
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert (summary["finished"], summary["complete"], summary["failed"]) == (True, False, 2)
     rows = rows_of(tmp_path / "results.csv")
     assert [r["error"] for r in rows if r["error"]] == [
         "ValueError: point 1 broke | second line",
@@ -207,6 +214,7 @@ def test_failed_point_records_error_and_sweep_completes(tmp_path):
     rows = rows_of(tmp_path / "results.csv")
     assert [int(r["index"]) for r in rows] == list(range(6))
     assert not any(r["error"] for r in rows)
+    assert json.loads((tmp_path / "summary.json").read_text())["complete"] is True
 
 
 def test_resume_refuses_a_different_spec(tmp_path):
@@ -438,6 +446,52 @@ def test_cli_serial_axial_sweep(tmp_path, capsys):
     # a second run into the same folder without --resume is refused with a clear message
     assert sweep_main([str(tmp_path / "a.json"), "--out", str(out), "--workers", "0"]) == 2
     assert "--resume" in capsys.readouterr().err
+
+
+def test_grid_size_is_checked_before_the_points(tmp_path, capsys):
+    """A grid beyond the limit is refused from its axes alone, naming the sizes, the limit and
+    the option that allows it (1e16 points: validating them one by one would never end); the
+    limit is the caller's to raise."""
+    huge = dict(AXIAL_1D, sweep=[{"param": "gammabar", "start": 0.1, "stop": 0.5,
+                                  "num": 10**8},
+                                 {"param": "taubar_n", "start": 8.0, "stop": 16.0,
+                                  "num": 10**8}])  # fmt: skip
+    message = (
+        f"the grid has {10**16} points (sweep[0].num = {10**8} x sweep[1].num = {10**8}), "
+        f"more than the limit of {MAX_POINTS} (drillstring sweep --max-points {10**16} allows it)"
+    )
+    with pytest.raises(SweepSpecError, match=re.escape(message)):
+        spec_from_dict(huge)
+    six = AXIAL_1D["sweep"][0]["num"]
+    with pytest.raises(SweepSpecError, match=f"the grid has {six} points"):
+        spec_from_dict(AXIAL_1D, max_points=six - 1)
+    assert spec_from_dict(AXIAL_1D, max_points=six).n_points == six
+    # on the command line: --max-points, exit 2 before anything is written
+    (tmp_path / "a.json").write_text(json.dumps(AXIAL_1D))
+    out = tmp_path / "out"
+    argv = [str(tmp_path / "a.json"), "--out", str(out), "--workers", "0", "--no-progress"]
+    assert sweep_main([*argv, "--max-points", str(six - 1)]) == 2
+    assert f"more than the limit of {six - 1}" in capsys.readouterr().err
+    assert not out.exists()
+    assert sweep_main([*argv, "--max-points", "0"]) == 2
+    assert "--max-points must be >= 1, got 0" in capsys.readouterr().err
+
+
+def test_cli_sweep_whose_points_all_fail_exits_non_zero(tmp_path, capsys):
+    """tau_end = 1e308 makes every point fail (its output grid cannot be built): the sweep
+    finishes, is not complete, and exits 1 saying so."""
+    spec = {**OPEN_3X3, "tau_end": 1e308, "metrics": ["root_real"],
+            "sweep": [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]}  # fmt: skip
+    (tmp_path / "big.json").write_text(json.dumps(spec))
+    out = tmp_path / "out"
+    code = sweep_main([str(tmp_path / "big.json"), "--out", str(out), "--workers", "0",
+                       "--no-progress", "--no-plots"])  # fmt: skip
+    assert code == 1
+    assert "every point failed" in capsys.readouterr().err
+    rows = rows_of(out / "results.csv")
+    assert len(rows) == 2 and all(r["error"] for r in rows)
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["finished"], summary["complete"], summary["failed"]) == (True, False, 2)
 
 
 def test_cli_reports_spec_errors(tmp_path, capsys):

@@ -187,3 +187,11 @@ def test_design_command_rejects_bad_input(tmp_path, capsys):
     assert design_main(["--A", "-0.2", "--out", str(out)]) == 2
     assert "A (slope of (22)) must be > 0" in capsys.readouterr().err
     assert not out.exists()
+    # the option as typed (the constrained design calls it sigma), before anything is designed
+    argv = ["--A", str(A_REF), "--torque-limit", "tds-11sa", "--out", str(out)]
+    assert design_main([*argv, "--decay", "-1"]) == 2
+    assert "drillstring design: --decay must be >= 0, got -1.0" in capsys.readouterr().err
+    assert not out.exists()
+    (tmp_path / "a_file").write_text("")
+    assert design_main(["--A", str(A_REF), "--out", str(tmp_path / "a_file")]) == 2
+    assert f"--out {str(tmp_path / 'a_file')!r} is a file" in capsys.readouterr().err

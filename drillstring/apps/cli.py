@@ -3,7 +3,8 @@ cross-check, parameter sweeps and the demo pipeline.
 
 Every subcommand writes CSV/JSON/PNG files into an output folder and exits with 0 on success,
 2 on bad input (with a message naming the bad value); ``simulate`` exits with 1 when the run
-stopped early, ``sweep`` with 130 when interrupted. A subcommand's module is imported when it
+stopped early, ``cosim`` when an FMU stopped it, ``sweep`` with 1 when points failed and with 130
+when interrupted. A subcommand's module is imported when it
 runs, so that ``drillstring -h`` does not load cvxpy, dask and fmpy.
 """
 
@@ -30,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
     "crosscheck": ("drillstring.apps.crosscheck", "crosscheck_main", "co-simulation vs monolithic"),
     "cosim": ("drillstring.apps.cosim", "cosim_main", "co-simulation of an SSP package"),
+    "ecos": ("drillstring.apps.ecos", "ecos_main", "Ecos's command line (ecospy's ecos)"),
     "sweep": ("drillstring.apps.sweep.runner", "sweep_main", "parameter sweeps on Dask"),
     "controllers": ("drillstring.apps.controllers", "controllers_main", "industrial vs LMI"),
     "fmus": ("drillstring.apps.export.cli", "export_main", "build the FMUs and SSP packages"),

@@ -23,15 +23,20 @@ project's master with the same coupling, each compared with the monolithic solve
 from __future__ import annotations
 
 import argparse
+import logging
+import os
+import signal
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drillstring.fileio import save_figure, write_json
+from drillstring.fileio import remove_temporary_folders, save_figure, write_json
 from drillstring.model.units import UNITS
 from drillstring.orchestration.closed_loop import (
     SI,
@@ -48,6 +53,7 @@ from drillstring.orchestration.monolithic import run_monolithic
 from drillstring.orchestration.results import CosimResult
 from drillstring.orchestration.ssp import SspError
 from drillstring.plotting import new_figure
+from drillstring.validation import check_out_folder
 
 __all__ = ["cosim_main", "plot_speeds", "run_si_demo", "si_demo_lines", "variant_of"]
 
@@ -165,11 +171,53 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         Exit code: 0 completed, 1 an FMU stopped the run (the partial results are written),
-        2 bad input (package, values or files; also argparse's code for bad options, raised
-        as ``SystemExit``).
+        2 bad input (package, values or files, an FMU that is not one, or an FMU refusing a
+        value before the first step: a parameter, its GUID; the results up to there are
+        written; also argparse's code for bad options, raised as ``SystemExit``), each with
+        one line naming the component, the variable and the value; 130 interrupted (Ctrl-C;
+        a SIGTERM ends it as the signal does, 143), the extracted package and FMUs removed.
     """
     args = _parser().parse_args(argv)
+    # a unit's failure is reported here, on one line: not also as the master's log warning
+    master_log = logging.getLogger(Master.__module__)
+    level = master_log.level
+    master_log.setLevel(logging.ERROR)
     try:
+        with _ctrl_c_ends_the_command():
+            return _cosim(args)
+    except KeyboardInterrupt:  # the extracted files are removed on the way out
+        print("drillstring cosim: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        master_log.setLevel(level)
+
+
+@contextmanager
+def _ctrl_c_ends_the_command() -> Iterator[None]:
+    """Ctrl-C ends the command at once, exit status 130, with the extracted package and FMUs
+    removed. Python's KeyboardInterrupt cannot do that here: raised in the FMUs' own Python
+    code it becomes an FMU error (``fmi2Fatal`` naming KeyboardInterrupt), in a ctypes callback
+    it is lost and the run goes on. From the main thread only (elsewhere: Python's handling)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupted(signum: int, frame: Any) -> None:
+        remove_temporary_folders()
+        sys.stdout.flush()
+        print("drillstring cosim: interrupted", file=sys.stderr, flush=True)
+        os._exit(130)
+
+    previous = signal.signal(signal.SIGINT, interrupted)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _cosim(args: argparse.Namespace) -> int:
+    try:
+        check_out_folder("--out", args.out)
         names: str | list[str] | tuple[()] | None = None
         if args.parameter_set == "none":
             names = ()
@@ -236,13 +284,18 @@ def cosim_main(argv: Sequence[str] | None = None) -> int:
         "files": files,
     }
     write_json(out / "cosim.json", summary)
-    what = "completed" if result.completed else f"stopped: {result.failure}"
+    failure = result.failure
+    if failure is not None and failure.in_setup:  # an input the FMU refused: bad input
+        print(f"drillstring cosim: {package.file}: {failure.line('component')}", file=sys.stderr)
+        return 2
+    what = "completed" if failure is None else f"stopped: {failure.line('component')}"
+    reached = "" if not len(result.time) else f" to {summary['time_reached']:.6g}"
     print(
         f"drillstring cosim: {package.system} {package.name} ({package.file}), parameter sets "
         f"{', '.join(applied) or 'none'}, {result.stats.accepted} "
-        f"steps of {step:g} to {summary['time_reached']:.6g}: {what}; wrote {out}"
+        f"steps of {step:g}{reached}: {what}; wrote {out}"
     )
-    return 0 if result.completed else 1
+    return 0 if failure is None else 1
 
 
 def _set_list(names: str | Sequence[str]) -> tuple[str, ...]:

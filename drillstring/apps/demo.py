@@ -55,14 +55,19 @@ from drillstring.orchestration.figures import write_fig5, write_fig6
 
 __all__ = ["DemoSummary", "demo_main", "run_demo"]
 
+#: The demo's summary in its output folder.
+SUMMARY_FILE = "summary.json"
+
 
 @dataclass
 class DemoSummary:
     """What the demo wrote and measured.
 
-    ``figures`` maps each figure to its files; ``design`` holds A, taubar_crit and F of the gains
-    the FMUs were built with; ``fig5``/``fig6`` the co-simulation's agreement with the monolithic
-    solver and the checks of the paper's claims; ``seconds`` the wall time of each step.
+    ``figures`` maps each figure to its files; ``files`` lists every file the run wrote
+    (relative to the output folder, ``summary.json`` included); ``design`` holds A, taubar_crit
+    and F of the gains the FMUs were built with; ``fig5``/``fig6`` the co-simulation's agreement
+    with the monolithic solver and the checks of the paper's claims; ``seconds`` the wall time of
+    each step.
     """
 
     design: dict[str, Any]
@@ -75,6 +80,7 @@ class DemoSummary:
     controller_map: list[dict[str, Any]] = field(default_factory=list)
     map_points: int = 0
     seconds: dict[str, float] = field(default_factory=dict)
+    files: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         """The summary as plain JSON types.
@@ -99,7 +105,8 @@ def run_demo(
     progress: bool = False,
     log: Any = print,
 ) -> DemoSummary:
-    """Run the demo (module docstring) and write ``summary.json`` into ``out_dir``.
+    """Run the demo (module docstring) and write ``summary.json`` into ``out_dir``: every number
+    and every file the run wrote (valid JSON: a number without a value is null).
 
     Parameters
     ----------
@@ -131,6 +138,7 @@ def run_demo(
         When the design folder or the FMUs are missing or do not match.
     """
     design_dir, out = Path(design_dir), Path(out_dir)
+    before = _file_states(out)  # what is there already is not this run's (out/design, ...)
     gains = read_gains(design_dir / GAINS_FILE)
     fit = read_average_points(design_dir / FIT_FILE)
     _check_fmus_carry(gains, fmus_dir, design_dir)
@@ -202,8 +210,25 @@ def run_demo(
     }
     summary.seconds["controllers"] = time.perf_counter() - t0
 
-    write_json(out / "summary.json", summary.to_json())
+    written = {p for p, state in _file_states(out).items() if before.get(p) != state}
+    summary.files = sorted(written | {SUMMARY_FILE})
+    write_json(out / SUMMARY_FILE, summary.to_json())
     return summary
+
+
+def _file_states(root: Path) -> dict[str, tuple[int, int, int]]:
+    """Every file under ``root`` (relative POSIX path) -> (inode, mtime in ns, size): a file
+    written (the project's writers replace files whole: a new inode) or changed since differs.
+    Every writer's files are found, also those it does not return (``si_fig5.json``, the map's
+    ``results.csv``, ``spec.json`` and ``plots/``)."""
+    if not root.is_dir():
+        return {}
+    states = {}
+    for path in root.rglob("*"):
+        if path.is_file():
+            st = path.stat()
+            states[path.relative_to(root).as_posix()] = (st.st_ino, st.st_mtime_ns, st.st_size)
+    return states
 
 
 def _check_fmus_carry(gains: GainsFile, fmus_dir: str | Path, design_dir: Path) -> None:
@@ -374,5 +399,5 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
         return 2
     print("\n== Summary")
     print_summary(summary)
-    print(f"   wrote {args.out / 'summary.json'}")
+    print(f"   wrote {len(summary.files)} files, listed in {args.out / SUMMARY_FILE}")
     return 0

@@ -24,6 +24,7 @@ from drillstring.model.params import ParameterError, params_from_spec
 from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
 from drillstring.model.simulate import simulate
 from drillstring.plotting import plot_velocities
+from drillstring.validation import check_out_folder, check_real
 
 __all__ = ["simulate_main"]
 
@@ -58,7 +59,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--experiment, else none)",
     )
     ap.add_argument("--gains", type=Path, default=None, help="gains file of the design")
-    ap.add_argument("--h", type=float, default=DEFAULT_H, help="integration step")
+    ap.add_argument(
+        "--h",
+        type=float,
+        default=DEFAULT_H,
+        help=f"integration step (default {DEFAULT_H:g}; at most a tenth of the model's shortest "
+        "time scale: the axial period, the nominal delay, the torsional period)",
+    )
     ap.add_argument("--dt-out", type=float, default=DEFAULT_DT_OUT, help="output sampling step")
     ap.add_argument("--torsional-stick", action="store_true", help="model torsional stick")
     ap.add_argument(
@@ -116,7 +123,11 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     exp = EXPERIMENTS[args.experiment] if args.experiment else None
     mode = args.control or ("gains" if exp is not None else "none")
     try:
+        check_out_folder("--out", args.out)
         params = params_from_spec(args.params)
+        # a step beyond the model's time scales is no step of this model (and the engine would
+        # silently take --dt-out instead)
+        check_real("--h", args.h, lower=0.0, upper=params.h_max)
         control: Control = None
         if mode != "none":
             if args.gains is None:

@@ -10,21 +10,44 @@ from pathlib import Path
 
 from drillstring.apps.export.build import DEFAULT_OUT, build_fmus
 from drillstring.apps.export.specs import BuildError
+from drillstring.controller.gains import DEFAULT_GAINS_PATH
+from drillstring.validation import check_out_folder
 
 __all__ = ["export_main"]
 
 
-def export_main(argv: Sequence[str] | None = None) -> int:
-    """Command line entry point; returns the exit status (0 ok, 1 build or validation error)."""
+def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus") -> int:
+    """Command line entry point of the build.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The options (default: ``sys.argv[1:]``).
+    prog : str
+        The command as its usage names it (``build_fmus.py`` in a checkout).
+
+    Returns
+    -------
+    int
+        The exit status: 0 built, 1 build or validation error, 2 bad input (a ``--gains`` file
+        that does not exist without ``--design``, an ``--out`` that is a file).
+    """
     ap = argparse.ArgumentParser(
-        prog="build_fmus.py",
+        prog=prog,
         description="Build, post-process and validate the drillstring plant and controller FMUs.",
     )
     ap.add_argument(
         "--gains",
         type=Path,
         default=None,
-        help="gains file of the design (default: out/design/gains.json, designed if missing)",
+        help=f"gains file of the design (default: {DEFAULT_GAINS_PATH}, designed if missing); "
+        "a file given here must exist unless --design is given",
+    )
+    ap.add_argument(
+        "--design",
+        action="store_true",
+        help="design the controller into the --gains file when it does not exist (the LMI "
+        "synthesis; drillstring design does the same with its options)",
     )
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default: build/)")
     ap.add_argument(
@@ -35,9 +58,19 @@ def export_main(argv: Sequence[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     try:
+        check_out_folder("--out", args.out)
+        if args.gains is not None and not args.design and not args.gains.is_file():
+            raise ValueError(
+                f"--gains {str(args.gains)!r}: no such file (give --design to design the "
+                "controller into it, or drillstring design --out DIR to write DIR/gains.json)"
+            )
+    except ValueError as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 2
+    try:
         built = build_fmus(args.out, args.gains, self_contained=args.self_contained)
     except BuildError as exc:
-        print(f"build_fmus: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
     for path in built.values():
         check = "fmpy.validate_fmu" if path.suffix == ".fmu" else "SSP 1.0 schemas (fmpy's)"

@@ -59,6 +59,7 @@ from drillstring.apps.sweep.metrics import (
 from drillstring.apps.sweep.plots import Overlay, metric_figure, panel_figure
 from drillstring.apps.sweep.spec import (
     AXIS_LABELS,
+    MAX_POINTS,
     PHYSICAL_DERIVED,
     SweepSpec,
     SweepSpecError,
@@ -417,7 +418,11 @@ def _dask_client(scheduler: str | None, workers: int | None) -> Iterator[tuple[A
 
 @dataclass
 class SweepReport:
-    """What a :func:`run_sweep` call did."""
+    """What a :func:`run_sweep` call did.
+
+    ``finished``: every point of the sweep has its row (the results are sorted and the maps
+    drawn); ``complete``: finished and no point failed.
+    """
 
     out_dir: Path
     results: Path
@@ -425,10 +430,15 @@ class SweepReport:
     n_skipped: int
     n_computed: int
     n_failed: int
-    complete: bool
+    finished: bool
     wall_time: float
     plots: list[Path] = field(default_factory=list)
     execution: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def complete(self) -> bool:
+        """Every point of the sweep computed without an error."""
+        return self.finished and self.n_failed == 0
 
 
 def _canonical(obj: Any) -> Any:
@@ -579,8 +589,8 @@ def run_sweep(
                     consume(_dask_rows(spec, todo, cl, point_fn))
     finally:
         bar.close()
-    complete = len(done) == spec.n_points
-    if complete:
+    finished = len(done) == spec.n_points
+    if finished:
         _rewrite(results, header, done)
     report = SweepReport(
         out_dir=out,
@@ -589,11 +599,11 @@ def run_sweep(
         n_skipped=spec.n_points - len(todo),
         n_computed=n_computed,
         n_failed=n_failed + n_failed_before,
-        complete=complete,
+        finished=finished,
         wall_time=time.perf_counter() - t0,
         execution=execution,
     )
-    if plots and complete:
+    if plots and finished:
         report.plots = write_plots(spec, done, out / PLOTS)
     write_json(
         out / SUMMARY,
@@ -602,7 +612,8 @@ def run_sweep(
             "skipped_as_done": report.n_skipped,
             "computed": report.n_computed,
             "failed": report.n_failed,
-            "complete": report.complete,
+            "finished": report.finished,  # every point has its row
+            "complete": report.complete,  # ... and none failed
             "wall_time_s": report.wall_time,
             **({"feed": spec.feed} if spec.study != "axial" else {}),
             "execution": _canonical(execution),
@@ -836,6 +847,12 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
     )
     ap.add_argument("--no-plots", action="store_true", help="do not draw the metric maps")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ap.add_argument(
+        "--max-points",
+        type=int,
+        default=MAX_POINTS,
+        help=f"the largest grid accepted (default {MAX_POINTS}, checked before anything runs)",
+    )
     return ap
 
 
@@ -850,9 +867,11 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit code: 0 done (failed points included), 2 bad input (options, spec, resume
-        mismatch, files; also argparse's code for bad options, raised as ``SystemExit``),
-        130 interrupted (the finished points are kept for ``--resume``).
+        Exit code: 0 complete (every point computed without an error), 1 finished with failed
+        points (their errors are in ``results.csv``; ``--resume --retry-failed`` recomputes
+        them), 2 bad input (options, spec, a grid larger than ``--max-points``, resume mismatch,
+        files; also argparse's code for bad options, raised as ``SystemExit``), 130
+        interrupted (the finished points are kept for ``--resume``).
     """
     args = build_parser().parse_args(argv)
     prog = "drillstring sweep"
@@ -867,8 +886,11 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     if args.retry_failed and not args.resume:
         print(f"{prog}: --retry-failed needs --resume", file=sys.stderr)
         return 2
+    if args.max_points < 1:
+        print(f"{prog}: --max-points must be >= 1, got {args.max_points}", file=sys.stderr)
+        return 2
     try:
-        spec = load_spec(args.spec)
+        spec = load_spec(args.spec, max_points=args.max_points)
         report = run_sweep(
             spec,
             args.out,
@@ -896,4 +918,12 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     )
     if report.plots:
         print(f"maps: {report.out_dir / PLOTS} ({len(report.plots)} PNG)")
+    if report.n_failed:
+        what = "every point" if report.n_failed == report.n_points else f"{report.n_failed} points"
+        print(
+            f"{prog}: {what} failed (the error column of {report.results}; recompute them with "
+            "--resume --retry-failed)",
+            file=sys.stderr,
+        )
+        return 1
     return 0

@@ -76,6 +76,7 @@ from drillstring.model.params import (
 from drillstring.model.sampled import sample_count
 from drillstring.model.tables import Scales
 from drillstring.model.topdrive import RPM, top_drive_from_spec
+from drillstring.validation import check_int
 
 __all__ = [
     "AXIAL_NAMES",
@@ -85,6 +86,7 @@ __all__ = [
     "FEED_IMPOSED",
     "MAP_CONTROLLERS",
     "MAP_WINDOW",
+    "MAX_POINTS",
     "OPTION_DEFAULTS",
     "PHYSICAL_DERIVED",
     "STUDIES",
@@ -97,6 +99,11 @@ __all__ = [
 ]
 
 STUDIES = ("open-loop", "closed-loop", "axial", "controllers")
+#: The largest grid a spec may describe unless the caller allows more (``drillstring sweep
+#: --max-points``): 10 000 points, a 100 x 100 map, is some 4 hours of one core at 1.5 s per
+#: full-model point; every point is validated on load and its row kept in memory, so a grid of
+#: 1e16 points would never start.
+MAX_POINTS = 10_000
 #: The full-model studies (a parameter set per point, axial design inputs per point).
 FULL_MODEL_STUDIES = ("open-loop", "closed-loop", "controllers")
 SCALES = ("linear", "log")
@@ -351,7 +358,7 @@ class SweepSpec:
     @property
     def n_points(self) -> int:
         """Number of points of the sweep (the product of :attr:`shape`)."""
-        return int(np.prod(self.shape))
+        return math.prod(self.shape)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -820,11 +827,16 @@ def _check_sampling(out: dict[str, Any]) -> None:
 
 
 def spec_from_dict(
-    data: Mapping[str, Any], source: str = "sweep spec", base_dir: str | os.PathLike[str] = "."
+    data: Mapping[str, Any],
+    source: str = "sweep spec",
+    base_dir: str | os.PathLike[str] = ".",
+    *,
+    max_points: int = MAX_POINTS,
 ) -> SweepSpec:
     """Validate a parsed sweep description (layout in the module docstring).
 
-    Every key, value and grid point is checked (each point's parameter set is built).
+    Every key, value and grid point is checked (each point's parameter set is built), after
+    the grid's size has been checked against ``max_points`` from the axes alone.
 
     Parameters
     ----------
@@ -834,6 +846,8 @@ def spec_from_dict(
         How error messages name the description (prefix).
     base_dir : path
         Folder relative file names (base set, gains file) are taken from.
+    max_points : int
+        The largest grid accepted (default :data:`MAX_POINTS`).
 
     Returns
     -------
@@ -846,13 +860,16 @@ def spec_from_dict(
         An unknown or missing key, a bad value, an unreadable base or gains file, or an
         invalid grid point, naming the key and the value.
     """
+    max_points = check_int("max_points", max_points, lower=1, error=SweepSpecError)
     try:
-        return _spec_from_dict(data, source, Path(base_dir))
+        return _spec_from_dict(data, source, Path(base_dir), max_points)
     except SweepSpecError as exc:
         raise SweepSpecError(f"{source}: {exc}") from None
 
 
-def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> SweepSpec:
+def _spec_from_dict(
+    data: Mapping[str, Any], source: str, base_dir: Path, max_points: int
+) -> SweepSpec:
 
     data = _table("top level", data, TOP_KEYS)
     for key in ("study", "base", "sweep"):
@@ -873,6 +890,13 @@ def _spec_from_dict(data: Mapping[str, Any], source: str, base_dir: Path) -> Swe
     if not isinstance(sweep, list) or not 1 <= len(sweep) <= 2:
         raise SweepSpecError(f"sweep must be a list of one or two axes, got {sweep!r}")
     axes = tuple(_axis(k, a, allowed) for k, a in enumerate(sweep))
+    n_points = math.prod(a.num for a in axes)
+    if n_points > max_points:
+        nums = " x ".join(f"sweep[{k}].num = {a.num}" for k, a in enumerate(axes))
+        raise SweepSpecError(
+            f"the grid has {n_points} points ({nums}), more than the limit of {max_points} "
+            f"(drillstring sweep --max-points {n_points} allows it)"
+        )
     if len(axes) == 2:
         a, b = axes[0].param, axes[1].param
         clash = {
@@ -968,13 +992,15 @@ def _check_points(spec: SweepSpec) -> None:
             raise SweepSpecError(f"sweep point {index} ({values}) is invalid: {exc}") from None
 
 
-def load_spec(path: str | os.PathLike[str]) -> SweepSpec:
+def load_spec(path: str | os.PathLike[str], *, max_points: int = MAX_POINTS) -> SweepSpec:
     """Read and validate a sweep file (.toml or .json, chosen by suffix).
 
     Parameters
     ----------
     path : path
         The file; relative names in it are taken from its folder.
+    max_points : int
+        The largest grid accepted (default :data:`MAX_POINTS`).
 
     Returns
     -------
@@ -999,4 +1025,6 @@ def load_spec(path: str | os.PathLike[str]) -> SweepSpec:
         raise SweepSpecError(f"sweep spec {str(path)!r} is not valid {suffix[1:]}: {exc}") from None
     if not isinstance(data, dict):
         raise SweepSpecError(f"sweep spec {str(path)!r}: top level must be a table/object")
-    return spec_from_dict(data, source=f"sweep spec {str(path)!r}", base_dir=path.parent)
+    return spec_from_dict(
+        data, source=f"sweep spec {str(path)!r}", base_dir=path.parent, max_points=max_points
+    )
