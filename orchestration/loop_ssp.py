@@ -100,12 +100,16 @@ class LoopExperiment:
         controller (its gains are the FMU's).
     summary : str
         One line on what the run is (the SSD's description, the documentation).
+    plant : tuple of (str, object)
+        Plant parameters the SSD sets besides the experiment's (the distributed string's
+        ``string_elements``); their names are the same in both unit systems.
     """
 
     name: str
     experiment: Experiment
     tuning: str | None = None
     summary: str = ""
+    plant: tuple[tuple[str, object], ...] = ()
 
 
 _LAWS = {"stiff-pi": "stiff speed PI", "soft-speed": "SoftSpeed", "z-torque": "Z-Torque"}
@@ -139,6 +143,14 @@ TOPDRIVE_EXPERIMENTS: tuple[LoopExperiment, ...] = (
             f"Fig. 6's torsional stick-slip, {_LAWS.get(t, t)} switched on at tau = 25",
         )
         for t in INDUSTRIAL
+    ),
+    LoopExperiment(
+        "fig6-soft-speed-string",
+        FIG6,
+        "soft-speed",
+        "Fig. 6's torsional stick-slip on a distributed string of 16 elements (the reference "
+        "rig's pipe, docs/model.md, 'The distributed string'), SoftSpeed switched on at tau = 25",
+        (("string_elements", 16),),
     ),
 )
 #: The parameter sets (= SSDs) of an LMI package, in binding order.
@@ -297,6 +309,7 @@ def write_loop_package(
         given = experiment_start_values(e.experiment, variant, full_initial=True)
         if e.tuning is not None:
             given["controller"] = {**given["controller"], **tunings[e.tuning]}
+        given["plant"] = {**given["plant"], **dict(e.plant)}
         comps = tuple(
             SspComponent(
                 name,

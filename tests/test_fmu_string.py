@@ -16,6 +16,7 @@ from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.pipe import REFERENCE_KAPPA, StringParams
 from drillstring.model.units import SIScaling
+from drillstring.orchestration.ssp import read_ssp
 
 pytestmark = pytest.mark.fmu
 OK, ERROR = tl.OK, tl.ERROR
@@ -95,3 +96,14 @@ def test_the_si_plant_takes_the_pipe_in_si(built):
     finally:
         scaled.free()
         si.free()
+
+
+def test_the_top_drive_packages_carry_a_string_variant(built):
+    # one SSD of each top-drive package runs Fig. 6 on 16 elements (SoftSpeed switched on); the
+    # cross-host test of tests/test_ssp.py runs it in the master, Ecos and libcosim
+    for ssp in (built.topdrive_ssp, built.si.topdrive_ssp):
+        p = read_ssp(ssp, unpack=False, variant="fig6-soft-speed-string")
+        plant = p.parameters()["plant"]
+        assert plant["string_elements"].value == 16
+        default = read_ssp(ssp, unpack=False).parameters()["plant"]
+        assert default["string_elements"].value == 1  # the other SSDs: the paper's string
