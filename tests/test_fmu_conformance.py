@@ -13,11 +13,11 @@ steps, Terminated, or StepFailed after a validity stop), makes one call and asse
 Rows that concern ``fmi2Instantiate`` (no instance to go on with) assert the NULL, the message,
 and that a correct instantiation in the same process works afterwards.
 
-The same table runs for both unit systems (:data:`SYSTEMS`): the scaled FMUs and the SI FMUs
-(``DrillStringPlantSI``, ``TorsionalControllerSI``), whose rows use the SI variables (the
+The table runs on the scaled FMUs, and its rows that differ in SI (:data:`SYSTEMS`) on the SI
+FMUs (``DrillStringPlantSI``, ``TorsionalControllerSI``) too: those with the SI variables (the
 table torque for R - R0, the bit's angle and speed for phi and dphi, the physical parameters for
-the scaled ones), the time scaled by t* (so the SI runs are the scaled runs in seconds) and their
-own model names in the messages.
+the scaled ones), the time scaled by t* and their own messages (the other rows make the
+same call on the same code, the front layer and the lifecycle being the same in both).
 
 The rows ``K1``... concern the industrial top-drive controller (``TopDriveController``,
 ``TopDriveControllerSI``): its own values and that its law's state goes on alike.
@@ -1362,9 +1362,26 @@ def instantiate_cases(sy: System) -> list[InstantiateCase]:
     ]
 
 
-#: The scaled table (that of docs/fmus.md) and the SI one.
+#: The scaled table (that of docs/fmus.md).
 CASES = make_cases(SYSTEMS["scaled"])
-TABLE = [(sy, c) for sy in SYSTEMS.values() for c in make_cases(sy)]
+
+
+def _unit_specific(sy: System) -> list[Case]:
+    """The rows of ``sy`` whose call or message differs from the scaled row of the same id
+    (its variables, values, time and messages); the others make the same call on the same code
+    (the front layer and the lifecycle do not depend on the unit system) and run once, scaled."""
+    scaled = {c.id: c for c in CASES}
+    return [
+        c
+        for c in make_cases(sy)
+        if (c.situation, c.message) != (scaled[c.id].situation, scaled[c.id].message)
+    ]
+
+
+#: The scaled table and the rows specific to the SI FMUs.
+TABLE = [(SYSTEMS["scaled"], c) for c in CASES] + [
+    (sy, c) for sy in SYSTEMS.values() if sy.name != "scaled" for c in _unit_specific(sy)
+]
 INSTANTIATE_TABLE = [(sy, c) for sy in SYSTEMS.values() for c in instantiate_cases(sy)]
 
 BUILT: tl.Built
