@@ -162,6 +162,8 @@ typedef struct Component {
     int has_reached;  /* the slave told the time it reached in the current call's step ... */
     double reached;   /* ... which it discarded (ds_front_log) */
     double last_time; /* fmi2LastSuccessfulTime */
+    int stop_defined; /* fmi2SetupExperiment defined a stop time: no step may end after it */
+    double stop_time;
     Fast fast;
 } Component;
 
