@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -257,6 +258,65 @@ def test_missing_or_bad_resources_are_a_logged_null(built, host, tmp_path, clean
     proc, _ = _run(host, built, tmp_path, env, folder)
     assert proc.returncode == 1
     assert re.search(r"resources location '.*/plant/resources' is not a folder", proc.stderr)
+
+
+#: A Python host (fmpy, in a subprocess: a lost slave must not take the test process with it)
+#: that moves the unpacked FMU away between steps and calls fmi2Reset, then puts it back.
+RESET_AFTER_MOVE = textwrap.dedent(
+    """
+    import json, sys
+    from pathlib import Path
+    import fmu_testlib as tl
+
+    unit = tl._unit(tl.PLANT, Path(sys.argv[1]), Path(sys.argv[2]))
+    out = {}
+    def steps(s, k0, n):
+        return [[s.step(k * 0.01, 0.01), *s.get("u", "dphi")] for k in range(k0, k0 + n)]
+    s = tl.Slave(unit, "moved").init()
+    out["before"] = steps(s, 0, 2)
+    moved = unit.unzipped.with_name("moved away")
+    unit.unzipped.rename(moved)
+    n = len(s.logs)
+    out["reset_moved"] = s.call("Reset")
+    out["messages"] = s.messages()[n:]
+    out["went_on"] = steps(s, 2, 1)
+    moved.rename(unit.unzipped)
+    out["reset_back"] = s.call("Reset")
+    s.init()
+    out["after"] = steps(s, 0, 2)
+    ref = tl.Slave(unit, "reference").init()
+    out["reference"] = steps(ref, 0, 3)
+    ref.free()
+    s.free()
+    print(json.dumps(out))
+    """
+)
+
+
+def test_reset_after_the_folder_moved_is_an_error_naming_it(built, tmp_path):
+    """fmi2Reset after the unpacked FMU was moved away: fmi2Error naming the missing resources
+    folder, never fmi2Fatal (pythonfmu's reset makes a new slave from that folder and lost the
+    old one); the instance goes on as it was, and once the folder is back fmi2Reset works."""
+    proc = subprocess.run(
+        [sys.executable, "-c", RESET_AFTER_MOVE, str(built.plant.fmu), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tl.ROOT / "tests",
+        env={**os.environ, "PYTHONPATH": str(tl.ROOT / "tests")},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    r = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert r["reset_moved"] == tl.ERROR, r["messages"]
+    missing = re.escape(str(tmp_path))
+    assert any(
+        re.search(rf"fmi2Reset: resources folder '{missing}/.*/resources' does not exist", m)
+        and "nothing was reset" in m
+        for m in r["messages"]
+    ), r["messages"]
+    assert r["went_on"] == r["reference"][2:], "the instance did not go on as it was"
+    assert r["reset_back"] == tl.OK
+    assert r["after"] == r["before"] == r["reference"][:2]
 
 
 def test_another_machine_needs_only_the_three_variables(built, host, tmp_path, clean_home):

@@ -152,6 +152,7 @@ typedef struct {
 typedef struct Component {
     uint64_t magic;
     char *name;
+    char *resources;                 /* the resources folder (checked again by fmi2Reset) */
     fmi2CallbackFunctions host;      /* the host's callbacks */
     fmi2CallbackFunctions callbacks; /* given to pythonfmu: our logger, this instance */
     fmi2Component inner;             /* pythonfmu's instance */

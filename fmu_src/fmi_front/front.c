@@ -161,6 +161,7 @@ static void destroy(Component *c)
     if (!c) return;
     c->magic = 0;
     free(c->name);
+    free(c->resources);
     free(c);
 }
 
@@ -216,7 +217,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         goto fail;
     }
     if (ds_python_instantiate(c, resources, fmuGUID, visible) != 0) goto fail;
-    free(resources);
+    c->resources = resources;
     free(err);
     return c;
 fail:
@@ -343,6 +344,16 @@ EXPORT fmi2Status fmi2Reset(fmi2Component comp)
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2Reset", MASK_Reset)) return fmi2Error;
+    /* pythonfmu's reset makes a new slave from the resources folder: were it gone (the unpacked
+       FMU moved or deleted), the old slave would be lost with fmi2Fatal. Checked first, the
+       instance goes on as it was and a later fmi2Reset works once the folder is back. */
+    char err[1024];
+    if (ds_check_resources(c->resources, err, sizeof err) != 0) {
+        ds_logf(c, fmi2Error, "fmi2Reset: %s: the FMU's folder was moved or deleted after "
+                "fmi2Instantiate; nothing was reset (the instance goes on as it was): put the "
+                "folder back and call fmi2Reset again", err);
+        return fmi2Error;
+    }
     const fmi2Status s = ds_python_reset(c);
     if (s <= fmi2Warning) {
         c->state = ST_INSTANTIATED;
