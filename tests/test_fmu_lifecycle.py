@@ -19,6 +19,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -43,6 +44,14 @@ def host(tmp_path_factory):
 def cycles(tmp_path_factory):
     out = tmp_path_factory.mktemp("cycles")
     return tl.compile_c_program(tl.C_CYCLES, out, "-std=gnu11", "-ldl", "-lpthread")
+
+
+@pytest.fixture(scope="module")
+def sigint_host(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sigint")
+    return tl.compile_c_program(
+        tl.ROOT / "tests" / "c_host" / "sigint.c", out, "-std=gnu11", "-ldl"
+    )
 
 
 #: An output of each FMU, read after each step by tests/c_host/cycles.c.
@@ -258,6 +267,35 @@ def test_missing_or_bad_resources_are_a_logged_null(built, host, tmp_path, clean
     proc, _ = _run(host, built, tmp_path, env, folder)
     assert proc.returncode == 1
     assert re.search(r"resources location '.*/plant/resources' is not a folder", proc.stderr)
+
+
+@pytest.mark.parametrize("which", ["plant", "controller"])
+@pytest.mark.parametrize("mode", ["default", "handler"])
+def test_the_hosts_sigint_disposition_is_left_alone(
+    built, sigint_host, clean_home, tmp_path, which, mode
+):
+    """Ctrl-C stops a C host running the FMUs (issue 28, item 2): after the FMU started Python,
+    made an instance and stepped it (tests/c_host/sigint.c), SIGINT has the disposition the host
+    gave it: the default one ends the process by the signal (CPython's own handler, which its
+    _signal module installs when first imported, only set a flag: the host ran on), the host's
+    own handler runs."""
+    unit = getattr(built, which)
+    folder = tl.unpack(unit.fmu, tmp_path / which)  # no character that needs percent-encoding
+    args = [folder, unit.model, unit.guid, unit.vr[OUTPUT[which]], mode]
+    proc = subprocess.run(
+        [str(sigint_host), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(clean_home),
+        timeout=600,
+    )
+    lines = proc.stdout.splitlines()
+    if mode == "default":
+        assert lines == ["before default", "after default"], (lines, proc.stderr)
+        assert proc.returncode == -signal.SIGINT, proc.stderr
+    else:
+        assert lines == ["before host", "after host", "host handler ran"], (lines, proc.stderr)
+        assert proc.returncode == 0, proc.stderr
 
 
 #: A Python host (fmpy, in a subprocess: a lost slave must not take the test process with it)
