@@ -552,10 +552,16 @@ class FmuModel(Fmi2Slave):
             if _COMPILED:
                 total = sum(s for _, s in _COMPILED)
                 names = ", ".join(sorted({n for n, _ in _COMPILED}))
+                where = (
+                    f"they are cached under {Path(_jit.__file__).parents[2]} for later processes"
+                    if not _jit.UNCACHED
+                    else "in memory only: numba has no writable cache folder (the package's "
+                    "folder and HOME are read-only; set DRILLSTRING_FMU_CACHE or NUMBA_CACHE_DIR "
+                    "to a writable folder to keep them), so each process compiles them anew"
+                )
                 self._info(
                     f"{what}: numba compiled {len(_COMPILED)} kernel function(s) in {total:.1f} s "
-                    f"({names}); they are cached under {Path(_jit.__file__).parents[2]} for later "
-                    "processes"
+                    f"({names}); {where}"
                 )
                 _COMPILED.clear()
 

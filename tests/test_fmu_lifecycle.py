@@ -357,6 +357,56 @@ def test_reset_after_the_folder_moved_is_an_error_naming_it(built, tmp_path):
     assert r["after"] == r["before"] == r["reference"][:2]
 
 
+#: ``cmd`` with the folders before ``--`` made read-only (a read-only bind mount of each over
+#: itself, in a mount namespace of its own: root ignores permission bits, a mount does not).
+_READ_ONLY = """set -e
+while [ "$1" != "--" ]; do
+  mount --bind "$1" "$1"; mount -o remount,bind,ro "$1" "$1"; shift
+done
+shift
+exec "$@"
+"""
+
+
+def read_only(cmd: list[str], folders: list[os.PathLike]) -> list[str]:
+    unshare = shutil.which("unshare")
+    assert unshare, "unshare (util-linux) is needed for read-only folders"
+    flags = "-m" if os.geteuid() == 0 else "-rm"
+    return [unshare, flags, "--", "sh", "-c", _READ_ONLY, "ro", *map(str, folders), "--", *cmd]
+
+
+def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
+    """With HOME and the unpack folder read-only, numba has no writable place for its cache
+    (neither the package's __pycache__ nor ~/.cache/numba: its "no locator available", which
+    stopped every FMU at fmi2Instantiate): the FMU runs, numba compiling in memory, and logs so;
+    the numbers are those of the normal run, and nothing was written into either folder."""
+    home = tmp_path / "home"
+    home.mkdir()
+    folder = tl.unpack(built.plant.fmu, tmp_path / "plant")
+    listing = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    csv = tmp_path / "out.csv"
+    config = tmp_path / "host.cfg"
+    config.write_text(_plant_only(built, folder, csv), encoding="utf-8")
+    proc = subprocess.run(
+        read_only([str(host), str(config)], [home, folder]),
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(home),
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert "no locator" not in proc.stderr
+    assert re.search(r"numba compiled \d+ kernel function\(s\) .* in memory only", proc.stderr)
+    assert list(home.iterdir()) == []
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == listing
+    rows = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    reference = tmp_path / "reference"
+    reference.mkdir()
+    ref_proc, ref_rows = _run(host, built, reference, tl.clean_env(clean_home))
+    assert ref_proc.returncode == 0, ref_proc.stderr
+    assert np.array_equal(rows, ref_rows)
+
+
 def test_another_machine_needs_only_the_three_variables(built, host, tmp_path, clean_home):
     """The FMU as built on a machine whose Python lives elsewhere: it says what is missing;
     with DRILLSTRING_FMU_LIBPYTHON/PYTHONHOME/SITE_PACKAGES it runs, with the same numbers."""

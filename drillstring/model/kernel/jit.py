@@ -145,8 +145,37 @@ def refresh_cache() -> bool:
     return drop_stale_cache(COMPILED_SOURCES, COMPILED_SOURCES, _KERNEL / "__pycache__" / _STAMP)
 
 
+#: Source files of functions numba compiles in memory only: it had no writable place for their
+#: cache (see :func:`cached`).
+UNCACHED: set[str] = set()
+
+
+def cached(make: Callable[..., Callable[[F], F]], **options: Any) -> Callable[[F], F]:
+    """numba's decorator ``make`` (``numba.njit``, ``numba.cfunc``) with ``cache=True`` where
+    numba can cache, else without: compiled in memory at the first use in each process.
+
+    numba caches next to a function's source file (``__pycache__``) or in the user's cache
+    folder (``~/.cache/numba``), whichever it can write; with neither (a read-only installation
+    or unpack folder of an FMU and a read-only HOME) ``cache=True`` raises "no locator
+    available" when the function is decorated, so nothing could be imported. Such files are
+    recorded in :data:`UNCACHED`.
+    """
+
+    def decorate(func: F) -> F:
+        try:
+            return make(cache=True, **options)(func)
+        except RuntimeError as exc:
+            if "no locator available" not in str(exc):
+                raise
+            UNCACHED.add(getattr(getattr(func, "__code__", None), "co_filename", repr(func)))
+            return make(**options)(func)
+
+    return decorate
+
+
 def jit_for(module_name: str, *, inline: bool = False) -> Callable[[F], F]:
-    """Decorator compiling kernel functions of ``module_name`` when numba is available.
+    """Decorator compiling kernel functions of ``module_name`` when numba is available
+    (cached by numba where it can write a cache, :func:`cached`).
 
     ``inline``: the function is inlined into its callers at numba's IR level (for the small
     functions of the hot path: a call with array arguments costs more than their work).
@@ -156,8 +185,8 @@ def jit_for(module_name: str, *, inline: bool = False) -> Callable[[F], F]:
     import numba
 
     if inline:
-        return numba.njit(cache=True, nogil=True, inline="always")  # type: ignore[return-value]
-    return numba.njit(cache=True, nogil=True)  # type: ignore[return-value]
+        return cached(numba.njit, nogil=True, inline="always")
+    return cached(numba.njit, nogil=True)
 
 
 if numba_available():
