@@ -145,9 +145,36 @@ def refresh_cache() -> bool:
     return drop_stale_cache(COMPILED_SOURCES, COMPILED_SOURCES, _KERNEL / "__pycache__" / _STAMP)
 
 
-#: Source files of functions numba compiles in memory only: it had no writable place for their
-#: cache (see :func:`cached`).
+#: Source files of functions numba cannot cache: it had no writable place for their cache (see
+#: :func:`cached`); what it compiles for them stays in memory.
 UNCACHED: set[str] = set()
+_READ_ONLY_LOCATOR: list[type] = []
+
+
+def _read_only_locator() -> type:
+    """numba's in-tree cache locator for a ``__pycache__`` folder that exists but cannot be
+    written (a read-only unpack folder of a self-contained FMU that ships its compiled kernel
+    there), appended once to the end of numba's locators: chosen only where no other can be.
+    Its cache is read, never written (:func:`cached`)."""
+    if not _READ_ONLY_LOCATOR:
+        from numba.core import caching
+
+        class ReadOnlyInTreeCacheLocator(caching.InTreeCacheLocator):
+            def ensure_cache_path(self) -> None:
+                path = self.get_cache_path()
+                if not (os.path.isdir(path) and os.access(path, os.R_OK | os.X_OK)):
+                    raise OSError(f"no readable cache folder {path}")
+
+        caching.CacheImpl._locator_classes = [
+            *caching.CacheImpl._locator_classes,
+            ReadOnlyInTreeCacheLocator,
+        ]
+        _READ_ONLY_LOCATOR.append(ReadOnlyInTreeCacheLocator)
+    return _READ_ONLY_LOCATOR[0]
+
+
+def _never_save(sig: Any, data: Any) -> None:
+    """``save_overload`` of a cache that is only read."""
 
 
 def cached(make: Callable[..., Callable[[F], F]], **options: Any) -> Callable[[F], F]:
@@ -156,19 +183,29 @@ def cached(make: Callable[..., Callable[[F], F]], **options: Any) -> Callable[[F
 
     numba caches next to a function's source file (``__pycache__``) or in the user's cache
     folder (``~/.cache/numba``), whichever it can write; with neither (a read-only installation
-    or unpack folder of an FMU and a read-only HOME) ``cache=True`` raises "no locator
-    available" when the function is decorated, so nothing could be imported. Such files are
-    recorded in :data:`UNCACHED`.
+    or unpack folder of an FMU and a read-only HOME) ``cache=True`` raised "no locator
+    available" when the function was decorated, so nothing could be imported. Now a
+    ``__pycache__`` folder that is there but read-only is read as it is (the compiled kernel a
+    self-contained FMU ships: used, not compiled again; what is not in it is compiled in memory
+    and not saved), and without one the function is compiled in memory. Such files are recorded
+    in :data:`UNCACHED`.
     """
+    read_only = _read_only_locator()
 
     def decorate(func: F) -> F:
+        where = getattr(getattr(func, "__code__", None), "co_filename", repr(func))
         try:
-            return make(cache=True, **options)(func)
+            compiled = make(cache=True, **options)(func)
         except RuntimeError as exc:
             if "no locator available" not in str(exc):
                 raise
-            UNCACHED.add(getattr(getattr(func, "__code__", None), "co_filename", repr(func)))
+            UNCACHED.add(where)
             return make(**options)(func)
+        cache = getattr(compiled, "_cache", None)
+        if isinstance(getattr(getattr(cache, "_impl", None), "locator", None), read_only):
+            cache.save_overload = _never_save  # type: ignore[union-attr]
+            UNCACHED.add(where)
+        return compiled
 
     return decorate
 
