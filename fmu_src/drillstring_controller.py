@@ -45,7 +45,7 @@ import numpy as np
 from drillstring.model import native
 from drillstring.model.digital import layout as L
 from drillstring.model.digital.block import fmu_output, fmu_step
-from drillstring.model.digital.controller import DigitalController, OperatingPoint
+from drillstring.model.digital.controller import DigitalController, OperatingPoint, check_block
 from drillstring.model.laws import Law, SampledAffine, ZTorque
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sensing import Sensing
@@ -317,6 +317,9 @@ class ControllerFmu(fmu.FmuModel):
 
     # ----------------------------------------------------------------- physics
     def configure(self, values: Mapping[str, Any]) -> None:
+        self.block = self._block_at_rest(values)
+
+    def _block_at_rest(self, values: Mapping[str, Any]) -> np.ndarray:
         controller, point = self.controller(values)
         b = controller.block(point)
         if self.UNIT_SYSTEM == SI:
@@ -326,7 +329,7 @@ class ControllerFmu(fmu.FmuModel):
             b[L.B_C] = C
             b[L.B_OMEGA0_SI] = values["Omega0"]
             b[L.B_R0_SI] = values["R0"]
-        self.block = b
+        return b
 
     def _load_inputs(self) -> np.ndarray:
         b = self.block
@@ -366,16 +369,22 @@ class ControllerFmu(fmu.FmuModel):
         return {"block": True}, snapshot, snapshot.tobytes
 
     def restore(self, fields: Mapping[str, Any], snapshot: Any, payload: bytes | None) -> None:
+        if fields.get("block") not in (True, False) or len(fields) != 1:
+            raise ValueError(f"{fields!r} is not the controller's ({{'block': true|false}})")
         if not fields["block"]:
             self.block = None
             return
-        self.configure(self.values)
-        assert self.block is not None
-        saved = snapshot if snapshot is not None else np.frombuffer(payload or b"", np.float64)
-        if saved.shape != self.block.shape:
-            raise ValueError(f"the FMU state holds {saved.size} block entries, not "
-                             f"{self.block.size}")  # fmt: skip
-        self.block[:] = saved
+        block = self._block_at_rest(self.values)
+        if snapshot is not None:
+            saved = snapshot
+        else:
+            data = payload or b""
+            if len(data) % 8:
+                raise ValueError(f"the controller block is {len(data)} bytes, not whole float64s")
+            saved = np.frombuffer(data, np.float64)
+        check_block(saved, block)  # before anything is changed
+        block[:] = saved
+        self.block = block
 
 
 @dataclass(frozen=True)

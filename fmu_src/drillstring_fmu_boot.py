@@ -36,7 +36,8 @@ The layer then hands each instance the addresses of its typed calls (:func:`begi
    so that numba finds the compiled kernel instead of compiling it.
 2. **A resources path pythonfmu can take.** pythonfmu 0.7.0 turns every ``%20`` of the location
    it is given into a space; a folder whose name really contains ``%20`` is given to it through a
-   symbolic link in ``<cache>/links/``.
+   symbolic link in ``<cache>/links/`` (that read-only: in a private folder of the user in the
+   temporary folder).
 3. **The FMU's Python modules imported here**, so that a missing dependency (numpy, pythonfmu) is
    reported with its traceback instead of pythonfmu's bare "Fatal py exception".
 """
@@ -164,13 +165,37 @@ def _remove_tree(path: Path) -> None:
     path.rmdir()
 
 
+def _links_folder(root: str) -> str:
+    """``root/links``, or where that cannot be written (a read-only HOME) a private folder of
+    this user in the temporary folder (created with mode 0700; refused unless it is a folder of
+    this user that nobody else can write, since the links lead to code that is run)."""
+    links = os.path.join(root, "links")
+    try:
+        os.makedirs(links, exist_ok=True)
+        return links
+    except OSError:
+        private = os.path.join(tempfile.gettempdir(), f"drillstring-fmu-links-{os.getuid()}")
+        os.makedirs(private, mode=0o700, exist_ok=True)
+        st = os.lstat(private)
+        if (
+            not os.path.isdir(private)
+            or os.path.islink(private)
+            or st.st_uid != os.getuid()
+            or (st.st_mode & 0o022)
+        ):
+            raise OSError(
+                f"{links} cannot be written and {private} is not a private folder"
+            ) from None
+        return private
+
+
 def pythonfmu_safe_path(resources: str, root: str) -> str:
-    """``resources`` itself, or a symbolic link to it in ``root/links`` if its name contains
-    ``%20`` (strings: see ``_cache_folder``)."""
+    """``resources`` itself, or a symbolic link to it in ``root/links`` (or, that read-only, in
+    the temporary folder: :func:`_links_folder`) if its name contains ``%20`` (strings: see
+    ``_cache_folder``)."""
     if "%20" not in resources:
         return resources
-    links = os.path.join(root, "links")
-    os.makedirs(links, exist_ok=True)
+    links = _links_folder(root)
     name = hashlib.sha256(os.fsencode(resources)).hexdigest()[:24]
     link = os.path.join(links, name)
     if os.path.islink(link) and os.readlink(link) == resources:

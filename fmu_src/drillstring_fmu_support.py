@@ -552,10 +552,16 @@ class FmuModel(Fmi2Slave):
             if _COMPILED:
                 total = sum(s for _, s in _COMPILED)
                 names = ", ".join(sorted({n for n, _ in _COMPILED}))
+                where = (
+                    f"they are cached under {Path(_jit.__file__).parents[2]} for later processes"
+                    if not _jit.UNCACHED
+                    else "in memory only: numba has no writable cache folder (the package's "
+                    "folder and HOME are read-only; set DRILLSTRING_FMU_CACHE or NUMBA_CACHE_DIR "
+                    "to a writable folder to keep them), so each process compiles them anew"
+                )
                 self._info(
                     f"{what}: numba compiled {len(_COMPILED)} kernel function(s) in {total:.1f} s "
-                    f"({names}); they are cached under {Path(_jit.__file__).parents[2]} for later "
-                    "processes"
+                    f"({names}); {where}"
                 )
                 _COMPILED.clear()
 
@@ -775,14 +781,50 @@ class FmuModel(Fmi2Slave):
             if state.error is not None:
                 raise _Rejected(state.error)
             f = state.fields
+            try:
+                restored = self._check_state_fields(f)
+            except ValueError as exc:
+                raise _Rejected(f"the FMU state is refused: {exc}; nothing was changed") from None
             values = dict(self.values)
-            self.values.update(f["values"])
+            self.values.update(restored)
             try:
                 self.restore(f["model"], state.snapshot, state.payload)
-            except Exception:
+            except Exception as exc:
                 self.values = values
+                if isinstance(exc, ValueError):
+                    raise _Rejected(
+                        f"the FMU state is refused: field model: {exc}; nothing was changed"
+                    ) from None
                 raise
-            self.phase, self.time, self.dirty = f["phase"], f["time"], f["dirty"]
+            self.phase, self.time, self.dirty = f["phase"], float(f["time"]), f["dirty"]
+
+    def _check_state_fields(self, f: Mapping[str, Any]) -> dict[str, Any]:
+        """The variables' values of an FMU state's fields, each checked as a set value is;
+        ``ValueError`` naming the field that does not fit this FMU (bytes behind a recomputed
+        checksum can hold anything). The model's arrays are checked by its ``restore``."""
+        missing = {"phase", "time", "values", "dirty", "model"} - set(f)
+        if missing:
+            raise ValueError(f"fields {sorted(missing)} missing")
+        if f["phase"] not in PHASES:
+            raise ValueError(f"field phase = {f['phase']!r} is not one of {PHASES}")
+        time = f["time"]
+        if isinstance(time, bool) or not isinstance(time, int | float) or not math.isfinite(time):
+            raise ValueError(f"field time = {time!r} is not a finite number")
+        if not isinstance(f["dirty"], bool):
+            raise ValueError(f"field dirty = {f['dirty']!r} is not a boolean")
+        if not isinstance(f["model"], dict):
+            raise ValueError(f"field model is a {type(f['model']).__name__}, not an object")
+        values = f["values"]
+        if not isinstance(values, dict) or set(values) != set(self.values):
+            names = sorted(values) if isinstance(values, dict) else type(values).__name__
+            raise ValueError(f"field values holds {names}, not the variables of {self.MODEL}")
+        checked = {}
+        for name, value in values.items():
+            try:
+                checked[name] = self._by_name[name].validate(value)
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"field values.{name} = {value!r}: {exc}") from None
+        return checked
 
     @staticmethod
     def _fmu_state_to_bytes(state: FmuState) -> bytes:

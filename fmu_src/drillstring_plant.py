@@ -575,6 +575,8 @@ class PlantFmu(fmu.FmuModel):
         return {"engine": True}, snapshot, payload
 
     def restore(self, fields: Mapping[str, Any], snapshot: Any, payload: bytes | None) -> None:
+        if fields.get("engine") not in (True, False) or len(fields) != 1:
+            raise ValueError(f"{fields!r} is not the plant's ({{'engine': true|false}})")
         if not fields["engine"]:
             self.engine, self._out = None, MappingProxyType({})
             return

@@ -30,6 +30,10 @@ while [ "$1" != "--" ]; do
   shift
 done
 shift
+while [ "$1" != "--" ]; do
+  mount --bind "$1" "$1"; mount -o remount,bind,ro "$1" "$1"; shift
+done
+shift
 for py in python3 python3.11 python; do
   if command -v "$py" >/dev/null 2>&1 && "$py" -c pass >/dev/null 2>&1; then
     echo "isolation: $py still runs" >&2; exit {PYTHON_STILL_RUNS}
@@ -86,9 +90,15 @@ def system_library(name: str) -> Path:
 
 
 def isolated(
-    cmd: Sequence[str], work: Path, hide: Sequence[Path], hide_files: Sequence[Path] = ()
+    cmd: Sequence[str],
+    work: Path,
+    hide: Sequence[Path],
+    hide_files: Sequence[Path] = (),
+    read_only: Sequence[Path] = (),
 ) -> list[str]:
-    """``cmd`` run in a mount namespace where ``hide`` (folders) and ``hide_files`` are empty.
+    """``cmd`` run in a mount namespace where ``hide`` (folders) and ``hide_files`` are empty
+    and the folders ``read_only`` cannot be written (read-only bind mounts of themselves: root
+    ignores permission bits, a mount does not).
 
     Parameters
     ----------
@@ -98,6 +108,8 @@ def isolated(
         A folder outside ``hide`` for the empty folder and file mounted over them.
     hide, hide_files : sequence of Path
         What the command must not see.
+    read_only : sequence of Path
+        Folders (outside ``hide``) the command sees but cannot write.
 
     Returns
     -------
@@ -126,6 +138,8 @@ def isolated(
         str(empty_dir),
         str(empty_file),
         *map(str, outer),
+        "--",
+        *map(str, read_only),
         "--",
         *cmd,
     ]

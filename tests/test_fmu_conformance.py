@@ -214,14 +214,21 @@ def _outputs(s: tl.Slave) -> list[Any]:
     return s.get(*md_outputs)
 
 
-def bring(s: tl.Slave, state: str, prior: dict[str, Any], n_steps: int = 2) -> dict[str, Any]:
-    """Bring a fresh instance into ``state`` (stepping: after ``n_steps`` steps); returns what
-    the continuation needs (``k``: the next step's number)."""
+def bring(
+    s: tl.Slave,
+    state: str,
+    prior: dict[str, Any],
+    n_steps: int = 2,
+    stop_time: float | None = None,
+) -> dict[str, Any]:
+    """Bring a fresh instance into ``state`` (stepping: after ``n_steps`` steps; ``stop_time``:
+    the stop time given to fmi2SetupExperiment, None: none); returns what the continuation needs
+    (``k``: the next step's number)."""
     ctx: dict[str, Any] = {"k": 0}
     s.set(**prior)
     if state == "instantiated":
         return ctx
-    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.setupExperiment(startTime=0.0, stopTime=stop_time)
     s.fmu.enterInitializationMode()
     if state == "initialization":
         return ctx
@@ -297,6 +304,8 @@ class Case:
     reference: Callable[[tl.Slave, dict[str, Any]], list[list[Any]]] | None = None
     reference_state: str | None = None
     check: Callable[[tl.Slave, dict[str, Any]], None] | None = None
+    #: the stop time of fmi2SetupExperiment on the way into ``state`` (None: none defined)
+    stop_time: float | None = None
 
 
 def _set(kind: str, name: str, value: Any) -> Callable[[tl.Slave, dict[str, Any]], int]:
@@ -944,6 +953,45 @@ def _table(sy: System, H: float) -> list[Case]:
             r"fmi2SetupExperiment: start time must be 0\.0 .* got 1\.0",
         ),
         Case(
+            "A7",
+            P,
+            "instantiated",
+            "stop time -1.0 before the start time 0.0 in fmi2SetupExperiment",
+            _fn(
+                "SetupExperiment",
+                0,
+                ctypes.c_double(0.0),
+                ctypes.c_double(0.0),
+                1,
+                ctypes.c_double(-1.0),
+            ),
+            ERROR,
+            r"fmi2SetupExperiment: stop time -1\.0 is not at or after the start time 0\.0; "
+            r"nothing changed",
+        ),
+        Case(
+            "A8",
+            P,
+            "stepping",
+            f"a step past the stop time {5 * H!r} of fmi2SetupExperiment",
+            _step(2 * H, 4 * H),
+            ERROR,
+            rf"fmi2DoStep: the step \[{rx(2 * H)}, {rx(2 * H + 4 * H)}\] ends after the stop "
+            rf"time {rx(5 * H)} defined in fmi2SetupExperiment; nothing was computed",
+            stop_time=5 * H,
+        ),
+        Case(
+            "A9",
+            C,
+            "stepping",
+            f"a step past the stop time {5 * H!r} of fmi2SetupExperiment",
+            _step(2 * H, 4 * H),
+            ERROR,
+            rf"fmi2DoStep: the step \[{rx(2 * H)}, {rx(2 * H + 4 * H)}\] ends after the stop "
+            rf"time {rx(5 * H)}",
+            stop_time=5 * H,
+        ),
+        Case(
             "X1",
             P,
             "stepping",
@@ -1404,7 +1452,7 @@ def _undisturbed(sy: System, c: Case, unit: tl.Unit) -> list[list[Any]]:
     ref = slave(sy, unit, f"{c.id}_reference")
     try:
         state = c.reference_state or c.state
-        ctx = bring(ref, state, c.prior, c.n_steps)
+        ctx = bring(ref, state, c.prior, c.n_steps, c.stop_time)
         if c.reference is not None:
             return c.reference(ref, ctx)
         return go_on(ref, state, ctx)
@@ -1417,7 +1465,7 @@ def test_conformance(built, sy, case):
     unit = getattr(_built(sy), case.unit)
     s = slave(sy, unit, case.id)
     try:
-        ctx = bring(s, case.state, case.prior, case.n_steps)
+        ctx = bring(s, case.state, case.prior, case.n_steps, case.stop_time)
         before = len(s.logs)
         status = case.call(s, ctx)
         new = s.logs[before:]

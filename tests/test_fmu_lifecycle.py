@@ -15,9 +15,11 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -42,6 +44,14 @@ def host(tmp_path_factory):
 def cycles(tmp_path_factory):
     out = tmp_path_factory.mktemp("cycles")
     return tl.compile_c_program(tl.C_CYCLES, out, "-std=gnu11", "-ldl", "-lpthread")
+
+
+@pytest.fixture(scope="module")
+def sigint_host(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sigint")
+    return tl.compile_c_program(
+        tl.ROOT / "tests" / "c_host" / "sigint.c", out, "-std=gnu11", "-ldl"
+    )
 
 
 #: An output of each FMU, read after each step by tests/c_host/cycles.c.
@@ -257,6 +267,144 @@ def test_missing_or_bad_resources_are_a_logged_null(built, host, tmp_path, clean
     proc, _ = _run(host, built, tmp_path, env, folder)
     assert proc.returncode == 1
     assert re.search(r"resources location '.*/plant/resources' is not a folder", proc.stderr)
+
+
+@pytest.mark.parametrize("which", ["plant", "controller"])
+@pytest.mark.parametrize("mode", ["default", "handler"])
+def test_the_hosts_sigint_disposition_is_left_alone(
+    built, sigint_host, clean_home, tmp_path, which, mode
+):
+    """Ctrl-C stops a C host running the FMUs (issue 28, item 2): after the FMU started Python,
+    made an instance and stepped it (tests/c_host/sigint.c), SIGINT has the disposition the host
+    gave it: the default one ends the process by the signal (CPython's own handler, which its
+    _signal module installs when first imported, only set a flag: the host ran on), the host's
+    own handler runs."""
+    unit = getattr(built, which)
+    folder = tl.unpack(unit.fmu, tmp_path / which)  # no character that needs percent-encoding
+    args = [folder, unit.model, unit.guid, unit.vr[OUTPUT[which]], mode]
+    proc = subprocess.run(
+        [str(sigint_host), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(clean_home),
+        timeout=600,
+    )
+    lines = proc.stdout.splitlines()
+    if mode == "default":
+        assert lines == ["before default", "after default"], (lines, proc.stderr)
+        assert proc.returncode == -signal.SIGINT, proc.stderr
+    else:
+        assert lines == ["before host", "after host", "host handler ran"], (lines, proc.stderr)
+        assert proc.returncode == 0, proc.stderr
+
+
+#: A Python host (fmpy, in a subprocess: a lost slave must not take the test process with it)
+#: that moves the unpacked FMU away between steps and calls fmi2Reset, then puts it back.
+RESET_AFTER_MOVE = textwrap.dedent(
+    """
+    import json, sys
+    from pathlib import Path
+    import fmu_testlib as tl
+
+    unit = tl._unit(tl.PLANT, Path(sys.argv[1]), Path(sys.argv[2]))
+    out = {}
+    def steps(s, k0, n):
+        return [[s.step(k * 0.01, 0.01), *s.get("u", "dphi")] for k in range(k0, k0 + n)]
+    s = tl.Slave(unit, "moved").init()
+    out["before"] = steps(s, 0, 2)
+    moved = unit.unzipped.with_name("moved away")
+    unit.unzipped.rename(moved)
+    n = len(s.logs)
+    out["reset_moved"] = s.call("Reset")
+    out["messages"] = s.messages()[n:]
+    out["went_on"] = steps(s, 2, 1)
+    moved.rename(unit.unzipped)
+    out["reset_back"] = s.call("Reset")
+    s.init()
+    out["after"] = steps(s, 0, 2)
+    ref = tl.Slave(unit, "reference").init()
+    out["reference"] = steps(ref, 0, 3)
+    ref.free()
+    s.free()
+    print(json.dumps(out))
+    """
+)
+
+
+def test_reset_after_the_folder_moved_is_an_error_naming_it(built, tmp_path):
+    """fmi2Reset after the unpacked FMU was moved away: fmi2Error naming the missing resources
+    folder, never fmi2Fatal (pythonfmu's reset makes a new slave from that folder and lost the
+    old one); the instance goes on as it was, and once the folder is back fmi2Reset works."""
+    proc = subprocess.run(
+        [sys.executable, "-c", RESET_AFTER_MOVE, str(built.plant.fmu), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tl.ROOT / "tests",
+        env={**os.environ, "PYTHONPATH": str(tl.ROOT / "tests")},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    r = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert r["reset_moved"] == tl.ERROR, r["messages"]
+    missing = re.escape(str(tmp_path))
+    assert any(
+        re.search(rf"fmi2Reset: resources folder '{missing}/.*/resources' does not exist", m)
+        and "nothing was reset" in m
+        for m in r["messages"]
+    ), r["messages"]
+    assert r["went_on"] == r["reference"][2:], "the instance did not go on as it was"
+    assert r["reset_back"] == tl.OK
+    assert r["after"] == r["before"] == r["reference"][:2]
+
+
+#: ``cmd`` with the folders before ``--`` made read-only (a read-only bind mount of each over
+#: itself, in a mount namespace of its own: root ignores permission bits, a mount does not).
+_READ_ONLY = """set -e
+while [ "$1" != "--" ]; do
+  mount --bind "$1" "$1"; mount -o remount,bind,ro "$1" "$1"; shift
+done
+shift
+exec "$@"
+"""
+
+
+def read_only(cmd: list[str], folders: list[os.PathLike]) -> list[str]:
+    unshare = shutil.which("unshare")
+    assert unshare, "unshare (util-linux) is needed for read-only folders"
+    flags = "-m" if os.geteuid() == 0 else "-rm"
+    return [unshare, flags, "--", "sh", "-c", _READ_ONLY, "ro", *map(str, folders), "--", *cmd]
+
+
+def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
+    """With HOME and the unpack folder read-only, numba has no writable place for its cache
+    (neither the package's __pycache__ nor ~/.cache/numba: its "no locator available", which
+    stopped every FMU at fmi2Instantiate): the FMU runs, numba compiling in memory, and logs so;
+    the numbers are those of the normal run, and nothing was written into either folder."""
+    home = tmp_path / "home"
+    home.mkdir()
+    folder = tl.unpack(built.plant.fmu, tmp_path / "plant")
+    listing = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    csv = tmp_path / "out.csv"
+    config = tmp_path / "host.cfg"
+    config.write_text(_plant_only(built, folder, csv), encoding="utf-8")
+    proc = subprocess.run(
+        read_only([str(host), str(config)], [home, folder]),
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(home),
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert "no locator" not in proc.stderr
+    assert re.search(r"numba compiled \d+ kernel function\(s\) .* in memory only", proc.stderr)
+    assert list(home.iterdir()) == []
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == listing
+    rows = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    reference = tmp_path / "reference"
+    reference.mkdir()
+    ref_proc, ref_rows = _run(host, built, reference, tl.clean_env(clean_home))
+    assert ref_proc.returncode == 0, ref_proc.stderr
+    assert np.array_equal(rows, ref_rows)
 
 
 def test_another_machine_needs_only_the_three_variables(built, host, tmp_path, clean_home):

@@ -119,6 +119,37 @@ def test_c_host_runs_the_self_contained_fmus_where_no_python_is(
     print(f"self-contained closed loop, {N_STEPS} steps, in isolation: {elapsed:.2f} s")
 
 
+def test_self_contained_fmus_run_from_a_read_only_unpack_folder_and_home(
+    built, self_contained, tmp_path, clean_home
+):
+    """Issue 28, item 4: HOME and the unpack folder read-only, in isolation: no package cache can
+    be written (warned), and numba, with no writable folder for its cache, reads the kernel the
+    FMU ships in its read-only __pycache__ folders as it is: nothing compiled (numba's "no
+    locator available" stopped every FMU at fmi2Instantiate before), the same numbers as the
+    normal FMUs, nothing written into either folder."""
+    normal, ref, _ = _c_host_run(built, tmp_path / "normal", tl.clean_env(clean_home))
+    assert normal.returncode == 0, normal.stderr
+    work = tmp_path / "read-only"
+    home = work / "home"
+    home.mkdir(parents=True)
+    (work / ODD).mkdir()
+
+    def wrap(cmd):
+        hidden = _hidden(clean_home, home)
+        return isolation.isolated(cmd, work, hidden, read_only=[home, work / ODD])
+
+    proc, got, elapsed = _c_host_run(self_contained, work, tl.clean_env(home), wrap)
+    log = proc.stdout + proc.stderr
+    assert proc.returncode == 0, log[-4000:]
+    assert "no locator" not in log
+    assert "cannot cache the drillstring package" in log  # HOME is read-only: warned
+    assert "numba compiled" not in log  # the shipped kernel was read, nothing compiled
+    assert list(home.iterdir()) == []
+    assert not list((work / ODD).rglob("*.tmp.*"))
+    assert np.array_equal(got, ref)
+    print(f"self-contained closed loop from read-only folders: {elapsed:.2f} s")
+
+
 def test_ecos_runs_the_self_contained_fmus_like_the_normal_ones(
     built, self_contained, tmp_path, clean_home
 ):

@@ -13,6 +13,7 @@ import importlib.util
 import io
 import math
 import numbers
+import zipfile
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from drillstring.model.control import AffineFeedback
+from drillstring.model.control import LATCH_MODES, AffineFeedback
 from drillstring.model.experiments import DEFAULT_H
 from drillstring.model.kernel import jit as _jit
 from drillstring.model.kernel import state as S
@@ -771,19 +772,12 @@ class Engine:
         Raises
         ------
         ValueError
-            The state was captured with other parameters, one of its arrays (the history excepted)
-            has another shape, or it uses a callable control law and this engine has none.
+            :meth:`check_state` refuses it (nothing is changed then).
         """
+        self.check_state(state)
         a = state.arrays
-        if not np.array_equal(a["params"], self._s.params):
-            raise ValueError("set_state: the state was captured with different parameters")
-        for name in S.PERSISTENT:
-            if a[name].shape != getattr(self._s, name).shape and name != "history":
-                raise ValueError(f"set_state: array {name!r} has shape {a[name].shape}")
         self._s = self._s._replace(**{name: a[name].copy() for name in S.PERSISTENT})
         kind = int(self._s.control[S.C_KIND])
-        if kind == S.CTRL_EXTERNAL and self._ext is None:
-            raise ValueError("set_state: the state uses a callable control law this engine lacks")
         if kind != S.CTRL_EXTERNAL:
             self._ext = None
             self._stepper = load_stepper(pure=False)
@@ -794,6 +788,108 @@ class Engine:
         else:
             c = _STATUS_LIST[code]
             self._failed = Status(c, f"{c} (restored) at tau = {self.tau:.12g}", self.tau)
+
+    def check_state(self, state: EngineState) -> None:
+        """Check every array of ``state`` against this engine's layout, before anything is
+        overwritten: the compiled kernel indexes its arrays without bounds checks, so a state
+        that was not captured by :meth:`get_state` (forged bytes behind a recomputed checksum)
+        must never reach it.
+
+        Checked: each array present, an ``ndarray`` of its dtype (``ints`` int64, the rest
+        float64) and shape (the history: ``H_ROWS`` rows, any number of columns); the parameters
+        and options those of this engine; the index ranges (contact mode, control kind and latch,
+        the live history window ``0 <= I_HSTART < I_HEND <= columns``, the look-up hint, the
+        event count within the event log, the status codes); counters >= 0; the flags 0 or 1;
+        the time, the control law's numbers and the live history finite, its time and bit angle
+        non-decreasing; the state, stages and diagnostics finite unless the state is one of a
+        run that stopped.
+
+        Raises
+        ------
+        ValueError
+            Naming the array (and entry) that does not fit.
+        """
+        a = state.arrays
+        if not isinstance(a, Mapping):
+            raise ValueError(f"set_state: the state's arrays are a {type(a).__name__}")
+        s = self._s
+        for name in (*S.PERSISTENT, "failed"):
+            x = a.get(name)
+            if not isinstance(x, np.ndarray):
+                raise ValueError(f"set_state: array {name!r} is missing or not an array")
+            dtype = np.dtype(np.int64 if name == "ints" else np.float64)
+            if x.dtype != dtype and not (name == "failed" and x.dtype == np.int64):
+                raise ValueError(f"set_state: array {name!r} has dtype {x.dtype}, not {dtype}")
+            if name == "history":
+                if x.ndim != 2 or x.shape[0] != S.H_ROWS or x.shape[1] < 1:
+                    raise ValueError(
+                        f"set_state: array 'history' has shape {x.shape}, not ({S.H_ROWS}, n)"
+                    )
+                continue
+            shape = (1,) if name == "failed" else getattr(s, name).shape
+            if x.shape != shape:
+                raise ValueError(f"set_state: array {name!r} has shape {x.shape}, not {shape}")
+        if not np.array_equal(a["params"], s.params):
+            raise ValueError("set_state: the state was captured with different parameters")
+        if not np.array_equal(a["options"], s.options):
+            raise ValueError("set_state: array 'options': the state was captured with different "
+                             "engine options")  # fmt: skip
+        code = float(a["failed"][0])
+        if not (code == -1.0 or (code.is_integer() and 0 <= code < len(_STATUS_LIST))):
+            raise ValueError(f"set_state: array 'failed' holds {code!r}, not a status code")
+        n_events = state.n_events
+        if not isinstance(n_events, numbers.Integral) or n_events < 0:
+            raise ValueError(f"set_state: n_events = {n_events!r} is not a count")
+
+        C = a["control"]
+        kind, latch, active = (float(C[k]) for k in (S.C_KIND, S.C_LATCH, S.C_ACTIVE))
+        if kind not in (S.CTRL_HELD, S.CTRL_AFFINE, S.CTRL_EXTERNAL):
+            raise ValueError(f"set_state: control[C_KIND] = {kind!r} is not a control kind")
+        if kind == S.CTRL_EXTERNAL and self._ext is None:
+            raise ValueError("set_state: the state uses a callable control law this engine lacks")
+        if latch not in range(len(LATCH_MODES)):
+            raise ValueError(f"set_state: control[C_LATCH] = {latch!r} is not a latch mode")
+        if active not in (0.0, 1.0):
+            raise ValueError(f"set_state: control[C_ACTIVE] = {active!r} is neither 0 nor 1")
+        rest = np.delete(C, [S.C_KIND, S.C_LATCH, S.C_ACTIVE, S.C_TON])
+        if not np.isfinite(rest).all() or math.isnan(C[S.C_TON]):
+            raise ValueError("set_state: array 'control' holds non-finite numbers")
+        if not np.isfinite(a["clock"]).all():
+            raise ValueError("set_state: array 'clock' holds non-finite numbers")
+        if code == -1.0:  # a run that stopped may hold what stopped it
+            for name in ("y", "diag", "stages"):
+                if not np.isfinite(a[name]).all():
+                    raise ValueError(f"set_state: array {name!r} holds non-finite numbers")
+
+        I = a["ints"]  # noqa: E741
+        H = a["history"]
+        cols = H.shape[1]
+        start, end = int(I[S.I_HSTART]), int(I[S.I_HEND])
+        if not 0 <= start < end <= cols:
+            raise ValueError(
+                f"set_state: the live history window ints[I_HSTART:I_HEND] = [{start}, {end}) "
+                f"does not lie in the {cols} column(s) of array 'history'"
+            )
+        ranges = {
+            "I_MODE": (S.I_MODE, 0, len(MODE_NAMES) - 1),
+            "I_KHINT": (S.I_KHINT, -1, end),
+            "I_BOUNCING": (S.I_BOUNCING, 0, 1),
+            "I_ENUM": (S.I_ENUM, 0, s.events.shape[0] - 1),
+            "I_STATUS": (S.I_STATUS, 0, S.ST_ZENO),
+        }
+        for what in ("I_NSTEPS", "I_NEVENTS", "I_NSTICK", "I_NBOUNCE", "I_NTSTICK", "I_NTRIALS",
+                     "I_NLOCATE"):  # fmt: skip
+            ranges[what] = (getattr(S, what), 0, np.iinfo(np.int64).max)
+        for what, (k, lo, hi) in ranges.items():
+            if not lo <= int(I[k]) <= hi:
+                raise ValueError(f"set_state: ints[{what}] = {int(I[k])} is not in [{lo}, {hi}]")
+        live = H[:, start:end]
+        if not np.isfinite(live).all():
+            raise ValueError("set_state: the live columns of array 'history' hold non-finite "
+                             "numbers")  # fmt: skip
+        if (np.diff(live[S.H_TAU]) < 0.0).any() or (np.diff(live[S.H_PHI]) < 0.0).any():
+            raise ValueError("set_state: the live columns of array 'history' are not ordered in "
+                             "time and bit angle")  # fmt: skip
 
     def serialize_state(self) -> bytes:
         """The state as bytes (numpy .npz, no pickle).
@@ -824,6 +920,10 @@ class Engine:
             or is refused by :meth:`set_state`.
         """
         try:
+            with zipfile.ZipFile(io.BytesIO(data)) as archive:  # no member larger than the bytes
+                unpacked = sum(member.file_size for member in archive.infolist())
+            if unpacked > len(data):
+                raise ValueError(f"its members unpack to {unpacked} bytes from {len(data)}")
             with np.load(io.BytesIO(data), allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
         except Exception as exc:
@@ -831,8 +931,10 @@ class Engine:
         missing = [k for k in (*S.PERSISTENT, "failed", "n_events") if k not in arrays]
         if missing:
             raise ValueError(f"deserialize_state: missing arrays {missing}")
-        n_events = int(arrays.pop("n_events")[0])
-        self.set_state(EngineState(arrays=arrays, n_events=n_events))
+        count = arrays.pop("n_events")
+        if count.shape != (1,) or count.dtype.kind not in "iu":
+            raise ValueError(f"deserialize_state: array 'n_events' is {count.dtype} {count.shape}")
+        self.set_state(EngineState(arrays=arrays, n_events=int(count[0])))
 
     # ----------------------------------------------------------------- other callers of the kernel
     # (the plant FMU's step, drillstring.model.native; with finish() after each of its calls)

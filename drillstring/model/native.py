@@ -205,7 +205,7 @@ def _address(name: str) -> int:
     if not AVAILABLE:
         raise RuntimeError("the native entry points need numba (and DRILLSTRING_JIT != 0)")
     if name not in _CFUNCS:
-        _CFUNCS[name] = numba.cfunc(_SIG, cache=True, nogil=True)(_ENTRY_POINTS[name])
+        _CFUNCS[name] = _jit.cached(numba.cfunc, sig=_SIG, nogil=True)(_ENTRY_POINTS[name])
     return int(_CFUNCS[name].address)
 
 
@@ -367,7 +367,7 @@ if AVAILABLE:
                        types.float64, types.float64)  # fmt: skip
     _F64, _I64 = np.float64, np.int64
 
-    @numba.njit(cache=True, nogil=True)
+    @_jit.cached(numba.njit, nogil=True)
     def kernel_state(args, hcap, ecap):
         params = carray(args[0], (S.P_SIZE,), dtype=_F64)
         zcols = S.chain_columns(int(params[S.P_NT]), int(params[S.P_NA]))

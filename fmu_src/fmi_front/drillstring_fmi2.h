@@ -152,6 +152,7 @@ typedef struct {
 typedef struct Component {
     uint64_t magic;
     char *name;
+    char *resources;                 /* the resources folder (checked again by fmi2Reset) */
     fmi2CallbackFunctions host;      /* the host's callbacks */
     fmi2CallbackFunctions callbacks; /* given to pythonfmu: our logger, this instance */
     fmi2Component inner;             /* pythonfmu's instance */
@@ -162,6 +163,8 @@ typedef struct Component {
     int has_reached;  /* the slave told the time it reached in the current call's step ... */
     double reached;   /* ... which it discarded (ds_front_log) */
     double last_time; /* fmi2LastSuccessfulTime */
+    int stop_defined; /* fmi2SetupExperiment defined a stop time: no step may end after it */
+    double stop_time;
     Fast fast;
 } Component;
 

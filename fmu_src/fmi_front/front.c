@@ -161,6 +161,7 @@ static void destroy(Component *c)
     if (!c) return;
     c->magic = 0;
     free(c->name);
+    free(c->resources);
     free(c);
 }
 
@@ -216,7 +217,7 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         goto fail;
     }
     if (ds_python_instantiate(c, resources, fmuGUID, visible) != 0) goto fail;
-    free(resources);
+    c->resources = resources;
     free(err);
     return c;
 fail:
@@ -263,6 +264,25 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn,
     return fmi2OK;
 }
 
+/* A double as Python's repr writes it (the shortest digits that read back as the same double), as
+   the Python side's messages do. */
+static void repr_double(char *out, size_t n, double x)
+{
+    for (int digits = 1; digits <= 17; ++digits) {
+        ds_format(out, n, "%.*g", digits, x);
+        if (!isfinite(x) || strtod(out, NULL) == x) break;
+    }
+    if (isfinite(x) && !strpbrk(out, ".e")) ds_format(out + strlen(out), n - strlen(out), ".0");
+}
+
+/* The step [t, t + h] ends after the stop time the host defined (FMI 2.0, fmi2SetupExperiment:
+   the FMU may not compute beyond it); a step that ends there up to rounding is allowed. */
+static int past_stop_time(const Component *c, double t, double h)
+{
+    const double end = t + h, stop = c->stop_time, size = stop < 0.0 ? -stop : stop;
+    return c->stop_defined && end > stop + 1e-9 * (size > 1.0 ? size : 1.0);
+}
+
 /* ---- FMI functions: the life cycle ----------------------------------------------------------- */
 EXPORT fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
                                       fmi2Real tolerance, fmi2Real startTime,
@@ -270,11 +290,23 @@ EXPORT fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceD
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2SetupExperiment", MASK_SetupExperiment)) return fmi2Error;
+    if (stopTimeDefined != fmi2False && !(stopTime >= startTime)) {
+        char stop[40], start[40];
+        repr_double(stop, sizeof stop, stopTime);
+        repr_double(start, sizeof start, startTime);
+        ds_logf(c, fmi2Error, "fmi2SetupExperiment: stop time %s is not at or after the start "
+                "time %s; nothing changed", stop, start);
+        return fmi2Error;
+    }
     ds_fast_drop(c);
     const fmi2Status s = ds_finish(c, ds_pf.SetupExperiment(c->inner, toleranceDefined,
                                                             tolerance, startTime,
                                                             stopTimeDefined, stopTime));
-    if (s <= fmi2Warning) c->last_time = startTime;
+    if (s <= fmi2Warning) {
+        c->last_time = startTime;
+        c->stop_defined = stopTimeDefined != fmi2False;
+        c->stop_time = stopTime;
+    }
     return s;
 }
 
@@ -312,10 +344,21 @@ EXPORT fmi2Status fmi2Reset(fmi2Component comp)
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2Reset", MASK_Reset)) return fmi2Error;
+    /* pythonfmu's reset makes a new slave from the resources folder: were it gone (the unpacked
+       FMU moved or deleted), the old slave would be lost with fmi2Fatal. Checked first, the
+       instance goes on as it was and a later fmi2Reset works once the folder is back. */
+    char err[1024];
+    if (ds_check_resources(c->resources, err, sizeof err) != 0) {
+        ds_logf(c, fmi2Error, "fmi2Reset: %s: the FMU's folder was moved or deleted after "
+                "fmi2Instantiate; nothing was reset (the instance goes on as it was): put the "
+                "folder back and call fmi2Reset again", err);
+        return fmi2Error;
+    }
     const fmi2Status s = ds_python_reset(c);
     if (s <= fmi2Warning) {
         c->state = ST_INSTANTIATED;
         c->last_time = 0.0;
+        c->stop_defined = 0;
         c->logging_on = c->logging_on_at_instantiation;
         memset(c->category_on, 1, sizeof c->category_on);
     }
@@ -363,6 +406,15 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPo
 {
     Component *c = component(comp);
     if (!begin(c, "fmi2DoStep", MASK_DoStep)) return fmi2Error;
+    if (past_stop_time(c, currentCommunicationPoint, communicationStepSize)) {
+        char t[40], end[40], stop[40];
+        repr_double(t, sizeof t, currentCommunicationPoint);
+        repr_double(end, sizeof end, currentCommunicationPoint + communicationStepSize);
+        repr_double(stop, sizeof stop, c->stop_time);
+        ds_logf(c, fmi2Error, "fmi2DoStep: the step [%s, %s] ends after the stop time %s defined "
+                "in fmi2SetupExperiment; nothing was computed", t, end, stop);
+        return fmi2Error;
+    }
     c->has_reached = 0;
     if (ds_fast_step(c, currentCommunicationPoint, communicationStepSize)) {
         c->last_time = currentCommunicationPoint + communicationStepSize;

@@ -19,6 +19,9 @@
  *    overrides do not apply), the machine's glibc must be at least the recorded one, and the
  *    libraries outside glibc that the bundle needs are the system's where it has them, else the
  *    FMU's copies ("fallback" lines), loaded before libpython;
+ *  - the host's signal dispositions stay as they were: no handlers installed at the start, and
+ *    the SIGINT handler CPython installs when its _signal module is first imported undone once,
+ *    right after the start (Ctrl-C stops a C host as before);
  *  - nothing per instance: sys.path is restored after each instantiation, and the reference that
  *    pythonfmu 0.7.0 drops on each instantiation (it releases a borrowed reference to the entry
  *    module's dictionary) is given back;
@@ -32,6 +35,7 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <gnu/libc-version.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -337,6 +341,14 @@ static int start_python(const Runtime *rt, const char *lib, char *err, size_t er
         ds_format(err, errn, "cannot configure the Python interpreter (out of memory?)");
         goto done;
     }
+    /* The host's SIGINT disposition. install_signal_handlers = 0 keeps Python's handlers out at
+       the start, but CPython 3.11 still installs its SIGINT handler when its _signal module is
+       first imported (numba's imports do it), if the disposition is the default one: Ctrl-C then
+       only sets a flag that no Python code polls, and the host runs on (and the next call into
+       Python meets a KeyboardInterrupt). So _signal is imported here, once, and the host's
+       disposition put back: a later import finds the module loaded and changes nothing. */
+    struct sigaction host_sigint;
+    const int saved_sigint = sigaction(SIGINT, NULL, &host_sigint) == 0;
     const PyStatus st = py.Py_InitializeFromConfig(&config);
     py.PyConfig_Clear(&config);
     if (py.PyStatus_Exception(st)) {
@@ -344,6 +356,9 @@ static int start_python(const Runtime *rt, const char *lib, char *err, size_t er
                   st.func ? st.func : "", st.func ? ": " : "", st.err_msg ? st.err_msg : "?");
         goto done;
     }
+    py.Py_DecRef(py.PyImport_ImportModule("_signal"));
+    py.PyErr_Clear();
+    if (saved_sigint) sigaction(SIGINT, &host_sigint, NULL);
     py.PyEval_SaveThread(); /* the GIL is taken per call (PyGILState_Ensure), from any thread */
     result = 0;
 done:

@@ -6,7 +6,9 @@
  * that is not one of them (a state of another FMU, or one freed already) is refused before Python
  * sees it. A serialized state is a header (model, GUID, format, state-machine state, time, length,
  * FNV-1a checksum) and pythonfmu's bytes: a state of another FMU or corrupted bytes are refused
- * with a message that says which. A state belongs to the instance that made it (another instance
+ * with a message that says which. The checksum is no authentication (anyone can recompute it):
+ * the slave checks a state's content against the instance before it overwrites anything
+ * (drillstring_fmu_support.FmuModel._set_fmu_state). A state belongs to the instance that made it (another instance
  * of the same FMU may set it): fmi2FreeInstance frees the states the instance still owns.
  */
 #include "drillstring_fmi2.h"

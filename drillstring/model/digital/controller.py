@@ -24,7 +24,7 @@ from drillstring.model.sensing import Sensing
 from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
 
-__all__ = ["DigitalController", "OperatingPoint", "Running"]
+__all__ = ["DigitalController", "OperatingPoint", "Running", "check_block"]
 
 
 @dataclass(frozen=True)
@@ -171,3 +171,66 @@ class Running:
     def commanded(self) -> float:
         """The law's command R - R0 of the last committed sample."""
         return float(self.block[L.B_RCMD])
+
+
+#: Entries of the block that change while the controller runs besides its state
+#: (:data:`~drillstring.model.digital.layout.STATE_SLOTS`): an FMU's io entries and connectors.
+_RUNTIME_SLOTS = ("STALE", "RESUME", "TIME", "NSTEPS", "IN", "OUT")
+#: Entries that are 0 or 1, and counts (non-negative integers), by offset in the block.
+_FLAGS = (L.B_STALE, L.B_ACTIVE, L.B_LX + L.AF_HOLD, L.B_TDX + L.TDX_INIT, L.B_SNX + L.SNX_PREV,
+          L.B_SNX + L.SNX_OBS, L.B_SAT)  # fmt: skip
+_COUNTS = (L.B_NSTEPS, L.B_SNX + L.SNX_K, L.B_NSAT, L.B_NSAMPLES)
+
+
+def _slots(names: tuple[str, ...]) -> np.ndarray:
+    sizes = dict(L.SLOTS)
+    return np.concatenate([np.arange(L.OFFSETS[n], L.OFFSETS[n] + sizes[n]) for n in names])
+
+
+_CHANGING = np.union1d(_slots(L.STATE_SLOTS), _slots(_RUNTIME_SLOTS))
+_FIXED = np.setdiff1d(np.arange(L.B_SIZE), _CHANGING)
+_NAME_AT = [name for name, size in L.SLOTS for _ in range(size)]
+
+
+def check_block(saved: object, reference: np.ndarray) -> None:
+    """Check a saved block (an FMU state's) against the block of the same controller at rest,
+    ``reference``, before it replaces a running one: the compiled code indexes the block by its
+    entries (telemetry frames by their count), so a block that was not saved by the controller
+    (forged bytes behind a recomputed checksum) must never reach it.
+
+    Checked: a float64 array of ``B_SIZE`` entries; its parameter entries (law, top drive,
+    sensing, operating point, unit system, switch-on) bit for bit those of ``reference``; its
+    state and connector entries finite, its flags 0 or 1, its counts non-negative integers, and
+    ``RESUME`` -1 or a non-negative integer.
+
+    Raises
+    ------
+    ValueError
+        Naming the entry (by its slot in :data:`~drillstring.model.digital.layout.SLOTS`).
+    """
+    if not isinstance(saved, np.ndarray) or saved.dtype != np.float64:
+        kind = getattr(saved, "dtype", type(saved).__name__)
+        raise ValueError(f"the controller block is {kind}, not float64")
+    if saved.shape != (L.B_SIZE,):
+        raise ValueError(f"the controller block holds {saved.size} entries, not {L.B_SIZE}")
+    differ = _FIXED[saved[_FIXED].view(np.int64) != reference[_FIXED].view(np.int64)]
+    if differ.size:
+        k = int(differ[0])
+        raise ValueError(
+            f"the controller block's parameter entry {_NAME_AT[k]} (block[{k}]) is "
+            f"{float(saved[k])!r}, but this instance's parameters give {float(reference[k])!r}"
+        )
+    bad = _CHANGING[~np.isfinite(saved[_CHANGING])]
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"the controller block's entry {_NAME_AT[k]} (block[{k}]) is "
+                         f"{float(saved[k])!r}, not finite")  # fmt: skip
+    for k in _FLAGS:
+        if saved[k] not in (0.0, 1.0):
+            raise ValueError(f"the controller block's entry {_NAME_AT[k]} (block[{k}]) is "
+                             f"{float(saved[k])!r}, neither 0 nor 1")  # fmt: skip
+    for k in (*_COUNTS, L.B_RESUME):
+        x = float(saved[k])
+        if not (x.is_integer() and (x >= 0.0 or (k == L.B_RESUME and x == -1.0))):
+            raise ValueError(f"the controller block's entry {_NAME_AT[k]} (block[{k}]) is {x!r}, "
+                             "not a count")  # fmt: skip

@@ -145,8 +145,74 @@ def refresh_cache() -> bool:
     return drop_stale_cache(COMPILED_SOURCES, COMPILED_SOURCES, _KERNEL / "__pycache__" / _STAMP)
 
 
+#: Source files of functions numba cannot cache: it had no writable place for their cache (see
+#: :func:`cached`); what it compiles for them stays in memory.
+UNCACHED: set[str] = set()
+_READ_ONLY_LOCATOR: list[type] = []
+
+
+def _read_only_locator() -> type:
+    """numba's in-tree cache locator for a ``__pycache__`` folder that exists but cannot be
+    written (a read-only unpack folder of a self-contained FMU that ships its compiled kernel
+    there), appended once to the end of numba's locators: chosen only where no other can be.
+    Its cache is read, never written (:func:`cached`)."""
+    if not _READ_ONLY_LOCATOR:
+        from numba.core import caching
+
+        class ReadOnlyInTreeCacheLocator(caching.InTreeCacheLocator):
+            def ensure_cache_path(self) -> None:
+                path = self.get_cache_path()
+                if not (os.path.isdir(path) and os.access(path, os.R_OK | os.X_OK)):
+                    raise OSError(f"no readable cache folder {path}")
+
+        caching.CacheImpl._locator_classes = [
+            *caching.CacheImpl._locator_classes,
+            ReadOnlyInTreeCacheLocator,
+        ]
+        _READ_ONLY_LOCATOR.append(ReadOnlyInTreeCacheLocator)
+    return _READ_ONLY_LOCATOR[0]
+
+
+def _never_save(sig: Any, data: Any) -> None:
+    """``save_overload`` of a cache that is only read."""
+
+
+def cached(make: Callable[..., Callable[[F], F]], **options: Any) -> Callable[[F], F]:
+    """numba's decorator ``make`` (``numba.njit``, ``numba.cfunc``) with ``cache=True`` where
+    numba can cache, else without: compiled in memory at the first use in each process.
+
+    numba caches next to a function's source file (``__pycache__``) or in the user's cache
+    folder (``~/.cache/numba``), whichever it can write; with neither (a read-only installation
+    or unpack folder of an FMU and a read-only HOME) ``cache=True`` raised "no locator
+    available" when the function was decorated, so nothing could be imported. Now a
+    ``__pycache__`` folder that is there but read-only is read as it is (the compiled kernel a
+    self-contained FMU ships: used, not compiled again; what is not in it is compiled in memory
+    and not saved), and without one the function is compiled in memory. Such files are recorded
+    in :data:`UNCACHED`.
+    """
+    read_only = _read_only_locator()
+
+    def decorate(func: F) -> F:
+        where = getattr(getattr(func, "__code__", None), "co_filename", repr(func))
+        try:
+            compiled = make(cache=True, **options)(func)
+        except RuntimeError as exc:
+            if "no locator available" not in str(exc):
+                raise
+            UNCACHED.add(where)
+            return make(**options)(func)
+        cache = getattr(compiled, "_cache", None)
+        if isinstance(getattr(getattr(cache, "_impl", None), "locator", None), read_only):
+            cache.save_overload = _never_save  # type: ignore[union-attr]
+            UNCACHED.add(where)
+        return compiled
+
+    return decorate
+
+
 def jit_for(module_name: str, *, inline: bool = False) -> Callable[[F], F]:
-    """Decorator compiling kernel functions of ``module_name`` when numba is available.
+    """Decorator compiling kernel functions of ``module_name`` when numba is available
+    (cached by numba where it can write a cache, :func:`cached`).
 
     ``inline``: the function is inlined into its callers at numba's IR level (for the small
     functions of the hot path: a call with array arguments costs more than their work).
@@ -156,8 +222,8 @@ def jit_for(module_name: str, *, inline: bool = False) -> Callable[[F], F]:
     import numba
 
     if inline:
-        return numba.njit(cache=True, nogil=True, inline="always")  # type: ignore[return-value]
-    return numba.njit(cache=True, nogil=True)  # type: ignore[return-value]
+        return cached(numba.njit, nogil=True, inline="always")
+    return cached(numba.njit, nogil=True)
 
 
 if numba_available():
