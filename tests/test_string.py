@@ -226,3 +226,16 @@ def test_fig6_on_both_strings_is_written_in_si(tmp_path) -> None:
     )
     speed = (p.omega0 + ref.dphi) / rig.t_star * 60 / (2 * math.pi)
     assert np.allclose(data["bit_speed_rpm_one_mode"], speed[: data.size], rtol=1e-12, atol=0)
+
+
+def test_a_state_with_a_non_finite_inner_node_is_refused() -> None:
+    e = Engine(ds.REFERENCE, initial={"dphi": -2.5}, string=StringParams(elements=4))
+    e.advance(1.0)
+    state = e.get_state()
+    state.arrays["chain"][0, 1] = np.nan  # an inner node's angle
+    with pytest.raises(ValueError, match="array 'chain' holds non-finite numbers"):
+        e.set_state(state)
+    bad_shape = e.get_state()
+    bad_shape.arrays["chain"] = bad_shape.arrays["chain"][:, :2]
+    with pytest.raises(ValueError, match="array 'chain' has shape"):
+        e.set_state(bad_shape)

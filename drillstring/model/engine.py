@@ -801,8 +801,8 @@ class Engine:
         the live history window ``0 <= I_HSTART < I_HEND <= columns``, the look-up hint, the
         event count within the event log, the status codes); counters >= 0; the flags 0 or 1;
         the time, the control law's numbers and the live history finite, its time and bit angle
-        non-decreasing; the state, stages and diagnostics finite unless the state is one of a
-        run that stopped.
+        non-decreasing; the state, the string's inner nodes, stages and diagnostics finite unless
+        the state is one of a run that stopped.
 
         Raises
         ------
@@ -857,6 +857,8 @@ class Engine:
         if not np.isfinite(a["clock"]).all():
             raise ValueError("set_state: array 'clock' holds non-finite numbers")
         if code == -1.0:  # a run that stopped may hold what stopped it
+            if not np.isfinite(a["chain"][S.Z_NOW : S.Z_KNOW + 1]).all():
+                raise ValueError("set_state: array 'chain' holds non-finite numbers")
             for name in ("y", "diag", "stages"):
                 if not np.isfinite(a[name]).all():
                     raise ValueError(f"set_state: array {name!r} holds non-finite numbers")
