@@ -43,10 +43,14 @@ from drillstring.validation import check_int, check_real
 
 __all__ = [
     "DEFAULT_ELEMENTS",
+    "ERROR_WINDOW",
     "SURFACE_NOISE_SI",
     "StringObserver",
     "design_string_observer",
+    "estimation_errors",
+    "noisy_surface",
     "one_mode_estimates",
+    "scaled_surface_noise",
 ]
 
 #: Elements of the observer's chain: three flexible modes (the first two of the string within
@@ -179,7 +183,7 @@ def design_string_observer(
     elements: int = DEFAULT_ELEMENTS,
     rho: float | None = None,
     noise: dict[str, float] | None = None,
-    bit: float = 0.1,
+    bit: float = 1.0,
     bias: float = 0.1,
     chain: float = 1.0,
     inertia_error: float = 0.2,
@@ -204,7 +208,8 @@ def design_string_observer(
         Scaled standard deviations ``theta``, ``dtheta``, ``torque`` (the top's), ``motor``,
         each > 0; default those of :data:`SURFACE_NOISE_SI` on the reference rig.
     bit : float
-        Deviation (per sqrt(tau)) of the bit's unmodelled acceleration, > 0.
+        Deviation (per sqrt(tau)) of the bit's unmodelled acceleration, > 0 (1: as today's
+        observer's ``process``).
     bias : float
         Deviation (per sqrt(tau)) of the random walk of the bit torque d, > 0.
     chain : float
