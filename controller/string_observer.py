@@ -157,6 +157,24 @@ class StringObserver:
             z = Ad @ z + Bd * r_[i]
         return {"phi": out[:, 0], "dphi": out[:, 1], "twist": out[:, 2], "d": out[:, 3]}
 
+    def correct(
+        self, prior: NDArray[np.float64] | None, theta: float, dtheta: float, torque: float
+    ) -> NDArray[np.float64]:
+        """The filtered state at a sample from its prior (None: the first sample,
+        :meth:`initial`) and the sample's measurements, as :meth:`run` does."""
+        if prior is None:
+            return self.initial(theta, dtheta, torque)
+        return prior + self.M @ (np.array([theta, dtheta, torque]) - self.C @ prior)
+
+    def predict(self, z: NDArray[np.float64], r: float) -> NDArray[np.float64]:
+        """The prior of the next sample from the filtered state and the motor torque held."""
+        return self.Ad @ z + self.Bd * r
+
+    def bit(self, z: NDArray[np.float64]) -> tuple[float, float]:
+        """(phi, dphi): the bit's angle and speed in the state ``z``."""
+        m = self.elements
+        return float(z[m]), float(z[2 * m + 1])
+
 
 def _signals(*named: tuple[str, ArrayLike]) -> list[NDArray[np.float64]]:
     """The signals as 1-D float arrays of one length, finite, named when they are not."""

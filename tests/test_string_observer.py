@@ -138,3 +138,16 @@ def test_run_and_metrics_refuse_bad_signals_by_name():
                           data, (5.0, 6.0))  # fmt: skip
     with pytest.raises(ValueError, match="seed must be"):
         noisy_surface(data, None, seed=-1)
+
+
+def test_step_by_step_is_the_run():
+    """correct/predict, what a closed loop calls each sample, give what run gives."""
+    obs = design_string_observer(MODEL, rig_string("reference-rig", 16), TS)
+    rng = np.random.default_rng(3)
+    y = rng.standard_normal((4, 50))
+    est = obs.run(*y)
+    z = None
+    for i in range(50):
+        z = obs.correct(z, y[0, i], y[1, i], y[2, i])
+        assert obs.bit(z) == pytest.approx((est["phi"][i], est["dphi"][i]), abs=1e-12)
+        z = obs.predict(z, y[3, i])
