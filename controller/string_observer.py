@@ -101,6 +101,21 @@ class StringObserver:
     K0: float
     Ts: float
 
+    def __post_init__(self) -> None:
+        m = check_int("StringObserver.elements", self.elements, lower=1)
+        n = 2 * (m + 1) + 1
+        for name, shape in (("Ad", (n, n)), ("Bd", (n,)), ("C", (3, n)), ("M", (n, 3))):
+            a = np.array(getattr(self, name), dtype=float)
+            if a.shape != shape or not np.all(np.isfinite(a)):
+                raise ValueError(
+                    f"StringObserver.{name} must be finite of shape {shape} (elements = {m}), "
+                    f"got shape {a.shape}"
+                )
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        object.__setattr__(self, "K0", check_real("StringObserver.K0", self.K0))
+        object.__setattr__(self, "Ts", check_real("StringObserver.Ts", self.Ts, lower=0.0))
+
     @property
     def size(self) -> int:
         """n, the number of states."""

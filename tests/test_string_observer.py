@@ -151,3 +151,13 @@ def test_step_by_step_is_the_run():
         z = obs.correct(z, y[0, i], y[1, i], y[2, i])
         assert obs.bit(z) == pytest.approx((est["phi"][i], est["dphi"][i]), abs=1e-12)
         z = obs.predict(z, y[3, i])
+
+
+def test_observer_numbers_are_checked_by_name():
+    obs = design_string_observer(MODEL, rig_string("reference-rig", 16), TS)
+    with pytest.raises(ValueError, match=r"StringObserver.M must be finite of shape \(9, 3\)"):
+        dataclasses.replace(obs, M=obs.M[:, :2])
+    with pytest.raises(ValueError, match="StringObserver.Ts must be > 0, got -1"):
+        dataclasses.replace(obs, Ts=-1)
+    with pytest.raises(ValueError, match="StringObserver.elements must be a positive"):
+        dataclasses.replace(obs, elements=0)
