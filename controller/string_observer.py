@@ -21,9 +21,11 @@ twist ``phi - theta = q_M - q_0``.
 
 The filter is the steady-state Kalman filter of the exactly discretised chain (zero-order hold
 of the motor torque over the sample period): the noise on the motor torque enters as process
-noise on the table, an error in the top drive's inertia as more of it (:func:`design_string_
-observer`). It runs here, in Python, on recorded surface signals (:meth:`StringObserver.run`);
-the compiled controller's observer slot holds the one-mode filter's four states.
+noise on the table, an error in the top drive's inertia as more of it
+(:func:`design_string_observer`). It runs here, in Python, on recorded surface signals
+(:meth:`StringObserver.run`) or one sample at a time (:meth:`StringObserver.correct`,
+:meth:`StringObserver.predict`); the compiled controller's observer slot holds the one-mode
+filter's four states.
 """
 
 from __future__ import annotations

@@ -161,3 +161,26 @@ def test_observer_numbers_are_checked_by_name():
         dataclasses.replace(obs, Ts=-1)
     with pytest.raises(ValueError, match="StringObserver.elements must be a positive"):
         dataclasses.replace(obs, elements=0)
+
+
+def test_one_mode_replay_is_the_compiled_observer():
+    """one_mode_estimates gives what the digital controller's observer gives on the same
+    signals (its string torque theta - phi set to the measured top torque)."""
+    from drillstring.model.digital import sense
+    from drillstring.model.digital.controller import DigitalController
+    from drillstring.model.sensing import Sensing
+
+    obs = design_observer(MODEL, TS)
+    law = FeedForward(R_ff=MODEL.R_ff)
+    run = DigitalController(law, sensing=Sensing(downhole="observer", observer=obs)).start(
+        REFERENCE
+    )
+    rng = np.random.default_rng(5)
+    theta, dtheta, torque = rng.standard_normal((3, 40))
+    r = np.full(40, MODEL.R_ff)
+    est = one_mode_estimates(obs, theta, dtheta, torque, r)
+    for k in range(40):
+        phi = theta[k] - torque[k]
+        got = sense.sensed(run.block, k * TS, phi, 0.0, theta[k], dtheta[k])
+        assert got[:2] == pytest.approx((est["phi"][k], est["dphi"][k]), abs=1e-12)
+        assert run.step(k * TS, phi, 0.0, theta[k], dtheta[k], TS) == pytest.approx(r[k])
