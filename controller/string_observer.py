@@ -39,6 +39,7 @@ from scipy.linalg import solve_discrete_are
 
 from drillstring.controller.averaged import AveragedModel
 from drillstring.controller.estimation import discretise
+from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.pipe import StringParams, torsional_chain
 from drillstring.model.sensing import Observer
 from drillstring.validation import check_int, check_real
@@ -342,8 +343,6 @@ def scaled_surface_noise(C: float, t_star: float) -> dict[str, float]:
 
 def _scaled_noise(noise: dict[str, float] | None) -> dict[str, float]:
     if noise is None:
-        from drillstring.model.params import REFERENCE_RIG
-
         return scaled_surface_noise(REFERENCE_RIG.C, REFERENCE_RIG.t_star)
     if not isinstance(noise, dict):
         raise TypeError(f"noise must be a dict, got {type(noise).__name__}")

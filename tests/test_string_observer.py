@@ -18,6 +18,8 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,11 +33,14 @@ from drillstring.controller.string_observer import (
     one_mode_estimates,
     scaled_surface_noise,
 )
+from drillstring.model.digital import sense
+from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
 from drillstring.model.laws import FeedForward
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.pipe import rig_string
 from drillstring.model.sampled import simulate_sampled
+from drillstring.model.sensing import Sensing
 
 MODEL = averaged_model(REFERENCE, 0.385415, 2.392788)  # the design's A, taubar_crit
 TS = 1e-3
@@ -169,10 +174,6 @@ def test_observer_numbers_are_checked_by_name():
 def test_one_mode_replay_is_the_compiled_observer():
     """one_mode_estimates gives what the digital controller's observer gives on the same
     signals (its string torque theta - phi set to the measured top torque)."""
-    from drillstring.model.digital import sense
-    from drillstring.model.digital.controller import DigitalController
-    from drillstring.model.sensing import Sensing
-
     obs = design_observer(MODEL, TS)
     law = FeedForward(R_ff=MODEL.R_ff)
     run = DigitalController(law, sensing=Sensing(downhole="observer", observer=obs)).start(
@@ -193,9 +194,6 @@ def test_string_observer_closes_the_constrained_lmi_with_noise_and_inertia_error
     """tools/observer_closed_loop.py on the one-mode plant (the string the constrained design
     holds on): with the full noise and the inertia 20 % high the law settles through the string
     observer (docs/controllers.md: the one-mode observer's run ends in stick-slip)."""
-    import importlib.util
-    from pathlib import Path
-
     path = Path(__file__).resolve().parents[1] / "tools" / "observer_closed_loop.py"
     spec = importlib.util.spec_from_file_location("observer_closed_loop", path)
     tool = importlib.util.module_from_spec(spec)
