@@ -10,6 +10,7 @@ R_ff and the switch-on time, so that they start from the same state in the same 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ from drillstring.model.params import ScaledParams, known_rig
 from drillstring.model.pipe import StringParams
 from drillstring.model.sensing import Sensing
 from drillstring.model.tables import Scales, scales_of
+from drillstring.model.timing import Timing
 from drillstring.model.topdrive import RPM, TopDrive
 from drillstring.validation import check_choice, check_real
 
@@ -52,6 +54,7 @@ __all__ = [
     "MUD_PULSE_SEED",
     "RIG_CONTROLLERS",
     "SENSING",
+    "TIMED_CONTROLLERS",
     "Tuning",
     "controller_lineup",
     "industrial_lineup",
@@ -95,6 +98,22 @@ SENSING = {
 }
 #: Where the LMI law's K0 and R_ff come from with a gains file: the file, or the point's (31).
 FEEDFORWARD = ("file", "point")
+#: The timing of a real drive (``docs/controllers.md``, "Timing of a real drive"): the rows of the
+#: comparison whose controller computes at its own period [s] with one period of latency
+#: (computation and fieldbus), by row name: (the controller of :data:`RIG_CONTROLLERS`, period
+#: [s]). A row of this table is a controller of :func:`rig_lineup` with that
+#: :class:`~drillstring.model.timing.Timing`.
+TIMED_CONTROLLERS: dict[str, tuple[str, float]] = {
+    f"{base}-{ms}ms": (base, ms / 1e3)
+    for base in ("soft-speed", "z-torque", "lmi-constrained")
+    for ms in (10, 20, 50)
+}
+SENSING.update(
+    {
+        name: f"{SENSING[base]}, {period * 1e3:g} ms + {period * 1e3:g} ms late"
+        for name, (base, period) in TIMED_CONTROLLERS.items()
+    }
+)
 
 
 def sensing_note(names: Sequence[str]) -> str:
@@ -376,7 +395,9 @@ def rig_lineup(
     t_on, latch : float, str
         Switch-on of every law; the LMI laws' latch.
     names : sequence of str
-        The controllers wanted (a subset of :data:`RIG_CONTROLLERS`).
+        The controllers wanted (a subset of :data:`RIG_CONTROLLERS` and of the rows of
+        :data:`TIMED_CONTROLLERS`: their controller with its period and one period of latency,
+        in seconds of ``scales``).
     string : StringParams, optional
         The simulated string, for the default tuning (:meth:`Tuning.for_string`).
 
@@ -385,10 +406,13 @@ def rig_lineup(
     dict
         Name -> DigitalController, in the order of ``names``.
     """
-    unknown = sorted(set(names) - set(RIG_CONTROLLERS))
+    unknown = sorted(set(names) - set(RIG_CONTROLLERS) - set(TIMED_CONTROLLERS))
     if unknown:
         raise ValueError(f"unknown controller(s) {unknown} (known: {', '.join(RIG_CONTROLLERS)})")
     _, t_star = scales_of(scales)
+    timed = {n: TIMED_CONTROLLERS[n] for n in names if n in TIMED_CONTROLLERS}
+    bases = [b for b, _ in timed.values() if b not in names]
+    names = [n for n in names if n not in timed]
     surface = Sensing(torque="motor")
     laws = (
         industrial_lineup(
@@ -424,4 +448,16 @@ def rig_lineup(
                 observer = design_observer(model, Ts)
                 sensing = Sensing(downhole="observer", observer=observer, torque="motor")
             out[name] = DigitalController(lmi(constrained), top_drive, sensing)
+    if timed:
+        # the controllers the timed rows are made of, also when they are not rows themselves
+        extra = {} if not bases else rig_lineup(
+            params, model, paper=paper, constrained=constrained, top_drive=top_drive,
+            scales=scales, Ts=Ts, tuning=tuning, t_on=t_on, latch=latch,
+            names=list(dict.fromkeys(bases)), string=string,
+        )  # fmt: skip
+        base = {**out, **extra}
+        for name, (of, period) in timed.items():
+            if of in base:
+                P = period / t_star
+                out[name] = dataclasses.replace(base[of], timing=Timing(period=P, latency=P))
     return out

@@ -12,6 +12,7 @@ import pytest
 
 from drillstring.analysis.modes import torsional_exact_modes
 from drillstring.apps.cli import main
+from drillstring.controller.averaged import averaged_model
 from drillstring.controller.gains import GainsFile, write_gains
 from drillstring.controller.lineup import Tuning, industrial_lineup
 from drillstring.controller.reflection import (
@@ -113,8 +114,6 @@ def test_field_tunings_are_the_defaults_on_the_distributed_string() -> None:
 
 
 def test_the_command_reports_the_reflection_beside_each_law(tmp_path, capsys) -> None:
-    from drillstring.controller.averaged import averaged_model
-
     model = averaged_model(REFERENCE, 0.385415, 2.392788)
     gains = GainsFile(
         F=(-3353.65, -2028.44, 520.61, -57.11), K0=model.K0, R_ff=model.R_ff, alpha=1.0,

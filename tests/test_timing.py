@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from drillstring.controller.averaged import averaged_model
+from drillstring.controller.lineup import SENSING, TIMED_CONTROLLERS, LmiGain, rig_lineup
 from drillstring.model.digital import layout as L
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
 from drillstring.model.experiments import FIG6
@@ -99,3 +101,22 @@ def test_timing_is_checked_and_converts_to_seconds():
     assert t.to_si(REFERENCE_RIG) == pytest.approx({"period": 0.02, "latency": 0.02})
     with pytest.raises(TypeError, match="timing"):
         DigitalController(SpeedPI(kp=1.0, ki=1.0), timing=0.02)
+
+
+def test_the_timed_rows_are_their_controller_with_one_period_of_latency():
+    model = averaged_model(REFERENCE, 0.385415, 2.392788)
+    paper = LmiGain(F=(-3353.65, -2028.44, 520.61, -57.11), K0=model.K0, R_ff=model.R_ff,
+                    abscissa=float("nan"))  # fmt: skip
+    drive = top_drive(TDS_11SA, REFERENCE_RIG)
+    kw = {"paper": paper, "top_drive": drive, "scales": REFERENCE_RIG, "Ts": 1e-3}
+    timed = rig_lineup(REFERENCE, model, constrained=paper, names=list(TIMED_CONTROLLERS), **kw)
+    assert list(timed) == list(TIMED_CONTROLLERS)
+    plain = rig_lineup(REFERENCE, model, constrained=paper, **kw)
+    for name, (of, period) in TIMED_CONTROLLERS.items():
+        P = period / REFERENCE_RIG.t_star
+        assert timed[name].timing == Timing(period=P, latency=P)
+        assert timed[name].law == plain[of].law and timed[name].sensing == plain[of].sensing
+        assert (
+            SENSING[name].startswith(SENSING[of]) and f"{period * 1e3:g} ms late" in SENSING[name]
+        )
+    assert {p for _, p in TIMED_CONTROLLERS.values()} == {0.01, 0.02, 0.05}
