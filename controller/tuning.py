@@ -179,7 +179,7 @@ def impedance(
         One of :data:`STRING_IMPEDANCES`: ``"lumped"``, sqrt(C*I1) (1, the model's own);
         ``"pipe"``, the pipe's J*sqrt(G*rho_steel) over the simulated rig's sqrt(C*I1);
         ``"string"``, the simulated string's own, sqrt(kappa) (needs ``kappa``; on the
-        reference rig 1.368, the pipe's 296.5 N m s/rad to the rounding of I1).
+        reference rig 1.368, the pipe's 296.5 N m s/rad: its kappa is that pipe's).
     rig : PhysicalParams or any object with C and t_star
         The simulated rig; needed for ``"pipe"``.
     pipe : Pipe, optional
