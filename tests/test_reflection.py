@@ -136,3 +136,13 @@ def test_the_command_reports_the_reflection_beside_each_law(tmp_path, capsys) ->
     assert abs(r) > 0.99  # the stiff PI
     assert rows[0]["frequency_hz"] == pytest.approx(0.1656, abs=1e-3)
     assert "reflection at the top drive" in capsys.readouterr().out
+
+
+def test_z_torque_on_the_string_returns_more_than_arrives_above_its_low_pass() -> None:
+    # the lag of the torque feedback's low-pass makes Re Z_top < 0 at the 2.5-5 Hz where its
+    # linearised loop on the string is unstable (docs/controllers.md)
+    z = industrial_lineup(REFERENCE, string=rig_string("reference-rig", 64))["z-torque"]
+    w = 4.36 * 2.0 * math.pi * 0.9225312
+    r = reflection_at_modes(z, RHO, KAPPA, omegas=[w])[0]
+    assert r.Z_top.real < 0.0 and r.magnitude == pytest.approx(1.318, abs=1e-3)
+    assert all(m.magnitude < 0.2 for m in reflection_at_modes(z, RHO, KAPPA))
