@@ -404,7 +404,7 @@ def rig_lineup(
     Returns
     -------
     dict
-        Name -> DigitalController, in the order of ``names``.
+        Name -> DigitalController, in the order of ``names`` (the timed rows last).
     """
     unknown = sorted(set(names) - set(RIG_CONTROLLERS) - set(TIMED_CONTROLLERS))
     if unknown:
