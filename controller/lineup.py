@@ -10,6 +10,7 @@ R_ff and the switch-on time, so that they start from the same state in the same 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -22,8 +23,8 @@ from drillstring.controller.estimation import design_observer
 from drillstring.controller.gains import GainsFile
 from drillstring.controller.synthesis import synthesize
 from drillstring.controller.tuning import (
-    IMPEDANCES,
     SOFT_SPEED_RULES,
+    STRING_IMPEDANCES,
     Pipe,
     impedance,
     soft_speed,
@@ -34,8 +35,10 @@ from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import ScaledParams, known_rig
+from drillstring.model.pipe import StringParams
 from drillstring.model.sensing import Sensing
 from drillstring.model.tables import Scales, scales_of
+from drillstring.model.timing import Timing
 from drillstring.model.topdrive import RPM, TopDrive
 from drillstring.validation import check_choice, check_real
 
@@ -51,6 +54,7 @@ __all__ = [
     "MUD_PULSE_SEED",
     "RIG_CONTROLLERS",
     "SENSING",
+    "TIMED_CONTROLLERS",
     "Tuning",
     "controller_lineup",
     "industrial_lineup",
@@ -94,6 +98,22 @@ SENSING = {
 }
 #: Where the LMI law's K0 and R_ff come from with a gains file: the file, or the point's (31).
 FEEDFORWARD = ("file", "point")
+#: The timing of a real drive (``docs/controllers.md``, "Timing of a real drive"): the rows of the
+#: comparison whose controller computes at its own period [s] with one period of latency
+#: (computation and fieldbus), by row name: (the controller of :data:`RIG_CONTROLLERS`, period
+#: [s]). A row of this table is a controller of :func:`rig_lineup` with that
+#: :class:`~drillstring.model.timing.Timing`.
+TIMED_CONTROLLERS: dict[str, tuple[str, float]] = {
+    f"{base}-{ms}ms": (base, ms / 1e3)
+    for base in ("soft-speed", "z-torque", "lmi-constrained")
+    for ms in (10, 20, 50)
+}
+SENSING.update(
+    {
+        name: f"{SENSING[base]}, {period * 1e3:g} ms + {period * 1e3:g} ms late"
+        for name, (base, period) in TIMED_CONTROLLERS.items()
+    }
+)
 
 
 def sensing_note(names: Sequence[str]) -> str:
@@ -112,9 +132,10 @@ class Tuning:
     Parameters
     ----------
     impedance : str
-        The string impedance Z of the rules (:data:`~drillstring.controller.tuning.IMPEDANCES`):
-        ``"lumped"`` (sqrt(C*I1), the model's) or ``"pipe"`` (the simulated rig's drill pipe,
-        J*sqrt(G*rho_steel)), :func:`~drillstring.controller.tuning.impedance`.
+        The string impedance Z of the rules (:data:`~drillstring.controller.tuning.
+        STRING_IMPEDANCES`): ``"lumped"`` (sqrt(C*I1), the model's), ``"pipe"`` (the simulated
+        rig's drill pipe, J*sqrt(G*rho_steel)) or ``"string"`` (the simulated string's
+        sqrt(kappa)), :func:`~drillstring.controller.tuning.impedance`.
     soft_speed : str
         SoftSpeed's proportional gain (:data:`~drillstring.controller.tuning.SOFT_SPEED_RULES`):
         ``"two-mass"`` (2*sqrt(rho)*Z) or ``"impedance"`` (Z).
@@ -123,20 +144,41 @@ class Tuning:
     pipe : Pipe, optional
         The drill pipe of ``"pipe"`` (default: the known pipe of the simulated rig's string,
         :func:`~drillstring.controller.tuning.rig_pipe`).
+    kappa : float, optional
+        The simulated string's pipe inertia over I1 for ``"string"`` (Z = sqrt(kappa));
+        :meth:`for_string` sets it from the string.
     """
 
     impedance: str = "lumped"
     soft_speed: str = "two-mass"
     z_matching: float = 1.0
     pipe: Pipe | None = None
+    kappa: float | None = None
+
+    @classmethod
+    def for_string(cls, string: StringParams | None, z_matching: float = 1.0) -> Tuning:
+        """The default tuning on ``string``: on the paper's one-mode string (or None) the
+        lumped impedance with SoftSpeed's two-mass rule; on a distributed string the field
+        rules on its own impedance sqrt(kappa): SoftSpeed's ``kp = Z``, Z-Torque matched to Z
+        by the fraction ``z_matching`` (``docs/controllers.md``, "Field tunings on the
+        string")."""
+        if string is None or string.is_paper:
+            return cls(z_matching=z_matching)
+        return cls(impedance="string", soft_speed="impedance", z_matching=z_matching,
+                   kappa=string.kappa)  # fmt: skip
 
     def __post_init__(self) -> None:
-        check_choice("Tuning.impedance", self.impedance, IMPEDANCES)
+        check_choice("Tuning.impedance", self.impedance, STRING_IMPEDANCES)
         check_choice("Tuning.soft_speed", self.soft_speed, SOFT_SPEED_RULES)
         value = check_real("Tuning.z_matching", self.z_matching, lower=0.0, strict=False)
         object.__setattr__(self, "z_matching", value)
         if self.pipe is not None and not isinstance(self.pipe, Pipe):
             raise TypeError(f"Tuning.pipe must be a Pipe or None, got {self.pipe!r}")
+        if self.kappa is not None:
+            kappa = check_real("Tuning.kappa", self.kappa, lower=0.0)
+            object.__setattr__(self, "kappa", kappa)
+        elif self.impedance == "string":
+            raise ValueError("Tuning.impedance = 'string' needs the string's kappa (kappa=)")
 
     def Z(self, rig: Scales | None = None) -> float:  # noqa: N802 - the rules' symbol
         """The impedance on the simulated ``rig``, scaled (units of its sqrt(C*I1)).
@@ -146,17 +188,20 @@ class Tuning:
         ValueError
             ``"pipe"`` without a rig, or for a rig whose pipe is neither given nor known.
         """
-        return impedance(self.impedance, rig, self.pipe)
+        return impedance(self.impedance, rig, self.pipe, kappa=self.kappa)
 
     def values(self) -> dict[str, Any]:
         """The choices by name (the pipe as its od, id, G and density, or None)."""
         pipe = None if self.pipe is None else dict(vars(self.pipe))
-        return {
+        out: dict[str, Any] = {
             "impedance": self.impedance,
             "soft_speed": self.soft_speed,
             "z_matching": self.z_matching,
             "pipe": pipe,
         }
+        if self.kappa is not None:  # the string's kappa: only when given (the records before)
+            out["kappa"] = self.kappa
+        return out
 
 
 @dataclass(frozen=True)
@@ -252,6 +297,7 @@ def industrial_lineup(
     R_ff: float = 0.0,
     t_on: float = 0.0,
     rig: Scales | None = None,
+    string: StringParams | None = None,
 ) -> dict[str, SpeedPI | ZTorque]:
     """The industrial controllers of :data:`INDUSTRIAL` at ``params``, tuned by the rules of
     :mod:`drillstring.controller.tuning` with the ``tuning`` choices (default: the lumped
@@ -269,6 +315,9 @@ def industrial_lineup(
     rig : PhysicalParams or any object with C and t_star, optional
         The simulated rig, for the pipe's impedance (default: the known rig whose scaled set is
         ``params``, if any).
+    string : StringParams, optional
+        The simulated string: without ``tuning``, the default is :meth:`Tuning.for_string`
+        (the field rules on its impedance when it is distributed).
 
     Returns
     -------
@@ -280,7 +329,7 @@ def industrial_lineup(
     ValueError
         ``tuning.impedance = "pipe"`` and no rig, or a rig whose pipe is not known.
     """
-    tuning = Tuning() if tuning is None else tuning
+    tuning = Tuning.for_string(string) if tuning is None else tuning
     common = {"R_ff": R_ff, "t_on": t_on}
     if tuning.impedance == "pipe" and rig is None:
         rig = known_rig(params)
@@ -310,6 +359,7 @@ def rig_lineup(
     t_on: float = 0.0,
     latch: str = "angle",
     names: Sequence[str] = RIG_CONTROLLERS,
+    string: StringParams | None = None,
 ) -> dict[str, DigitalController]:
     """The digital controllers of :data:`RIG_CONTROLLERS` at ``params``, all with the same top
     drive (``docs/controllers.md``, "Fig. 6-like comparison").
@@ -345,20 +395,29 @@ def rig_lineup(
     t_on, latch : float, str
         Switch-on of every law; the LMI laws' latch.
     names : sequence of str
-        The controllers wanted (a subset of :data:`RIG_CONTROLLERS`).
+        The controllers wanted (a subset of :data:`RIG_CONTROLLERS` and of the rows of
+        :data:`TIMED_CONTROLLERS`: their controller with its period and one period of latency,
+        in seconds of ``scales``).
+    string : StringParams, optional
+        The simulated string, for the default tuning (:meth:`Tuning.for_string`).
 
     Returns
     -------
     dict
-        Name -> DigitalController, in the order of ``names``.
+        Name -> DigitalController, in the order of ``names`` (the timed rows last).
     """
-    unknown = sorted(set(names) - set(RIG_CONTROLLERS))
+    unknown = sorted(set(names) - set(RIG_CONTROLLERS) - set(TIMED_CONTROLLERS))
     if unknown:
         raise ValueError(f"unknown controller(s) {unknown} (known: {', '.join(RIG_CONTROLLERS)})")
     _, t_star = scales_of(scales)
+    timed = {n: TIMED_CONTROLLERS[n] for n in names if n in TIMED_CONTROLLERS}
+    bases = [b for b, _ in timed.values() if b not in names]
+    names = [n for n in names if n not in timed]
     surface = Sensing(torque="motor")
     laws = (
-        industrial_lineup(params, tuning=tuning, R_ff=paper.R_ff, t_on=t_on, rig=scales)
+        industrial_lineup(
+            params, tuning=tuning, R_ff=paper.R_ff, t_on=t_on, rig=scales, string=string
+        )
         if any(name in INDUSTRIAL for name in names)
         else {}
     )
@@ -389,4 +448,16 @@ def rig_lineup(
                 observer = design_observer(model, Ts)
                 sensing = Sensing(downhole="observer", observer=observer, torque="motor")
             out[name] = DigitalController(lmi(constrained), top_drive, sensing)
+    if timed:
+        # the controllers the timed rows are made of, also when they are not rows themselves
+        extra = {} if not bases else rig_lineup(
+            params, model, paper=paper, constrained=constrained, top_drive=top_drive,
+            scales=scales, Ts=Ts, tuning=tuning, t_on=t_on, latch=latch,
+            names=list(dict.fromkeys(bases)), string=string,
+        )  # fmt: skip
+        base = {**out, **extra}
+        for name, (of, period) in timed.items():
+            if of in base:
+                P = period / t_star
+                out[name] = dataclasses.replace(base[of], timing=Timing(period=P, latency=P))
     return out

@@ -52,6 +52,7 @@ __all__ = [
     "OMEGA_S",
     "REFERENCE_PIPE",
     "SOFT_SPEED_RULES",
+    "STRING_IMPEDANCES",
     "Z_STRING",
     "Pipe",
     "damping_ratios",
@@ -68,8 +69,13 @@ __all__ = [
 OMEGA_S = 1.0
 #: Characteristic impedance sqrt(C*I1) of the lumped string, scaled (units of C*t*).
 Z_STRING = 1.0
-#: Where the string impedance Z of the rules comes from.
+#: Where the string impedance Z of the rules comes from: the lumped string's sqrt(C*I1) or the
+#: drill pipe's J*sqrt(G*rho_steel) from its tables (the choices of a run of the one-mode model).
 IMPEDANCES = ("lumped", "pipe")
+#: ... and the simulated distributed string's own sqrt(kappa) (``docs/model.md``, "The
+#: distributed string"), which needs the string's kappa (:meth:`~drillstring.controller.lineup.
+#: Tuning.for_string`).
+STRING_IMPEDANCES = (*IMPEDANCES, "string")
 #: The proportional gain rules of SoftSpeed.
 SOFT_SPEED_RULES = ("two-mass", "impedance")
 
@@ -158,18 +164,28 @@ def rig_pipe(rig: Scales) -> Pipe:
     )
 
 
-def impedance(choice: str = "lumped", rig: Scales | None = None, pipe: Pipe | None = None) -> float:
+def impedance(
+    choice: str = "lumped",
+    rig: Scales | None = None,
+    pipe: Pipe | None = None,
+    *,
+    kappa: float | None = None,
+) -> float:
     """The string impedance Z of the tuning rules, scaled (units of C*t* = sqrt(C*I1)).
 
     Parameters
     ----------
     choice : str
-        One of :data:`IMPEDANCES`: ``"lumped"``, sqrt(C*I1) (1, the model's own); ``"pipe"``,
-        the pipe's J*sqrt(G*rho_steel) over the simulated rig's sqrt(C*I1).
+        One of :data:`STRING_IMPEDANCES`: ``"lumped"``, sqrt(C*I1) (1, the model's own);
+        ``"pipe"``, the pipe's J*sqrt(G*rho_steel) over the simulated rig's sqrt(C*I1);
+        ``"string"``, the simulated string's own, sqrt(kappa) (needs ``kappa``; on the
+        reference rig 1.368, the pipe's 296.5 N m s/rad: its kappa is that pipe's).
     rig : PhysicalParams or any object with C and t_star
         The simulated rig; needed for ``"pipe"``.
     pipe : Pipe, optional
         The rig's drill pipe for ``"pipe"`` (default :func:`rig_pipe` of ``rig``).
+    kappa : float, optional
+        The simulated string's pipe inertia over I1 for ``"string"``, in (0, 3).
 
     Returns
     -------
@@ -180,11 +196,18 @@ def impedance(choice: str = "lumped", rig: Scales | None = None, pipe: Pipe | No
     ------
     ValueError
         ``choice`` unknown; ``"pipe"`` without a rig, or for a rig whose pipe is neither given
-        nor known (:func:`rig_pipe`).
+        nor known (:func:`rig_pipe`); ``"string"`` without a positive kappa.
     """
-    check_choice("impedance", choice, IMPEDANCES)
+    check_choice("impedance", choice, STRING_IMPEDANCES)
     if choice == "lumped":
         return Z_STRING
+    if choice == "string":
+        if kappa is None:
+            raise ValueError(
+                "impedance 'string' needs the simulated string's kappa = I_pipe/I1 (its "
+                "impedance is sqrt(kappa))"
+            )
+        return math.sqrt(check_real("impedance kappa", kappa, lower=0.0))
     if rig is None:
         raise ValueError(
             "impedance 'pipe' needs the simulated rig (its C and t*): the pipe's impedance is "

@@ -49,6 +49,7 @@ from drillstring.model.digital.controller import DigitalController, OperatingPoi
 from drillstring.model.laws import Law, SampledAffine, ZTorque
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sensing import Sensing
+from drillstring.model.timing import Timing
 from drillstring.model.topdrive import TDS_11SA, TopDrive, top_drive
 
 SCALED, SI = units.SCALED, units.SI
@@ -82,6 +83,9 @@ _TYPES = {
 }
 #: Top-drive limits a host switches off with 0 (a start value cannot be infinite).
 _ZERO_IS_NONE = ("rate", "P_max")
+#: The FMU's names of the controller's own timing (:class:`Timing`; the sensing has its own
+#: telemetry ``period`` and ``latency``).
+_TIMING_NAMES = {"period": "control_period", "latency": "control_latency"}
 
 
 @dataclass(frozen=True)
@@ -218,6 +222,8 @@ def _declarations(family: Family) -> list[units.Declared]:
         if p_decl.scaled == "seed":
             p_decl = declare("seed", "Integer", "parameter", p_decl.description, start=0, min=0)
         out.append(p_decl)
+    # declared last, so that the variables before keep their value references
+    out += units.from_table(Timing.PARAMETERS, Timing().values(), _TYPES, rename=_TIMING_NAMES)
     return out
 
 
@@ -233,7 +239,9 @@ class ControllerFmu(fmu.FmuModel):
         "A digital law without limits of validity: finite inputs give a finite output. Before "
         "t_on, or with enabled = false, the law's command is R_ff; the law starts from the "
         "inputs at the first communication point at or after t_on, and its state is updated at "
-        "every step with the inputs held over the step (zero-order hold). With top_drive = true "
+        "every step with the inputs held over the step (zero-order hold); with control_period > "
+        "0 at the first step at or after each multiple of it instead, its command reaching the "
+        "drive control_latency later. With top_drive = true "
         "the command passes the top drive's limits (torque range, power, speed range, braking, "
         "lag or rate limit) before it is applied.",
     )
@@ -313,7 +321,12 @@ class ControllerFmu(fmu.FmuModel):
         sensing = (
             Sensing.from_si(scales, settings) if self.UNIT_SYSTEM == SI else Sensing(**settings)
         )
-        return DigitalController(law, drive, sensing, enabled=bool(v["enabled"])), point
+        times = {name: v[fmu_name] for name, fmu_name in _TIMING_NAMES.items()}
+        timing = Timing.from_si(scales, times) if self.UNIT_SYSTEM == SI else Timing(**times)
+        controller = DigitalController(
+            law, drive, sensing, enabled=bool(v["enabled"]), timing=timing
+        )
+        return controller, point
 
     # ----------------------------------------------------------------- physics
     def configure(self, values: Mapping[str, Any]) -> None:

@@ -51,6 +51,7 @@ from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.lineup import (
     RIG_CONTROLLERS,
     SENSING,
+    TIMED_CONTROLLERS,
     LmiGain,
     lmi_gain,
     rig_lineup,
@@ -511,7 +512,12 @@ def test_comparison_starts_every_controller_from_the_same_state(
         window=1.0, min_periods=0.0, log=None,
     )  # fmt: skip
     names = [r["controller"] for r in result.rows]
-    assert names == ["open-loop", *RIG_CONTROLLERS, "lmi-unlimited"]
+    # the timing of a real drive: the rows of TIMED_CONTROLLERS after the rig's controllers
+    assert names == ["open-loop", *RIG_CONTROLLERS, *TIMED_CONTROLLERS, "lmi-unlimited"]
+    for name, (of, period) in TIMED_CONTROLLERS.items():
+        timing = result.laws[name]["timing_s"]
+        assert timing == pytest.approx({"period": period, "latency": period}, rel=1e-12)
+        assert result.laws[name]["scaled"] == result.laws[of]["scaled"]
     with open(result.files["table"], newline="") as fh:
         table = list(csv.DictReader(fh))
     assert [r["controller"] for r in table] == names and list(table[0]) == list(COMPARISON_COLUMNS)
@@ -693,7 +699,8 @@ def test_the_sensing_labels_say_what_each_controller_measures(paper_gains, const
         paper=lmi_gain(model, paper_gains[0]), constrained=lmi_gain(model, constrained_gains[0]),
         top_drive=top_drive(TDS_11SA, rig), scales=rig, Ts=1e-3,
     )  # fmt: skip
-    assert set(SENSING) == set(RIG_CONTROLLERS) == set(controllers)
+    assert set(SENSING) == set(RIG_CONTROLLERS) | set(TIMED_CONTROLLERS)
+    assert set(RIG_CONTROLLERS) == set(controllers)
     for name, c in controllers.items():
         s, label = c.sensing, SENSING[name]
         assert (label == "exact downhole") == (s.downhole == "ideal" and name.startswith("lmi"))

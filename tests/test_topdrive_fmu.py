@@ -36,6 +36,7 @@ from drillstring.model.laws import SampledAffine, SpeedPI, ZTorque, law_from_si
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.sensing import Sensing
+from drillstring.model.timing import Timing
 from drillstring.model.topdrive import TDS_11SA, top_drive
 from drillstring.model.units import SIScaling
 from drillstring.orchestration.closed_loop import (
@@ -151,6 +152,33 @@ def test_lmi_fmu_with_top_drive_and_telemetry_equals_its_digital_controller(buil
     worst["R_minus_R0"] = float(np.max(np.abs(res["controller.R_minus_R0"] - mono.R_minus_R0)))
     assert max(worst.values()) == 0.0, worst
     assert np.sum(mono.n_saturated) > 100  # the drive limited the torque on this run
+
+
+def test_controller_fmus_period_and_latency_are_the_digital_controllers(built):
+    """The controller FMU's own period and latency (control_period, control_latency) are the
+    DigitalController's Timing: 20 ms on the reference rig with one period of latency, the
+    master and the sampled loop bit for bit (issue 27, item 6)."""
+    g = built.gains_values
+    P = 0.02 / REFERENCE_RIG.t_star
+    overrides = {"controller.control_period": P, "controller.control_latency": P}
+    with kept_sys_path(), closed_loop_master(built.out, FIG6, overrides=overrides) as m:
+        res = run_cosim(m, TAU_END, H)
+    assert res.completed, res.failure
+    feedback = AffineFeedback(tuple(g["F"]), g["K0"], g["R_ff"], FIG6.t_on, FIG6.latch)
+    controller = DigitalController(SampledAffine(feedback), timing=Timing(period=P, latency=P))
+    n = round(TAU_END / H)
+    mono = _sampled(controller, SCALED, built, n, H)
+    worst = {c: float(np.max(np.abs(res[f"plant.{c}"] - getattr(mono, c)))) for c in SIGNALS}
+    worst["R_minus_R0"] = float(np.max(np.abs(res["controller.R_minus_R0"] - mono.R_minus_R0)))
+    assert max(worst.values()) == 0.0, worst
+    # the torque is held over the controller's period: it changes at most every P
+    after = res.time >= FIG6.t_on
+    changes = np.flatnonzero(np.diff(res["controller.R_minus_R0"][after]) != 0.0)
+    assert changes.size > 10 and np.min(np.diff(changes)) * H >= P - H
+    # and the SI FMU declares both in seconds
+    md = read_model_description(str(built.si.controller.fmu))
+    units = {v.name: v.unit for v in md.modelVariables}
+    assert units["control_period"] == units["control_latency"] == "s"
 
 
 @pytest.mark.parametrize("name", INDUSTRIAL)

@@ -56,6 +56,7 @@ from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFil
 from drillstring.controller.lineup import (
     RIG_CONTROLLERS,
     SENSING,
+    TIMED_CONTROLLERS,
     Tuning,
     lmi_gain,
     rig_lineup,
@@ -359,6 +360,8 @@ def write_controller_comparison(
     paper = lmi_gain(model, g, feedforward="file")
     cgain = None if gc is None else lmi_gain(model, gc, feedforward="file")
     names = [n for n in RIG_CONTROLLERS if cgain is not None or n not in _CONSTRAINED_ROWS]
+    # the timing of a real drive: the rows of TIMED_CONTROLLERS whose controller runs here
+    names += [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in names]
     controllers = rig_lineup(
         params, model, paper=paper, constrained=cgain, top_drive=drive, scales=rig, Ts=Ts,
         tuning=tuning, t_on=t_on, latch=experiment.latch, names=names,
@@ -385,6 +388,7 @@ def write_controller_comparison(
             "scaled": law.values(),
             "si": law.to_si(rig),
             "sensing": controller.sensing.values(),
+            "timing_s": controller.timing.to_si(rig),
         }
     out = Path(out_dir)
     title = (

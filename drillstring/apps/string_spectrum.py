@@ -28,20 +28,27 @@ from typing import Any, NoReturn
 from drillstring.controller.averaged import AveragedModel, averaged_model
 from drillstring.controller.design import CONSTRAINED_FILE
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
-from drillstring.controller.lineup import Tuning, industrial_lineup
+from drillstring.controller.lineup import INDUSTRIAL, Tuning, industrial_lineup
+from drillstring.controller.reflection import MODE_TABLE, reflection_at_modes
 from drillstring.controller.string_spectrum import (
     BIT_FORMS,
     TORQUE_SIGNALS,
     string_roots,
 )
-from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES
+from drillstring.controller.tuning import SOFT_SPEED_RULES, STRING_IMPEDANCES
 from drillstring.fileio import write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.laws import Law, SampledAffine
 from drillstring.model.params import ParameterError, known_rig, params_from_spec
 from drillstring.model.pipe import MAX_ELEMENTS, REFERENCE_KAPPA, StringParams
 
-__all__ = ["COLUMNS", "DEFAULT_ELEMENTS", "spectrum_table", "string_spectrum_main"]
+__all__ = [
+    "COLUMNS",
+    "DEFAULT_ELEMENTS",
+    "reflection_table",
+    "spectrum_table",
+    "string_spectrum_main",
+]
 
 #: The default ``--elements``: 1 (the paper's one-mode model), 2, 4, ..., 32.
 DEFAULT_ELEMENTS = (1, 2, 4, 8, 16, 32)
@@ -123,8 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="the bit's averaged law: with its delay, (28)-(30), or its Taylor form (27); "
         "default delay",
     )
-    ap.add_argument("--impedance", choices=IMPEDANCES, default="lumped",
-                    help="string impedance of the industrial rules (default lumped)")  # fmt: skip
+    ap.add_argument("--impedance", choices=STRING_IMPEDANCES, default="lumped",
+                    help="string impedance of the industrial rules: lumped, pipe, or string "
+                    "(sqrt(--kappa), the string's own; default lumped)")  # fmt: skip
     ap.add_argument("--soft-speed", choices=SOFT_SPEED_RULES, default="two-mass",
                     help="SoftSpeed's kp rule (default two-mass)")  # fmt: skip
     ap.add_argument("--z-matching", type=float, default=1.0,
@@ -231,6 +239,19 @@ def spectrum_table(
     return rows
 
 
+def reflection_table(
+    laws: dict[str, Law | None], rho: float, kappa: float, t_star: float | None
+) -> list[dict[str, Any]]:
+    """The reflection coefficient of each top-drive law at the string's first two modes with
+    the table held (:func:`~drillstring.controller.reflection.reflection_at_modes`), and of the
+    table's inertia alone; one row per law and mode."""
+    rows = []
+    for name, law in [("table-inertia", None), *((n, laws[n]) for n in INDUSTRIAL if n in laws)]:
+        for r in reflection_at_modes(law, rho, kappa, table=MODE_TABLE, count=2):
+            rows.append({"law": name, "table": MODE_TABLE, **r.values(t_star)})
+    return rows
+
+
 def _print(rows: list[dict[str, Any]], elements: Sequence[int]) -> None:
     laws = list(dict.fromkeys(r["law"] for r in rows))
     print("spectral abscissa [1/s] (scaled per tau in brackets) against N")
@@ -241,6 +262,20 @@ def _print(rows: list[dict[str, Any]], elements: Sequence[int]) -> None:
             f"{law:<16}"
             + "".join(
                 f"{r['abscissa_per_s']:>+10.4f} ({r['abscissa_scaled_per_tau']:+.4f})"
+                for r in cells
+            )
+        )
+
+
+def _print_reflection(rows: list[dict[str, Any]]) -> None:
+    print("reflection at the top drive, string modes with the table held: |r|, arg r [deg]")
+    for law in dict.fromkeys(r["law"] for r in rows):
+        cells = [r for r in rows if r["law"] == law]
+        print(
+            f"{law:<16}"
+            + "".join(
+                f"   mode {r['mode']} ({r['frequency_hz']:.3f} Hz): {r['r_magnitude']:.3f}, "
+                f"{r['r_phase_deg']:+7.1f}"
                 for r in cells
             )
         )
@@ -284,7 +319,10 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
                 f"--constrained {str(path)!r} is for another parameter set than --gains"
             )
         tuning = Tuning(
-            impedance=args.impedance, soft_speed=args.soft_speed, z_matching=args.z_matching
+            impedance=args.impedance,
+            soft_speed=args.soft_speed,
+            z_matching=args.z_matching,
+            kappa=args.kappa if args.impedance == "string" else None,
         )
         model = averaged_model(params, gains.A, gains.taubar_crit)
         rig = known_rig(params)
@@ -293,6 +331,7 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
         rows = spectrum_table(
             model, laws, elements, args.kappa, t_star, torque=args.torque, bit=args.bit
         )
+        reflections = reflection_table(laws, params.rho, args.kappa, t_star)
         out = args.out
         csv_rows = [
             [*(r[c] for c in COLUMNS[:-1]), ";".join(f"{f:g}" for f in r[COLUMNS[-1]])]
@@ -332,12 +371,34 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
                     }
                     for r in rows
                 ],  # fmt: skip
+                "reflection": {
+                    "note": "speed-wave reflection r = (Z_pipe - Z_top)/(Z_pipe + Z_top) at the "
+                    "top drive, Z_pipe = sqrt(kappa), Z_top = rho s + the law's torque per "
+                    "speed at s = i omega of the continuous string's modes with the table "
+                    "held (docs/controllers.md, 'Reflection at the top drive'); the torque "
+                    "wave is reflected with -r",
+                    "units": {
+                        "omega_scaled": "rad per unit of tau",
+                        "frequency_hz": "Hz",
+                        "Z_top_re": "C t* (scaled)",
+                        "Z_top_im": "C t* (scaled)",
+                        "r_phase_deg": "degrees",
+                    },  # fmt: skip
+                    "rows": [
+                        {
+                            k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                            for k, v in r.items()
+                        }
+                        for r in reflections
+                    ],
+                },
             },
         )
     except (_UsageError, GainsFileError, ParameterError, ValueError, OSError) as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
     _print(rows, elements)
+    _print_reflection(reflections)
     print(f"wrote {out / 'string_spectrum.csv'}, {out / 'string_spectrum.json'}")
     return 0
 

@@ -8,6 +8,14 @@ compiled sampled loop; a Python caller):
 * :func:`commit` -- the same sample, then the state one period later: the law's update, the
   top drive's torque, the sensing (telemetry frames, observer, torque estimate), diagnostics.
 
+The controller's own timing (``docs/controllers.md``, "Timing of a real drive"): with a period P
+> 0 (``TM_PERIOD``) the law computes at the first sample at or after each multiple of P, its
+state advanced by P, its command held until its next computation; with a latency L
+(``TM_LATENCY``) that command reaches the drive at the first sample at or after its computation
++ L, until then the drive keeps the command that arrived before (the feed-forward R_ff before
+the first). The sensing and the top drive act at every sample of the host. P = 0 is the law at
+every sample of the host, the code of before.
+
 The switch-on (``docs/model.md``, "Bumpless switch-on"): before ``t_on``, or with the controller
 disabled, only the law's feed-forward R_ff acts; at the first sample at or after ``t_on`` the
 law starts from the measurements there. :func:`fmu_output` and :func:`fmu_step` are the same two
@@ -16,6 +24,8 @@ system (``SI``: the SI connectors converted with the rig scales of the block, eq
 """
 
 from __future__ import annotations
+
+import math
 
 from drillstring.model.digital.drive import actuate
 from drillstring.model.digital.lawcore import law_output, law_start, law_state, law_update
@@ -38,6 +48,8 @@ from drillstring.model.digital.layout import (
     B_TD,
     B_TDX,
     B_TIME,
+    B_TM,
+    B_TMX,
     B_TON,
     B_TSTAR,
     LP_RFF,
@@ -46,6 +58,15 @@ from drillstring.model.digital.layout import (
     TDX_INIT,
     TDX_R,
     TDX_T,
+    TM_LATENCY,
+    TM_PERIOD,
+    TMX_CMD,
+    TMX_HASCMD,
+    TMX_HASLAW,
+    TMX_LAW,
+    TMX_NEXT,
+    TMX_NP,
+    TMX_PEND,
 )
 from drillstring.model.digital.sense import sense_commit, sensed
 from drillstring.model.kernel.jit import jit_for
@@ -63,25 +84,75 @@ def _started(b, tau):
 
 
 @inline
-def sample(b, tau, phi, dphi, theta, dtheta):
-    """(r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s) at the sample instant ``tau``.
-
-    ``phi, dphi, theta, dtheta`` are the plant's (scaled perturbations); the law sees them
-    through the sensing (``phi_s, dphi_s, torque_s``); ``r_cmd`` is its command R - R0,
-    ``r_lim`` the command within the top drive's limits, ``r_app`` the torque applied (held
-    over the sample) and ``R`` the applied absolute torque R/C.
-    """
-    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta)
+def _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
+    """The law's command R - R0 at ``tau`` (the feed-forward alone before it has started)."""
     if _started(b, tau):
         if b[B_ACTIVE] != 0.0:
             x = law_state(b)
         else:
             x = law_start(b, theta, dtheta, torque_s, phi_s, dphi_s)
-        r_cmd = law_output(b, x, theta, dtheta, torque_s, phi_s, dphi_s)
+        return law_output(b, x, theta, dtheta, torque_s, phi_s, dphi_s)
+    return b[B_LP + LP_RFF]
+
+
+@inline
+def _near(t):
+    """The tolerance of "at or after" a time ``t`` (rounding of a host's clock)."""
+    return 1e-9 * max(1.0, abs(t))
+
+
+@inline
+def _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
+    """With the controller's own period: (due, r_law, r_cmd), whether the law computes at
+    ``tau``, its command (computed now or held), and the command at the drive."""
+    nxt = b[B_TMX + TMX_NEXT]
+    due = tau >= nxt - _near(nxt)
+    if due:
+        r_law = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
+    elif b[B_TMX + TMX_HASLAW] != 0.0:
+        r_law = b[B_TMX + TMX_LAW]
     else:
-        r_cmd = b[B_LP + LP_RFF]
+        r_law = b[B_LP + LP_RFF]
+    if b[B_TM + TM_LATENCY] <= 0.0:
+        return due, r_law, r_law
+    r_cmd = b[B_TMX + TMX_CMD] if b[B_TMX + TMX_HASCMD] != 0.0 else b[B_LP + LP_RFF]
+    now = tau + _near(tau)
+    for i in range(int(b[B_TMX + TMX_NP])):
+        at = B_TMX + TMX_PEND + 2 * i
+        if b[at] <= now:
+            r_cmd = b[at + 1]
+    return due, r_law, r_cmd
+
+
+@inline
+def _sample(b, tau, phi, dphi, theta, dtheta):
+    """:func:`sample`'s numbers and (due, r_law, r_law_lim): whether the law computes at
+    ``tau`` and its command before and after the drive's limits (the anti-windup's)."""
+    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta)
+    if b[B_TM + TM_PERIOD] <= 0.0:
+        r_cmd = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
+        r_lim, r_app, R = actuate(b, tau, r_cmd, dtheta)
+        return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, True, r_cmd, r_lim
+    due, r_law, r_cmd = _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
     r_lim, r_app, R = actuate(b, tau, r_cmd, dtheta)
-    return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s
+    r_law_lim = r_lim
+    if r_law != r_cmd:  # on its way: the limits the drive would put on it now
+        r_law_lim = actuate(b, tau, r_law, dtheta)[0]
+    return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim
+
+
+@inline
+def sample(b, tau, phi, dphi, theta, dtheta):
+    """(r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s) at the sample instant ``tau``.
+
+    ``phi, dphi, theta, dtheta`` are the plant's (scaled perturbations); the law sees them
+    through the sensing (``phi_s, dphi_s, torque_s``); ``r_cmd`` is the command R - R0 at the
+    drive (the law's, or with a latency the one that has arrived), ``r_lim`` the command within
+    the top drive's limits, ``r_app`` the torque applied (held over the sample) and ``R`` the
+    applied absolute torque R/C.
+    """
+    out = _sample(b, tau, phi, dphi, theta, dtheta)
+    return out[0], out[1], out[2], out[3], out[4], out[5], out[6]
 
 
 @jit
@@ -90,16 +161,21 @@ def commit(b, tau, phi, dphi, theta, dtheta, Ts):
 
     Returns the applied torque R - R0 of the sample.
     """
-    r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s = sample(b, tau, phi, dphi, theta, dtheta)
-    if _started(b, tau):
+    out = _sample(b, tau, phi, dphi, theta, dtheta)
+    r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim = out
+    period = b[B_TM + TM_PERIOD]
+    if due and _started(b, tau):
         if b[B_ACTIVE] != 0.0:
             x = law_state(b)
         else:
             x = law_start(b, theta, dtheta, torque_s, phi_s, dphi_s)
-        x = law_update(b, x, theta, dtheta, torque_s, phi_s, dphi_s, Ts, r_cmd, r_lim)
+        dt = Ts if period <= 0.0 else period
+        x = law_update(b, x, theta, dtheta, torque_s, phi_s, dphi_s, dt, r_law, r_law_lim)
         for i in range(4):
             b[B_LX + i] = x[i]
         b[B_ACTIVE] = 1.0
+    if period > 0.0:
+        _commit_timing(b, tau, due, r_law, period)
     if b[B_TD + TD_ON] != 0.0:
         b[B_TDX + TDX_R] = R
         b[B_TDX + TDX_T] = tau
@@ -114,6 +190,38 @@ def commit(b, tau, phi, dphi, theta, dtheta, Ts):
         b[B_NSAT] += 1.0
     b[B_NSAMPLES] += 1.0
     return r_app
+
+
+@inline
+def _commit_timing(b, tau, due, r_law, period):
+    """The timing's state after the sample ``tau``: the arrived commands taken off the queue,
+    the law's new command held and put on it, the law's next computation."""
+    m = B_TMX
+    latency = b[B_TM + TM_LATENCY]
+    if latency > 0.0:
+        now = tau + _near(tau)
+        n = int(b[m + TMX_NP])
+        k = 0
+        while k < n and b[m + TMX_PEND + 2 * k] <= now:
+            b[m + TMX_CMD] = b[m + TMX_PEND + 2 * k + 1]
+            b[m + TMX_HASCMD] = 1.0
+            k += 1
+        for i in range(n - k):
+            b[m + TMX_PEND + 2 * i] = b[m + TMX_PEND + 2 * (i + k)]
+            b[m + TMX_PEND + 2 * i + 1] = b[m + TMX_PEND + 2 * (i + k) + 1]
+        b[m + TMX_NP] = n - k
+    if due:
+        b[m + TMX_LAW] = r_law
+        b[m + TMX_HASLAW] = 1.0
+        b[m + TMX_NEXT] = (math.floor(tau / period + 1e-9) + 1.0) * period
+        if latency > 0.0:
+            n = int(b[m + TMX_NP])
+            b[m + TMX_PEND + 2 * n] = tau + latency
+            b[m + TMX_PEND + 2 * n + 1] = r_law
+            b[m + TMX_NP] = n + 1
+        else:
+            b[m + TMX_CMD] = r_law
+            b[m + TMX_HASCMD] = 1.0
 
 
 @inline

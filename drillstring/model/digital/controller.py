@@ -21,6 +21,7 @@ from drillstring.model.digital.block import commit, sample
 from drillstring.model.laws import Law
 from drillstring.model.params import ScaledParams
 from drillstring.model.sensing import Sensing
+from drillstring.model.timing import Timing
 from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
 
@@ -73,12 +74,16 @@ class DigitalController:
         How the measurements are made.
     enabled : bool
         False: the feed-forward R_ff alone, always.
+    timing : Timing
+        The controller's own sample period and latency (default: the law at every sample of
+        the host, no latency).
     """
 
     law: Law
     top_drive: TopDrive | None = None
     sensing: Sensing = field(default_factory=Sensing)
     enabled: bool = True
+    timing: Timing = field(default_factory=Timing)
 
     def __post_init__(self) -> None:
         if not isinstance(self.law, Law):
@@ -89,6 +94,8 @@ class DigitalController:
             raise TypeError(f"sensing must be a Sensing, got {type(self.sensing).__name__}")
         if not isinstance(self.enabled, bool):
             raise TypeError(f"enabled must be a bool, got {self.enabled!r}")
+        if not isinstance(self.timing, Timing):
+            raise TypeError(f"timing must be a Timing, got {type(self.timing).__name__}")
 
     def block(self, point: OperatingPoint | ScaledParams) -> np.ndarray:
         """The block of this controller at the operating point, at rest (nothing sampled yet).
@@ -120,6 +127,7 @@ class DigitalController:
         if self.top_drive is not None:
             self.top_drive.pack(b)
         self.sensing.pack(b)
+        self.timing.pack(b)
         return b
 
     def start(self, point: OperatingPoint | ScaledParams) -> Running:

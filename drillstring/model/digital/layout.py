@@ -112,6 +112,23 @@ FR_PHI = 1
 FR_DPHI = 2
 FR_COLS = 3
 
+#: Timing of the controller itself (``TM`` + index; ``docs/controllers.md``, "Timing of a real
+#: drive"): the law computes at its own period, its command reaches the drive a latency later.
+TM_PERIOD = 0  # the law's sample period (0: every sample of the host, as before)
+TM_LATENCY = 1  # computation + fieldbus: command computed -> command at the drive
+N_TM = 2
+#: Commands on their way to the drive (queue): latency/period may not exceed N_PENDING - 1.
+N_PENDING = 16
+#: Timing state (``TMX`` + index).
+TMX_NEXT = 0  # time of the law's next computation
+TMX_LAW = 1  # the law's command of its last computation, held until the next
+TMX_HASLAW = 2  # 1 once the law has computed
+TMX_CMD = 3  # the command at the drive (the newest that has arrived)
+TMX_HASCMD = 4  # 1 once a command has arrived
+TMX_NP = 5  # commands on their way
+TMX_PEND = 6  # ... each (arrival time, command), oldest first
+N_TMX = TMX_PEND + 2 * N_PENDING
+
 #: The block: (name, size) in order; the offsets below are computed from it.
 SLOTS: tuple[tuple[str, int], ...] = (
     # the four entries of every FMU io block (drillstring.model.native)
@@ -150,6 +167,9 @@ SLOTS: tuple[tuple[str, int], ...] = (
     ("SATURATED", 1),  # 1 if the top drive limited the command
     ("N_SAT", 1),  # samples with the command limited
     ("N_SAMPLES", 1),  # samples committed
+    # the controller's own period and latency (appended: the entries above keep their offsets)
+    ("TM", N_TM),
+    ("TMX", N_TMX),
 )
 
 
@@ -194,7 +214,9 @@ B_RAPP = OFFSETS["R_APP"]
 B_SAT = OFFSETS["SATURATED"]
 B_NSAT = OFFSETS["N_SAT"]
 B_NSAMPLES = OFFSETS["N_SAMPLES"]
+B_TM = OFFSETS["TM"]
+B_TMX = OFFSETS["TMX"]
 B_SIZE = OFFSETS["SIZE"]
 #: The entries of the block that are state (what an FMU state saves besides the time).
 STATE_SLOTS = ("ACTIVE", "LX", "TDX", "SNX", "FRAMES", "R_CMD", "R_APP", "SATURATED", "N_SAT",
-               "N_SAMPLES")  # fmt: skip
+               "N_SAMPLES", "TMX")  # fmt: skip
