@@ -88,10 +88,11 @@ def test_stable_on_the_converged_string(designed, n):
     assert string_abscissa(MODEL, law, string) < 0.0
     # the rightmost roots are the chain's highest modes, damped only by the top (their damping
     # falls as 1/omega^2 of the top's residual inertia); the modes below 2 Hz, those of the
-    # continuous string, decay at least at 0.05 per tau (measured 0.083 at 1.65 Hz, N = 64)
+    # continuous string, decay at least at 0.04 per tau (measured 0.052 at 1.95 Hz on N = 16,
+    # 0.082 and 0.083 at 1.65 Hz on N = 32 and 64)
     roots = string_roots(MODEL, law, string, n_roots=1000, re_min=-0.2)
     slow = roots[np.abs(roots.imag) < 2.0 * math.pi * 2.0 * RIG.t_star]
-    assert slow.size and float(np.max(slow.real)) < -0.05
+    assert slow.size and float(np.max(slow.real)) < -0.04
 
 
 def _drive(braking_knm: float | None):

@@ -10,6 +10,8 @@ margins and the closed-loop spectral abscissa over the delay sweep, then writes
 ``out/design/gains.json`` and, when A is computed rather than given with ``--A``, the points of
 the axial fit ``out/design/axial_fit.csv`` (the Fig. 4 line the slope A comes from).
 
+With ``--string-elements K`` also the design that holds on the distributed string
+(``gains_string.json``; with a drive, its Fig. 6 switch-on on the 16-element string is run).
 With ``--torque-limit DRIVE`` also the input-constrained design (``gains_constrained.json``);
 ``--braking-limit KNM`` sets the drive's most negative torque (0: no braking). Exit 0: done;
 1: no certified constrained design at the drive's limits (the message names the braking limit and
