@@ -35,6 +35,7 @@ from drillstring.controller.constrained import (
     torque_margins,
 )
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.controller.string_design import design_string, fig6_on_string, string_record
 from drillstring.controller.synthesis import (
     GAIN_MAX,
     GainEvaluation,
@@ -366,8 +367,6 @@ def design_on_string(
     (StringDesign, GainsFile, dict or None)
         The design, its gains record and the nonlinear run's numbers (None without a drive).
     """
-    from drillstring.controller.string_design import design_string, fig6_on_string, string_record
-
     design = design_string(model, elements=elements)
     record = string_record(design)
     fig6 = None

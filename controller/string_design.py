@@ -47,13 +47,19 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
+from drillstring.analysis.severity import severity_metrics
 from drillstring.controller.averaged import AveragedModel, averaged_model
 from drillstring.controller.gains import GainsFile, GainsFileError
 from drillstring.controller.string_spectrum import string_abscissa, string_closed_loop
 from drillstring.controller.synthesis import LMI_MARGIN, SOLVERS
 from drillstring.model.control import AffineFeedback
+from drillstring.model.digital.controller import DigitalController
+from drillstring.model.engine import EngineOptions
+from drillstring.model.experiments import FIG6
 from drillstring.model.laws import SampledAffine
 from drillstring.model.pipe import REFERENCE_KAPPA, StringParams
+from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
+from drillstring.model.sensing import Sensing
 from drillstring.validation import check_int, check_real
 
 __all__ = [
@@ -385,13 +391,6 @@ def fig6_on_string(
         ``saturated_fraction``, ``elements``, ``tau_end``, the run's ``status``; and the run
         itself under ``"run"`` (not for the file).
     """
-    from drillstring.analysis.severity import severity_metrics
-    from drillstring.model.digital.controller import DigitalController
-    from drillstring.model.engine import EngineOptions
-    from drillstring.model.experiments import FIG6
-    from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
-    from drillstring.model.sensing import Sensing
-
     law = string_law(design.model, design.F, design.torque_gain, t_on=FIG6.t_on,
                      latch=FIG6.latch, on_saturation="freeze-angle")  # fmt: skip
     controller = DigitalController(law, top_drive, Sensing(torque=TORQUE))
