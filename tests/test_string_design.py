@@ -117,3 +117,10 @@ def test_fig6_switch_on_on_the_string_is_steady(designed, braking):
     # with and without braking, and the table never stops (lowest speed 0.49 omega0)
     assert run["min_torque"] > 0.0
     assert run["min_table_speed"] > 0.4 * REFERENCE.omega0
+
+
+def test_a_bad_reduced_chain_exits_2_naming_the_option(tmp_path, capsys):
+    args = ["design", "--A", str(A), "--taubar-crit", str(TAUBAR_CRIT), "--no-paper"]
+    assert main([*args, "--string-elements", "1", "--out", str(tmp_path)]) == 2
+    assert "--string-elements must be an integer >= 2" in capsys.readouterr().err
+    assert not (tmp_path / "gains_string.json").exists()

@@ -61,7 +61,7 @@ from drillstring.model.params import (
     params_from_spec,
 )
 from drillstring.model.topdrive import TopDrive, top_drive_from_spec
-from drillstring.validation import check_out_folder, check_real
+from drillstring.validation import check_int, check_out_folder, check_real
 
 __all__ = ["BRAKING_TOL_KNM", "build_parser", "design_main", "print_design"]
 
@@ -370,6 +370,8 @@ def design_main(argv: Sequence[str] | None = None) -> int:
         check_out_folder("--out", args.out)
         # the option as typed, not the design's name for it (sigma)
         check_real("--decay", args.decay, lower=0.0, strict=False)
+        if args.string_elements is not None:  # named as typed, before the long design runs
+            check_int("--string-elements", args.string_elements, lower=2)
         params: ScaledParams = params_from_spec(args.params)
         drive = None
         rig = next((r for r in KNOWN_PHYSICAL.values() if _same(r.to_scaled(), params)), None)
