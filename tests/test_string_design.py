@@ -22,6 +22,7 @@ from drillstring.apps.cli import main
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import design_on_string
 from drillstring.controller.gains import read_gains, write_gains
+from drillstring.controller.lineup import lmi_gain
 from drillstring.controller.string_design import (
     fig6_on_string,
     recheck_string_design,
@@ -124,3 +125,9 @@ def test_a_bad_reduced_chain_exits_2_naming_the_option(tmp_path, capsys):
     assert main([*args, "--string-elements", "1", "--out", str(tmp_path)]) == 2
     assert "--string-elements must be an integer >= 2" in capsys.readouterr().err
     assert not (tmp_path / "gains_string.json").exists()
+
+
+def test_the_paper_laws_lineup_refuses_the_string_designs_file(designed):
+    # its F alone is not the law: the torque gain would be dropped silently
+    with pytest.raises(ValueError, match="string design"):
+        lmi_gain(MODEL, designed[1])
