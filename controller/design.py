@@ -35,6 +35,7 @@ from drillstring.controller.constrained import (
     torque_margins,
 )
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.controller.string_design import design_string, fig6_on_string, string_record
 from drillstring.controller.synthesis import (
     GAIN_MAX,
     GainEvaluation,
@@ -49,6 +50,8 @@ from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
 
 __all__ = [
+    "STRING_FILE",
+    "design_on_string",
     "CONSTRAINED_FILE",
     "FIT_FILE",
     "GAINS_FILE",
@@ -62,6 +65,7 @@ __all__ = [
 #: File names of the design's artifacts in its output folder.
 GAINS_FILE = "gains.json"
 CONSTRAINED_FILE = "gains_constrained.json"
+STRING_FILE = "gains_string.json"
 FIT_FILE = "axial_fit.csv"
 
 
@@ -344,3 +348,50 @@ def write_design(design: Design, out_dir: str | os.PathLike[str]) -> dict[str, P
     if design.axial is not None:
         paths["fit"] = write_average_points(out / FIT_FILE, design.axial.curve)
     return paths
+
+
+def design_on_string(
+    params: ScaledParams,
+    model: AveragedModel,
+    *,
+    elements: int = 3,
+    top_drive: TopDrive | None = None,
+    label: str = "",
+) -> tuple[object, GainsFile, dict | None]:
+    """The string design (:mod:`drillstring.controller.string_design`) as a gains file; with a
+    top drive also its nonlinear Fig. 6 switch-on on the 16-element string under that drive
+    (recorded in the file's ``string_design["fig6"]``).
+
+    Returns
+    -------
+    (StringDesign, GainsFile, dict or None)
+        The design, its gains record and the nonlinear run's numbers (None without a drive).
+    """
+    design = design_string(model, elements=elements)
+    record = string_record(design)
+    fig6 = None
+    if top_drive is not None:
+        fig6 = fig6_on_string(params, design, top_drive)
+        record["fig6"] = {  # NaN (not settled) as null: the file is strict JSON
+            k: None if isinstance(v, float) and v != v else v for k, v in fig6.items() if k != "run"
+        }
+        record["top_drive"] = label
+        record["torque_limit"] = [top_drive.R_min, top_drive.R_max]
+        record["braking_limit"] = -top_drive.R_min + 0.0
+    cert = design.certificate
+    gains = GainsFile(
+        F=tuple(float(v) for v in design.F),  # type: ignore[arg-type]
+        K0=model.K0,
+        R_ff=model.R_ff,
+        # no Razumikhin alpha here: the file's alpha is the certified decay of the reduced chain
+        alpha=design.sigma,
+        A=model.A,
+        taubar_crit=model.taubar_crit,
+        params=params,
+        certificate=cert.margins(),
+        spectral_abscissa=max(cert.abscissae.values()),
+        solver="CLARABEL",
+        solver_status="optimal",
+        string_design=record,
+    )
+    return design, gains, fig6

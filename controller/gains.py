@@ -200,6 +200,30 @@ def _states(value: Any, count: Any) -> list[list[float]]:
     return rows
 
 
+def _string_design(value: Any) -> dict[str, Any]:
+    """The record of a string design (:mod:`drillstring.controller.string_design`): its torque
+    gain, reduced chain, decay and Lyapunov matrix P (finite, symmetric, positive definite,
+    2 (reduced_elements + 1) square)."""
+    if not isinstance(value, Mapping):
+        raise GainsFileError(f"gains file: string_design must be a mapping or null: {value!r}")
+    record = dict(value)
+    for key in ("torque_gain", "reduced_elements", "kappa", "decay", "P", "check_elements"):
+        if key not in record:
+            raise GainsFileError(f"gains file: string_design lacks {key!r}")
+    for key in ("torque_gain", "kappa", "decay"):
+        _real(f"string_design[{key!r}]", record[key])
+    n = record["reduced_elements"]
+    if not isinstance(n, int) or isinstance(n, bool) or n < 2:
+        raise GainsFileError(f"gains file: string_design['reduced_elements'] must be >= 2: {n!r}")
+    size = 2 * (n + 1)
+    P = np.asarray(_matrix("P", record["P"], size), dtype=float)
+    if P.shape != (size, size) or not np.allclose(P, P.T, rtol=1e-9, atol=0.0):
+        raise GainsFileError(f"gains file: string_design['P'] must be symmetric {size} x {size}")
+    if not float(np.linalg.eigvalsh(P)[0]) > 0.0:
+        raise GainsFileError("gains file: string_design['P'] is not positive definite")
+    return record
+
+
 @dataclass(frozen=True)
 class GainsFile:
     """Content of a gains file (see the module docstring for the JSON layout).
@@ -222,6 +246,7 @@ class GainsFile:
     solver_status: str
     version: str = field(default_factory=_package_version)
     constraint: Mapping[str, Any] | None = None
+    string_design: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         F = tuple(_real(f"F[{i}]", v) for i, v in enumerate(self.F))
@@ -265,6 +290,8 @@ class GainsFile:
                     record["switch_on_states"], record.get("states")
                 )
             object.__setattr__(self, "constraint", record)
+        if self.string_design is not None:
+            object.__setattr__(self, "string_design", _string_design(self.string_design))
         if not math.isclose(self.R_ff, -self.K0, rel_tol=1e-12, abs_tol=1e-15):
             raise GainsFileError(f"gains file: R_ff = {self.R_ff!r} is not -K0 = {-self.K0!r} (31)")
         try:
@@ -308,6 +335,8 @@ class GainsFile:
             "solver": self.solver,
             "solver_status": self.solver_status,
             "constraint": None if self.constraint is None else dict(self.constraint),
+            # only in a string design's file: the other files keep their layout
+            **({} if self.string_design is None else {"string_design": dict(self.string_design)}),
         }
 
     @classmethod
@@ -334,7 +363,7 @@ class GainsFile:
         """
         if not isinstance(data, dict):
             raise GainsFileError(f"{source}: expected a JSON object, got {type(data).__name__}")
-        unknown = sorted(set(data) - set(_KEYS) - {"constraint"})
+        unknown = sorted(set(data) - set(_KEYS) - {"constraint", "string_design"})
         missing = [k for k in _KEYS if k not in data]
         if unknown:
             raise GainsFileError(f"{source}: unknown key(s) {', '.join(unknown)}")
@@ -372,6 +401,7 @@ class GainsFile:
                 solver_status=data["solver_status"],
                 version=data["version"],
                 constraint=data.get("constraint"),
+                string_design=data.get("string_design"),
             )
         except GainsFileError as exc:
             raise GainsFileError(f"{source}: {exc}") from None

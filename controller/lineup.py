@@ -251,6 +251,12 @@ def lmi_gain(
         K0, R_ff = model.K0, model.R_ff
         abscissa = float(syn.certificate.abscissa_nominal)
     else:
+        if gains.string_design is not None:
+            raise ValueError(
+                "the gains file is the string design (drillstring design --string-elements): its "
+                "law also feeds back the string torque (torque_gain "
+                f"{gains.string_design['torque_gain']:g}), which this affine law would drop"
+            )
         F = np.asarray(gains.F, dtype=float)
         K0, R_ff = (gains.K0, gains.R_ff) if feedforward == "file" else (model.K0, model.R_ff)
         abscissa = float(closed_loop_roots(model, F, None, 1)[0].real) if roots else math.nan

@@ -30,10 +30,11 @@ on the bit's angle only), or, in the Taylor form, ``- c tau_n0 w_N`` in place of
 difference (27). The law's torque R_fb acts on the table node; the laws measure what they
 measure today: the table speed w_0; the string torque at the top (Z-Torque; see ``torque``
 below); the bit angle and speed phi_N, w_N and the twist phi_N - phi_0 between bit and table
-(the LMI state feedback ``R_fb = F [phi_N, w_N, phi_N - phi_0, w_0]``). With the paper's
-lumping (N = 1: J = (rho, 1), k = 1) these are (29)-(30) and (13), (27) to the letter, a
-permutation of the one-mode state; ``tests/test_string_spectrum.py`` checks the roots against the
-one-mode functions.
+(the LMI state feedback ``R_fb = F [phi_N, w_N, phi_N - phi_0, w_0]``, plus ``g`` times the
+measured string torque when the law has a ``torque_gain`` g, measured as ``torque`` says).
+With the paper's lumping (N = 1: J = (rho, 1), k = 1) these are (29)-(30) and (13), (27) to
+the letter, a permutation of the one-mode state; ``tests/test_string_spectrum.py`` checks the
+roots against the one-mode functions.
 
 When the law feeds back no absolute angle (the open loop, the speed PI, Z-Torque) the whole
 string may turn by a constant angle: ``s = 0`` is a root (the rigid-body rotation, exactly as x1
@@ -210,6 +211,16 @@ def string_closed_loop(
             + F[2] * (unit(ang[n]) - unit(ang[0]))
             + F[3] * unit(spd[0])
         )
+        g = float(law.torque_gain)
+        if g != 0.0:  # g times the measured string torque at the top (as Z-Torque's, below)
+            top = k * (unit(ang[0]) - unit(ang[1]))
+            if torque == "top":
+                u = u + g * top
+            elif torque == "twist":
+                u = u + g * (unit(ang[0]) - unit(ang[n]))
+            else:  # meas = u - rho (u - top)/J_0 with u = u_F + g meas: solved for meas
+                share = 1.0 - model.rho / J[0]
+                u = u + g * (share * u + (model.rho / J[0]) * top) / (1.0 - g * share)
     elif isinstance(law, ZTorque):
         I, Z, Y = ext["I"], ext["z"], ext["y"]  # noqa: E741
         e = -unit(spd[0]) - law.z_gain * unit(Y)

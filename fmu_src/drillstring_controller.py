@@ -113,6 +113,13 @@ def _topdrive_config(config: Mapping[str, Any]) -> dict[str, Any]:
     return {**{k: tuning[k] for k in keys}, "R_ff": config["gains"]["R_ff"]}
 
 
+def _exposed(family: Family) -> tuple[Any, ...]:
+    """The law's parameters the FMU declares: those of the family's defaults (the affine law's
+    torque gain, the string design's, is not one: the FMU keeps the paper's law and its value
+    references)."""
+    return tuple(p for p in family.law.PARAMETERS if p.name in family.defaults)
+
+
 FAMILIES: dict[str, Family] = {
     "lmi": Family(
         law=SampledAffine,
@@ -180,7 +187,7 @@ def _declarations(family: Family) -> list[units.Declared]:
             depends_on=family.depends_on,
         )
     )
-    out += units.from_table(family.law.PARAMETERS, dict(family.defaults), _TYPES)
+    out += units.from_table(_exposed(family), dict(family.defaults), _TYPES)
     out += [
         declare(("omega0", "Omega0"), "Real", "parameter",
                 "Nominal rotary speed: the speed set point the errors are taken from",
@@ -296,7 +303,7 @@ class ControllerFmu(fmu.FmuModel):
         family = FAMILIES[self.FAMILY]
         C, t = self._scales(v)
         scales = _Scales(C, t)
-        law_values = self._choices(family.law.PARAMETERS, v)
+        law_values = self._choices(_exposed(family), v)
         if self.UNIT_SYSTEM == SI:
             law = family.law.from_si(scales, law_values)
             point = OperatingPoint(v["Omega0"] * t, v["R0"] / C, v["I2"] / v["I1"])

@@ -10,6 +10,8 @@ margins and the closed-loop spectral abscissa over the delay sweep, then writes
 ``out/design/gains.json`` and, when A is computed rather than given with ``--A``, the points of
 the axial fit ``out/design/axial_fit.csv`` (the Fig. 4 line the slope A comes from).
 
+With ``--string-elements K`` also the design that holds on the distributed string
+(``gains_string.json``; with a drive, its Fig. 6 switch-on on the 16-element string is run).
 With ``--torque-limit DRIVE`` also the input-constrained design (``gains_constrained.json``);
 ``--braking-limit KNM`` sets the drive's most negative torque (0: no braking). Exit 0: done;
 1: no certified constrained design at the drive's limits (the message names the braking limit and
@@ -36,11 +38,20 @@ from drillstring.controller.constrained import (
 )
 from drillstring.controller.design import (
     CONSTRAINED_FILE,
+    STRING_FILE,
     Design,
     design_controller,
+    design_on_string,
     write_design,
 )
-from drillstring.controller.gains import DEFAULT_GAINS_PATH, PAPER_F, GainsFileError, read_gains
+from drillstring.controller.gains import (
+    DEFAULT_GAINS_PATH,
+    PAPER_F,
+    GainsFileError,
+    read_gains,
+    write_gains,
+)
+from drillstring.controller.string_design import recheck_string_design
 from drillstring.controller.synthesis import GAIN_MAX, SynthesisInfeasible, SynthesisResult
 from drillstring.model.params import (
     KNOWN_PHYSICAL,
@@ -50,7 +61,7 @@ from drillstring.model.params import (
     params_from_spec,
 )
 from drillstring.model.topdrive import TopDrive, top_drive_from_spec
-from drillstring.validation import check_out_folder, check_real
+from drillstring.validation import check_int, check_out_folder, check_real
 
 __all__ = ["BRAKING_TOL_KNM", "build_parser", "design_main", "print_design"]
 
@@ -147,13 +158,24 @@ def build_parser(prog: str = "drillstring design") -> argparse.ArgumentParser:
         f"{DEFAULT_DECAY:.4g}: a deviation halves in three torsional periods)",
     )
     ap.add_argument(
+        "--string-elements",
+        type=int,
+        default=None,
+        metavar="K",
+        help=f"also the design that holds on the distributed string, certified on the K-element "
+        f"chain (K >= 2; 3: table, two inner nodes, bit), written to {STRING_FILE}; with "
+        "--torque-limit its Fig. 6 switch-on on the 16-element string under that drive is run "
+        "and recorded (docs/controllers.md, 'A design that holds on the string')",
+    )
+    ap.add_argument(
         "--check",
         type=Path,
         default=None,
         metavar="FILE",
         help=f"only check the certificate of a constrained design again from its gains file "
-        f"({CONSTRAINED_FILE}: the ellipsoid S and the switch-on states are in it); exit 0 if it "
-        "passes, 1 if not",
+        f"({CONSTRAINED_FILE}: the ellipsoid S and the switch-on states are in it), or of a "
+        f"string design ({STRING_FILE}: its Lyapunov matrix on the reduced chain, the spectra "
+        "on the strings); exit 0 if it passes, 1 if not",
     )
     return ap
 
@@ -348,6 +370,8 @@ def design_main(argv: Sequence[str] | None = None) -> int:
         check_out_folder("--out", args.out)
         # the option as typed, not the design's name for it (sigma)
         check_real("--decay", args.decay, lower=0.0, strict=False)
+        if args.string_elements is not None:  # named as typed, before the long design runs
+            check_int("--string-elements", args.string_elements, lower=2)
         params: ScaledParams = params_from_spec(args.params)
         drive = None
         rig = next((r for r in KNOWN_PHYSICAL.values() if _same(r.to_scaled(), params)), None)
@@ -383,8 +407,23 @@ def design_main(argv: Sequence[str] | None = None) -> int:
         print(f"drillstring design: {exc}", file=sys.stderr)
         return 2
     print_design(design)
+    on_string = None
+    if args.string_elements is not None:
+        try:
+            on_string = design_on_string(
+                params, design.model, elements=args.string_elements, top_drive=drive,
+                label=args.torque_limit or "",
+            )  # fmt: skip
+        except ValueError as exc:
+            print(f"drillstring design: {exc}", file=sys.stderr)
+            return 2
+        _print_string(on_string, params, rig)
     try:
         paths = write_design(design, args.out)
+        if on_string is not None:
+            if not on_string[0].certificate.passed:
+                raise ValueError("the string design's certificate failed; no gains file written")
+            paths["string"] = write_gains(on_string[1], args.out / STRING_FILE)
     except ValueError as exc:
         print(f"drillstring design: {exc}", file=sys.stderr)
         return 2
@@ -393,11 +432,51 @@ def design_main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
+def _print_string(on_string, params: ScaledParams, rig: PhysicalParams | None) -> None:
+    """The string design: law, certificate on the reduced chain, spectra, Fig. 6 on N = 16."""
+    design, _, fig6 = on_string
+    cert = design.certificate
+    print(
+        f"String design (matched top, certified on the {design.elements}-element chain): "
+        f"F = [{', '.join(f'{v:.4f}' for v in design.F)}], torque gain g = "
+        f"{design.torque_gain:.4g} on the motor's string torque"
+    )
+    print(
+        f"  Lyapunov decay {design.sigma:.5f} on the reduced chain (Taylor form (27)); largest "
+        f"eigenvalue of the check {cert.lyapunov_max_eig:.3e} (< 0)"
+    )
+    for n, a in cert.abscissae.items():
+        print(f"  spectral abscissa on N = {n} (delay form): {a:+.3e} (< 0)")
+    if fig6 is not None:
+        kNm = "" if rig is None else f" = {fig6['min_torque'] * rig.C / 1e3:.2f} kN m"
+        print(
+            f"  Fig. 6 switch-on on N = {fig6['elements']}: {fig6['outcome']} (severity "
+            f"{fig6['severity']:.4f}), settling time {fig6['settling_time']:.3g} after the "
+            f"switch-on, lowest table speed {fig6['min_table_speed'] / params.omega0:.3f} "
+            f"omega0, lowest torque {fig6['min_torque']:.4g}{kNm} (below 0: braking)"
+        )
+    print(f"  certificate {'PASSED' if cert.passed else 'FAILED'}")
+
+
+def _check_string(gains) -> int:
+    """``--check`` of a string design's file."""
+    cert = recheck_string_design(gains)
+    for name, value in cert.margins().items():
+        print(f"  {name}: {value:.6g}")
+    if not cert.matches_record:
+        print("  the recomputed abscissae are not the file's: the file was changed")
+    print(f"  string design: certificate {'PASSED' if cert.passed else 'FAILED'}")
+    return 0 if cert.passed else 1
+
+
 def _check_main(path: Path) -> int:
-    """``--check FILE``: the constrained certificate from the file alone; 0 passed, 1 failed, 2
-    the file cannot be checked."""
+    """``--check FILE``: the constrained or string certificate from the file alone; 0 passed, 1
+    failed, 2 the file cannot be checked."""
     try:
-        cert = recheck_constrained(read_gains(path))
+        gains = read_gains(path)
+        if gains.string_design is not None:
+            return _check_string(gains)
+        cert = recheck_constrained(gains)
     except GainsFileError as exc:
         print(f"drillstring design --check: {exc}", file=sys.stderr)
         return 2

@@ -53,7 +53,7 @@ from drillstring.model.tables import (
     table_from_si,
     table_to_si,
 )
-from drillstring.validation import check_choice
+from drillstring.validation import check_choice, check_real
 
 __all__ = [
     "ANTI_WINDUP",
@@ -407,10 +407,17 @@ class SampledAffine(Law):
         Gain, K0, R_ff, t_on and latch of the law.
     on_saturation : str
         One of :data:`SATURATION`.
+    torque_gain : float
+        g: the law adds ``g*(torque + K0)``, the measured string torque at the top (what the
+        sensing gives: ``Sensing(torque="motor")``, the motor torque less rho times the table's
+        acceleration) less its steady value -K0. 0 (the default) is the paper's law; the string
+        design (:mod:`drillstring.controller.string_design`) feeds it back to make the top
+        absorb the pipe's waves.
     """
 
     feedback: AffineFeedback
     on_saturation: str = "none"
+    torque_gain: float = 0.0
 
     KIND: ClassVar[int] = L.LAW_AFFINE
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (
@@ -437,9 +444,18 @@ class SampledAffine(Law):
             "held, lost revolutions are not made up)",
             choices=SATURATION,
         ),
+        Parameter(
+            "torque_gain",
+            "1",
+            "Gain g on the measured string torque at the top less its steady value, "
+            "g*(torque + K0) (0: the paper's law)",
+        ),
     )
 
     def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "torque_gain", check_real("SampledAffine.torque_gain", self.torque_gain)
+        )
         if not isinstance(self.feedback, AffineFeedback):
             raise TypeError(
                 f"SampledAffine.feedback must be an AffineFeedback, got "
@@ -467,12 +483,14 @@ class SampledAffine(Law):
             "t_on": f.t_on,
             "latch": f.latch,
             "on_saturation": self.on_saturation,
+            "torque_gain": self.torque_gain,
         }
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> SampledAffine:
         """The law of ``F[1]`` ... ``F[4]`` and ``K0`` (required), ``R_ff`` and ``t_on``
-        (default 0), ``latch`` (default "none") and ``on_saturation`` (default "none")."""
+        (default 0), ``latch`` (default "none"), ``on_saturation`` (default "none") and
+        ``torque_gain`` (default 0)."""
         check_names(cls.__name__, cls.PARAMETERS, values)
         missing = [k for k in (*_GAIN, "K0") if k not in values]
         if missing:
@@ -484,7 +502,11 @@ class SampledAffine(Law):
             t_on=values.get("t_on", 0.0),
             latch=values.get("latch", LATCH_MODES[0]),
         )
-        return cls(feedback, on_saturation=values.get("on_saturation", SATURATION[0]))
+        return cls(
+            feedback,
+            on_saturation=values.get("on_saturation", SATURATION[0]),
+            torque_gain=values.get("torque_gain", 0.0),
+        )
 
     def pack(self, b: np.ndarray) -> None:
         """The compiled affine law: F, K0, R_ff, latch and saturation codes."""
@@ -495,6 +517,7 @@ class SampledAffine(Law):
         b[p + L.AF_K0] = f.K0
         b[p + L.AF_LATCH] = f.latch_code
         b[p + L.AF_SAT] = SATURATION.index(self.on_saturation)
+        b[p + L.AF_G] = self.torque_gain
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,11 @@ The laws (their meaning, tunings and sources: ``docs/controllers.md``):
   discretised exactly for the torque held over the sample;
 * ``LAW_AFFINE``: the paper's state feedback (29)-(31), ``R - R0 = R_ff + F x`` with the
   references latched at switch-on (:func:`~drillstring.model.control.switch_on_references`),
-  evaluated by :func:`~drillstring.model.control.feedback_torque`; optionally the bit-angle state
-  is held while the top drive saturates, so that revolutions lost there are not made up after;
+  evaluated by :func:`~drillstring.model.control.feedback_torque`, plus ``g`` times the measured
+  string torque's deviation from steady drilling (``torque + K0``; ``g = 0``, the default, is
+  the paper's law; the string design of ``docs/controllers.md``, "A design that holds on the
+  string"); optionally the bit-angle state is held while the top drive saturates, so that
+  revolutions lost there are not made up after;
 * ``LAW_NONE``: the feed-forward R_ff alone.
 """
 
@@ -27,6 +30,7 @@ import math
 from drillstring.model.control import feedback_torque, switch_on_references
 from drillstring.model.digital.layout import (
     AF_F,
+    AF_G,
     AF_HOLD,
     AF_K0,
     AF_LATCH,
@@ -111,10 +115,14 @@ def law_output(b, x, theta, dtheta, torque, phi, dphi):
         phi_ref = x[AF_PHIREF]
         if x[AF_HOLD] != 0.0:
             phi_ref = phi - x[AF_X1]
-        return feedback_torque(
+        r = feedback_torque(
             0.0, phi, dphi, theta, dtheta, _gain(b), b[B_LP + AF_K0], R_ff, 0.0, phi_ref,
             x[AF_TWISTREF],
         )  # fmt: skip
+        g = b[B_LP + AF_G]
+        if g != 0.0:  # the string torque's deviation from steady drilling (-K0), fed back
+            r = r + g * (torque + b[B_LP + AF_K0])
+        return r
     return R_ff
 
 

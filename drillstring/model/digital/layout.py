@@ -40,7 +40,8 @@ AF_F = 1  # F[0..3] at 1..4
 AF_K0 = 5
 AF_LATCH = 6  # drillstring.model.control.LATCH_MODES index
 AF_SAT = 7  # saturation behaviour: SAT_NONE, SAT_FREEZE
-N_LP = 8
+AF_G = 8  # gain on the measured string torque at the top (0: the paper's law)
+N_LP = 9
 
 AW_NONE = 0
 AW_BACK = 1  # back-calculation
