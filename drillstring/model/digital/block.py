@@ -63,15 +63,16 @@ def _started(b, tau):
 
 
 @inline
-def sample(b, tau, phi, dphi, theta, dtheta):
+def sample(b, tau, phi, dphi, theta, dtheta, top):
     """(r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s) at the sample instant ``tau``.
 
-    ``phi, dphi, theta, dtheta`` are the plant's (scaled perturbations); the law sees them
+    ``phi, dphi, theta, dtheta`` are the plant's (scaled perturbations) and ``top`` the torque
+    at the top of its string less R0 (theta - phi on the one-mode string); the law sees them
     through the sensing (``phi_s, dphi_s, torque_s``); ``r_cmd`` is its command R - R0,
     ``r_lim`` the command within the top drive's limits, ``r_app`` the torque applied (held
     over the sample) and ``R`` the applied absolute torque R/C.
     """
-    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta)
+    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta, top)
     if _started(b, tau):
         if b[B_ACTIVE] != 0.0:
             x = law_state(b)
@@ -85,12 +86,12 @@ def sample(b, tau, phi, dphi, theta, dtheta):
 
 
 @jit
-def commit(b, tau, phi, dphi, theta, dtheta, Ts):
+def commit(b, tau, phi, dphi, theta, dtheta, top, Ts):
     """The sample ``tau`` (as :func:`sample`) and the controller's state at ``tau + Ts``.
 
     Returns the applied torque R - R0 of the sample.
     """
-    r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s = sample(b, tau, phi, dphi, theta, dtheta)
+    r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s = sample(b, tau, phi, dphi, theta, dtheta, top)
     if _started(b, tau):
         if b[B_ACTIVE] != 0.0:
             x = law_state(b)
@@ -105,7 +106,7 @@ def commit(b, tau, phi, dphi, theta, dtheta, Ts):
         b[B_TDX + TDX_T] = tau
         b[B_TDX + TDX_DT] = Ts
         b[B_TDX + TDX_INIT] = 1.0
-    sense_commit(b, tau, phi, dphi, theta, dtheta, r_app, Ts)
+    sense_commit(b, tau, phi, dphi, theta, dtheta, top, r_app, Ts)
     b[B_RCMD] = r_cmd
     b[B_RAPP] = r_app
     saturated = r_lim != r_cmd
@@ -149,7 +150,8 @@ def _fmu_torque(b, r):
 def fmu_output(b):
     """The FMU's output at its time and inputs, into ``OUT`` (pure)."""
     tau, phi, dphi, theta, dtheta = _fmu_inputs(b, b[B_TIME])
-    r_app = sample(b, tau, phi, dphi, theta, dtheta)[0]
+    # an FMU has the four angle and speed inputs: the one-mode string's twist
+    r_app = sample(b, tau, phi, dphi, theta, dtheta, theta - phi)[0]
     b[B_OUT] = _fmu_torque(b, r_app)
 
 
@@ -159,5 +161,5 @@ def fmu_step(b, t, h):
     ``t`` with its inputs and the period ``h``; the time becomes ``t + h``."""
     tau, phi, dphi, theta, dtheta = _fmu_inputs(b, t)
     Ts = h / b[B_TSTAR] if b[B_SI] != 0.0 else h
-    commit(b, tau, phi, dphi, theta, dtheta, Ts)
+    commit(b, tau, phi, dphi, theta, dtheta, theta - phi, Ts)
     b[B_TIME] = t + h
