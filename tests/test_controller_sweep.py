@@ -662,6 +662,8 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
         "--workers",
         "0",
         "--no-progress",
+        "--elements",  # the one-mode model (the default is the 16-element string)
+        "1",
     ]
     assert controllers_main([*base, "--out", str(tmp_path / "bad"), "--wob", "15", "20"]) == 2
     assert "W0 = 15000.0 N is not above the wearflat contact part" in capsys.readouterr().err

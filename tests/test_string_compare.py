@@ -95,3 +95,59 @@ def test_the_comparison_on_the_string_in_si_with_and_without_braking(gains, tmp_
     summary = json.loads(result.files["json"].read_text())
     assert summary["string"]["elements"] == 4
     assert result.files["figure"].stat().st_size > 10_000
+
+
+def test_a_3x3_map_on_the_string_without_braking_in_si(gains, tmp_path) -> None:
+    from drillstring.apps.controllers import MAP_RPM, MAP_SI, MAP_WOB_MAX, write_controller_map
+    from drillstring.apps.sweep.runner import _boundary_overlays, read_results, shown_values
+    from drillstring.apps.sweep.runner import columns as sweep_columns
+    from drillstring.controller.gains import write_gains
+
+    assert MAP_RPM == (20.0, 150.0) and MAP_WOB_MAX == 40.0
+    paper = write_gains(gains[0], tmp_path / "paper.json")
+    cons = write_gains(gains[1], tmp_path / "constrained.json")
+    out = tmp_path / "map"
+    m = write_controller_map(
+        out, paper, constrained_path=cons, controllers=("stiff-pi", "z-torque", "lmi"), n=3,
+        rpm=(40.0, 90.0), wob_kN=(20.0, 30.0), tau_end=4.0, window=1.0, min_periods=0.0,
+        elements=4, braking="none", serial=True, log=None,
+    )  # fmt: skip
+    assert m.spec.options["elements"] == 4 and m.spec.options["braking"] == "none"
+    with open(m.files["si"], newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert m.files["si"].name == MAP_SI and len(table) == 9
+    plain = ("outcome.", "utr.", "severity.", "stick_fraction.", "stall.", "saturated_fraction.")
+    units = ("_kNm.", "_kW.", "_rpm.", "_s.", "_per_s.")
+    for c in table[0]:
+        base = c in ("index", "i", "j", "rpm", "W0_kN", "best", "wall_time_s", "error")
+        assert (
+            base
+            or c.startswith(plain)
+            or any(u in c for u in units)
+            or c.endswith(("_scaled", "_per_s", "_rad_per_s", "_m_per_s"))
+        ), c
+    raw = {int(r["index"]): r for r in csv.DictReader(open(m.report.results, newline=""))}
+    for r in table:
+        k = int(r["index"])
+        sc = m.spec.point_scales(k)
+        for c in ("stiff-pi", "z-torque"):
+            scaled = float(raw[k][f"peak_torque.{c}"])
+            assert float(r[f"peak_torque_kNm.{c}"]) == pytest.approx(scaled * sc.C / 1e3)
+            t = raw[k][f"settling_time.{c}"]
+            if t and math.isfinite(float(t)):
+                assert float(r[f"settling_time_s.{c}"]) == pytest.approx(float(t) * sc.t_star)
+    # the figure fixes: stopped runs grey, the settling time only where steady
+    assert shown_values("stall", ["0", "1", "0"], ["reverse_rotation", "stall", "steady"]) == [
+        None, 1.0, 0.0,
+    ]  # fmt: skip
+    assert shown_values("settling_time", ["3", "4", ""], ["steady", "settling", "steady"]) == [
+        3.0, None, None,
+    ]  # fmt: skip
+    # the linear overlay is on the runs' string and says so
+    rows, _ = read_results(m.report.results, sweep_columns(m.spec))
+    overlays = _boundary_overlays(m.spec, rows, tmp_path)
+    labels = {o.label for v in overlays.values() for o in v}
+    assert all("4-element string" in text for text in labels), labels
+    assert any("hatched: unstable" in text for text in labels)
+    for name in ("outcome", "stall", "settling_time", "best"):
+        assert (out / "plots" / f"{name}.png").stat().st_size > 10_000

@@ -40,7 +40,12 @@ from drillstring.analysis.severity import (
     severity_metrics,
 )
 from drillstring.apps.colors import CONTROLLER_COLORS
-from drillstring.apps.sweep.metrics import controller_column
+from drillstring.apps.sweep.metrics import (
+    CONTROLLER_METRICS,
+    SI_DISPLAY,
+    controller_column,
+    si_factor,
+)
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
 from drillstring.apps.sweep.spec import (
     CONSTRAINED_CONTROLLERS,
@@ -70,7 +75,7 @@ from drillstring.model.params import KNOWN_PHYSICAL, PhysicalParams, ScaledParam
 from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
 from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
-from drillstring.model.topdrive import RPM, top_drive_from_spec
+from drillstring.model.topdrive import BRAKING, RPM, top_drive_from_spec
 from drillstring.plotting import new_figure
 from drillstring.validation import check_int, check_real
 
@@ -78,6 +83,8 @@ __all__ = [
     "COMPARISON_COLUMNS",
     "MAP_OUTCOMES",
     "MAP_RPM",
+    "MAP_SI",
+    "MAP_WOB_MAX",
     "MAP_V0",
     "Comparison",
     "ControllerMap",
@@ -85,6 +92,7 @@ __all__ = [
     "controllers_main",
     "format_comparison",
     "wob_range",
+    "write_map_si",
     "write_controller_comparison",
     "write_controller_map",
 ]
@@ -620,8 +628,11 @@ def _count_rows(results: Path, controllers: Sequence[str]) -> list[dict[str, Any
     return out
 
 
-#: The rpm range of the default map (the reference rig turns at 51.8 rpm).
-MAP_RPM = (30.0, 150.0)
+#: The rpm range of the default map (the reference rig turns at 51.8 rpm; at 20.7 rpm and 27 kN
+#: Z-Torque sustains a slow oscillation that a map from 30 rpm missed).
+MAP_RPM = (20.0, 150.0)
+#: The upper end of the default map's nominal weight on bit [kN].
+MAP_WOB_MAX = 40.0
 #: The feeds v0 (scaled, at the reference speed) whose nominal WOB bounds the default map.
 MAP_V0 = (0.25, 2.0)
 
@@ -651,6 +662,78 @@ def wob_range(rig: PhysicalParams, v0: tuple[float, float] = MAP_V0) -> tuple[fl
     )
 
 
+#: The map's table in SI (:func:`write_map_si`); ``results.csv`` is the sweep's working file
+#: (scaled metrics, what ``--resume`` reads).
+MAP_SI = "map_si.csv"
+#: Column-name tokens of the SI units of :data:`~drillstring.apps.sweep.metrics.SI_DISPLAY`.
+_UNIT_TOKENS = {"kN m": "kNm", "kW": "kW", "rpm": "rpm", "s": "s", "1/s": "per_s"}
+#: Dimensionless controller metrics (no unit in their name).
+_PLAIN = {"outcome", "utr", "severity", "stick_fraction", "stall", "saturated_fraction"}
+
+
+def write_map_si(spec: SweepSpec, results: Path, path: Path) -> Path:
+    """The controller map's ``results.csv`` in SI, the unit in each column name.
+
+    The axes (``rpm``, ``W0_kN``), the imposed speed and hook speed (``Omega0_rad_per_s``,
+    ``V0_m_per_s``), the design inputs A and taubar_crit (``_scaled``: the paper's scaled
+    slope and delay), the open loop's and each controller's linear abscissa [1/s], and per
+    controller (``<metric>_<unit>.<controller>``) the severity metrics with each point's rig
+    scales (peak torque in kN m, power in kW, table speed in rpm, times in s; outcome, UTR,
+    severity, stick and saturated fractions and the stall flag have no unit); ``best``,
+    ``wall_time_s``, ``error``.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The controller map's spec (a physical base).
+    results : Path
+        Its ``results.csv``.
+    path : Path
+        Where to write.
+
+    Returns
+    -------
+    Path
+    """
+    with open(results, newline="", encoding="utf-8") as fh:
+        rows = sorted(csv.DictReader(fh), key=lambda r: int(r["index"]))
+    controllers = list(spec.options["controllers"])
+    names: list[tuple[str, str, str | None]] = []  # (out name, in name, metric or None)
+    for m, _ in CONTROLLER_METRICS:
+        for c in controllers:
+            if m in _PLAIN:
+                names.append((controller_column(m, c), controller_column(m, c), None))
+            else:
+                token = _UNIT_TOKENS[SI_DISPLAY[m][2]]
+                names.append((controller_column(f"{m}_{token}", c), controller_column(m, c), m))
+    header = [
+        "index", "i", "j", "rpm", "W0_kN", "Omega0_rad_per_s", "V0_m_per_s", "A_scaled",
+        "taubar_crit_scaled", "open_loop_abscissa_per_s", *(n for n, _, _ in names), "best",
+        "wall_time_s", "error",
+    ]  # fmt: skip
+
+    def num(v: str) -> float:
+        return float(v) if v not in ("", None) else math.nan
+
+    out = []
+    for r in rows:
+        k = int(r["index"])
+        sc = spec.point_scales(k)
+        line: list[Any] = [k, r["i"], r["j"], r["rpm"], r["W0_kN"], r["Omega0"], r["V0"],
+                           r["A"], r["taubar_crit"],
+                           num(r["open_loop_abscissa"]) / sc.t_star]  # fmt: skip
+        for _, src, metric in names:
+            v = r.get(src, "")
+            if metric is None:
+                line.append(v)
+            else:
+                factor, _ = si_factor(metric, sc.C, sc.t_star)
+                line.append(num(v) * factor)
+        line += [r["best"], r["seconds"], r["error"]]
+        out.append(line)
+    return write_csv(path, header, out)
+
+
 def controller_map_spec(
     gains_path: str | os.PathLike[str],
     *,
@@ -667,6 +750,8 @@ def controller_map_spec(
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
     tuning: Tuning | None = None,
+    elements: int = 1,
+    braking: str = "four-quadrant",
 ) -> SweepSpec:
     """The sweep of :func:`write_controller_map` (its parameters, same defaults).
 
@@ -690,7 +775,7 @@ def controller_map_spec(
             "the map's axes are physical (rpm, kN): the design's parameter set matches no known "
             "rig; pass rig="
         )
-    wob = wob_range(rig) if wob_kN is None else wob_kN
+    wob = (wob_range(rig)[0], MAP_WOB_MAX) if wob_kN is None else wob_kN
     names = list(controllers)
     tuning = Tuning() if tuning is None else tuning
     if tuning.pipe is not None:
@@ -710,6 +795,8 @@ def controller_map_spec(
         "impedance": tuning.impedance,
         "soft_speed": tuning.soft_speed,
         "z_matching": tuning.z_matching,
+        "elements": check_int("elements", elements, lower=1),
+        "braking": braking,
     }
     if any(c in CONSTRAINED_CONTROLLERS for c in names):
         path = (
@@ -750,6 +837,8 @@ def write_controller_map(
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
     tuning: Tuning | None = None,
+    elements: int = 1,
+    braking: str = "four-quadrant",
     serial: bool = False,
     workers: int | None = None,
     client: Any = None,
@@ -787,7 +876,8 @@ def write_controller_map(
     rpm : (float, float)
         Range of the surface speed [rpm].
     wob_kN : (float, float), optional
-        Range of the nominal weight on bit [kN] (default: :func:`wob_range` of the rig).
+        Range of the nominal weight on bit [kN] (default: from the low end of
+        :func:`wob_range` of the rig to :data:`MAP_WOB_MAX`).
     tau_end, window, min_periods, Ts, dphi0_rel : float
         Run length, late window, the periods of the slowest stick-slip the window must hold,
         sample period, initial bit speed as a fraction of omega0 (options of the study,
@@ -795,6 +885,11 @@ def write_controller_map(
     tuning : Tuning, optional
         The industrial rules' choices (options ``impedance``, ``soft_speed``, ``z_matching``;
         ``"pipe"`` is each point's rig's pipe, so ``Tuning.pipe`` must be None).
+    elements : int
+        The drill pipe's elements (1: the paper's one-mode model; ``drillstring controllers
+        map`` takes :data:`STRING_ELEMENTS`): the runs and the linear overlay on that string.
+    braking : str
+        The drive's braking: "four-quadrant" or "none" (its torque range [0, R_max]).
     serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
@@ -826,6 +921,8 @@ def write_controller_map(
         Ts=Ts,
         dphi0_rel=dphi0_rel,
         tuning=tuning,
+        elements=elements,
+        braking=braking,
     )
     report = run_sweep(
         spec,
@@ -841,13 +938,15 @@ def write_controller_map(
     files = {
         "by_controller": write_csv(
             Path(out_dir) / "by_controller.csv", header, ([r[h] for h in header] for r in table)
-        )
+        ),
+        "si": write_map_si(spec, report.results, Path(out_dir) / MAP_SI),
     }
     if log is not None:
         log(
             f"{spec.n_points} points ({spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
             f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN nominal WOB; {spec.feed}; "
-            f"top drive {top_drive}), {report.n_failed} failed, {report.wall_time:.1f} s; "
+            f"top drive {top_drive}, braking {braking}; {elements} element(s)), "
+            f"{report.n_failed} failed, {report.wall_time:.1f} s; "
             "outcomes per controller:"
         )
         log(" ".join(f"{h:>16}" for h in header))
@@ -961,9 +1060,9 @@ def _parser() -> argparse.ArgumentParser:
         nargs=2,
         default=None,
         metavar=("LO", "HI"),
-        help="range of the nominal weight on bit [kN] (default: what the rig's feed gives for "
-        f"v0 in [{MAP_V0[0]:g}, {MAP_V0[1]:g}] at its speed; it must stay above the wearflat "
-        "contact part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
+        help="range of the nominal weight on bit [kN] (default: from what the rig's feed gives "
+        f"for v0 = {MAP_V0[0]:g} at its speed to {MAP_WOB_MAX:g}; it must stay above the "
+        "wearflat contact part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
     )
     m.add_argument(
         "--gains-constrained",
@@ -987,6 +1086,13 @@ def _parser() -> argparse.ArgumentParser:
         "torque (50R0), a torque (52kNm) or none (default tds-11sa)",
     )
     m.add_argument("--tau-end", type=float, default=200.0, help="run length (default 200)")
+    m.add_argument(
+        "--braking",
+        choices=BRAKING,
+        default="four-quadrant",
+        help="the drive's braking: four-quadrant (as rated) or none (torque in [0, R_max]; "
+        "default four-quadrant)",
+    )
     m.add_argument(
         "--workers", type=int, default=None, help="Dask workers (default: CPU count; 0: serial)"
     )
@@ -1062,6 +1168,8 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
             min_periods=args.min_periods,
             Ts=args.Ts,
             tuning=tuning,
+            elements=args.elements,
+            braking=args.braking,
             serial=args.workers == 0,
             workers=args.workers or None,
             resume=args.resume,
