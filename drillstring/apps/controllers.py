@@ -319,8 +319,9 @@ def _plot(
             r = runs[key]
             ax.plot(r.tau * t_star, rpm(r), color=color(name), lw=1.0, ls=ls,
                     label=f"{name}{what}: {_legend_outcome(rows[key])}")  # fmt: skip
-            R = (r.params.R0 + r.R_minus_R0) * rig.C / 1e3
-            tq.plot(r.tau * t_star, R, color=color(name), lw=0.7, ls=ls)
+            if name != LMI_UNLIMITED:  # the paper's set-up has no drive: 1000 times the rating
+                R = (r.params.R0 + r.R_minus_R0) * rig.C / 1e3
+                tq.plot(r.tau * t_star, R, color=color(name), lw=0.7, ls=ls)
         ax.axvline(t_on * t_star, color="k", ls=":", lw=1)
         ax.axvspan(t_end - window * t_star, t_end, color="0.93", zorder=0)
         ax.axhline(omega0 / t_star / RPM, color="k", lw=0.5)
@@ -334,8 +335,9 @@ def _plot(
             tq.annotate(text, (0.995, v), xycoords=("axes fraction", "data"), ha="right",
                         va="bottom", fontsize=7, color="r")  # fmt: skip
         tq.axhline(0.0, color="r", ls=":", lw=0.8)  # the limit without braking
+        tq.set_ylim(1.15 * min(lo, 0.0) - 0.05 * hi, 1.15 * hi)
     tq.axvline(t_on * t_star, color="k", ls=":", lw=1)
-    tq.set_ylabel("table torque [kN m]")
+    tq.set_ylabel("table torque [kN m]\n(every drive-limited law)")
     tq.grid(alpha=0.3)
     tq.set_xlabel("time [s]")
     axes[0].set_title(title, fontsize="small")
@@ -513,7 +515,8 @@ def write_controller_comparison(
     title = (
         f"{experiment.name} set-up on {model_text}: controllers on at t = "
         f"{t_on * rig.t_star:.3g} s, sampled every {Ts * rig.t_star * 1e3:.3g} ms, "
-        f"top drive {top_drive} ({LMI_UNLIMITED}: none, the paper's)\n"
+        f"top drive {top_drive}\n(solid: with braking, dashed: without; {LMI_UNLIMITED}: no "
+        "drive, the paper's; grey band: the metrics' window)\n"
         + "\n".join(
             textwrap.wrap(
                 sensing_note([n for n in runs if n in SENSING]), 120, break_on_hyphens=False
