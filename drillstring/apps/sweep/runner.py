@@ -41,7 +41,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -728,15 +728,16 @@ def _boundary_overlays(
         if OPEN_LOOP in fine
         else Overlay(x, y, coarse("open_loop_abscissa"), ol_label, {"ls": ":", "lw": 1.5})
     )
+    open_loop = replace(open_loop, subject="open loop, linearised")
     out = {}
     own_label = f"hatched: unstable in the {model} (not the runs' outcome)"
     for c in spec.options["controllers"]:
         if c in fine:
-            own = Overlay(xf, yf, fine[c], own_label, UNSTABLE, f"closed loop, {model}")
+            own = Overlay(xf, yf, fine[c], own_label, UNSTABLE, "closed loop, linearised")
         else:
             own = Overlay(x, y, coarse(controller_column("linear_abscissa", c)),
                           own_label + " (map points)", UNSTABLE,
-                          f"closed loop, {model}")  # fmt: skip
+                          "closed loop, linearised")  # fmt: skip
         out[c] = [own, open_loop]
     return out
 
