@@ -127,13 +127,18 @@ def test_a_3x3_map_on_the_string_without_braking_in_si(gains, tmp_path) -> None:
             or c.endswith(("_scaled", "_per_s", "_rad_per_s", "_m_per_s"))
         ), c
     raw = {int(r["index"]): r for r in csv.DictReader(open(m.report.results, newline=""))}
+    # results.csv, the sweep's working file, holds scaled values: its columns say so
+    for c in next(iter(raw.values())):
+        metric = c.split(".")[0]
+        assert not metric.endswith(("torque", "torque_late", "power", "speed", "abscissa")), c
+        assert metric not in ("settling_time", "min_table_speed"), c
     for r in table:
         k = int(r["index"])
         sc = m.spec.point_scales(k)
         for c in ("stiff-pi", "z-torque"):
-            scaled = float(raw[k][f"peak_torque.{c}"])
+            scaled = float(raw[k][f"peak_torque_scaled.{c}"])
             assert float(r[f"peak_torque_kNm.{c}"]) == pytest.approx(scaled * sc.C / 1e3)
-            t = raw[k][f"settling_time.{c}"]
+            t = raw[k][f"settling_time_scaled.{c}"]
             if t and math.isfinite(float(t)):
                 assert float(r[f"settling_time_s.{c}"]) == pytest.approx(float(t) * sc.t_star)
     # the figure fixes: stopped runs grey, the settling time only where steady

@@ -724,7 +724,7 @@ def write_map_si(spec: SweepSpec, results: Path, path: Path) -> Path:
         sc = spec.point_scales(k)
         line: list[Any] = [k, r["i"], r["j"], r["rpm"], r["W0_kN"], r["Omega0"], r["V0"],
                            r["A"], r["taubar_crit"],
-                           num(r["open_loop_abscissa"]) / sc.t_star]  # fmt: skip
+                           num(r["open_loop_abscissa_scaled"]) / sc.t_star]  # fmt: skip
         for _, src, metric in names:
             v = r.get(src, "")
             if metric is None:

@@ -726,7 +726,7 @@ def _boundary_overlays(
     open_loop = (
         Overlay(xf, yf, fine[OPEN_LOOP], ol_label, {"ls": ":", "lw": 1.5})
         if OPEN_LOOP in fine
-        else Overlay(x, y, coarse("open_loop_abscissa"), ol_label, {"ls": ":", "lw": 1.5})
+        else Overlay(x, y, coarse("open_loop_abscissa_scaled"), ol_label, {"ls": ":", "lw": 1.5})
     )
     open_loop = replace(open_loop, subject="open loop, linearised")
     out = {}

@@ -713,16 +713,16 @@ def controllers_metrics(
     out: dict[str, Any] = {
         "A": design.A,
         "taubar_crit": design.taubar_crit,
-        "open_loop_abscissa": linear_abscissa(model, None, string),
+        "open_loop_abscissa_scaled": linear_abscissa(model, None, string),
         "lmi_gain_norm": (math.nan if error else float(np.linalg.norm(paper.F)))
         if run_lmi
         else None,
-        "lmi_abscissa": paper.abscissa if run_lmi else None,
+        "lmi_abscissa_scaled": paper.abscissa if run_lmi else None,
         "lmi_design_error": error,
         "lmi_constrained_gain_norm": None
         if constrained is None
         else float(np.linalg.norm(constrained.F)),
-        "lmi_constrained_abscissa": None if constrained is None else constrained.abscissa,
+        "lmi_constrained_abscissa_scaled": None if constrained is None else constrained.abscissa,
     }
     found: dict[str, Severity] = {}
     for name in names:
