@@ -213,7 +213,7 @@ def test_observer_estimates_the_bit_speed_from_surface_signals_on_its_model():
     for k in range(6000):
         phi, dphi, x3, dtheta = x
         theta = phi - x3 - MODEL.K0
-        phi_s, dphi_s, _ = sense.sensed(run.block, k * Ts, phi, dphi, theta, dtheta)
+        phi_s, dphi_s, _ = sense.sensed(run.block, k * Ts, phi, dphi, theta, dtheta, theta - phi)
         errors.append((phi_s - phi, dphi_s - dphi))
         r = run.step(k * Ts, phi, dphi, theta, dtheta, Ts)
         x = obs.Ad @ x + obs.Bd * (r + MODEL.K0)

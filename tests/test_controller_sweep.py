@@ -31,6 +31,7 @@ from drillstring.apps.controllers import (
     wob_range,
     write_controller_comparison,
 )
+from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import run_sweep
 from drillstring.apps.sweep.spec import (
     FEED_FOR_WOB,
@@ -151,7 +152,7 @@ def test_controller_map_on_dask_equals_the_serial_run(serial_map, tmp_path):
         outcomes |= {ra[f"outcome.{c}"] for c in MAP_CONTROLLERS}
         for c in MAP_CONTROLLERS:
             if ra[f"outcome.{c}"] in ("steady", "settling", "vibration", "stick-slip"):
-                assert math.isfinite(float(ra[f"rms_torque_late.{c}"]))
+                assert math.isfinite(float(ra[controller_column("rms_torque_late", c)]))
     # the runs differ between controllers: the equality is not that of empty rows
     assert len(outcomes) >= 3
     names = sorted(p.name for p in report.plots)
@@ -195,11 +196,8 @@ def test_a_map_row_is_the_metrics_of_the_runs(serial_map, paper_gains, constrain
         assert row[f"outcome.{name}"] == s.outcome
         for metric in ("utr", "peak_torque", "rms_torque_late", "peak_power"):
             value = getattr(s, metric)
-            assert (
-                (row[f"{metric}.{name}"] == "nan")
-                if math.isnan(value)
-                else (float(row[f"{metric}.{name}"]) == value)
-            )
+            col = controller_column(metric, name)  # "_scaled" for a dimensional metric
+            assert (row[col] == "nan") if math.isnan(value) else (float(row[col]) == value)
     assert row["best"] in MAP_CONTROLLERS
     assert float(row["lmi_gain_norm"]) == pytest.approx(math.hypot(*PAPER_F), rel=1e-12)
     assert float(row["V0"]) == rig.V0 and float(row["Omega0"]) == rig.Omega0
@@ -345,8 +343,8 @@ def test_a_slowly_decaying_run_is_settling_not_vibration(
     spec, serial = serial_map
     row = _rows(serial.results)[0]
     assert spec.point_values(0) == {"rpm": RPM0, "W0_kN": W0_KN}
-    assert float(row["linear_abscissa.soft-speed"]) == pytest.approx(-0.0107, abs=5e-4)
-    assert float(row["linear_abscissa.stiff-pi"]) == pytest.approx(0.101, abs=5e-3)
+    assert float(row["linear_abscissa_scaled.soft-speed"]) == pytest.approx(-0.0107, abs=5e-4)
+    assert float(row["linear_abscissa_scaled.stiff-pi"]) == pytest.approx(0.101, abs=5e-3)
     assert row["outcome.soft-speed"] == "settling"
     assert float(row["severity.soft-speed"]) > 0.05
     assert row["outcome.stiff-pi"] == "vibration"
@@ -668,6 +666,8 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
         "--workers",
         "0",
         "--no-progress",
+        "--elements",  # the one-mode model (the default is the 16-element string)
+        "1",
     ]
     assert controllers_main([*base, "--out", str(tmp_path / "bad"), "--wob", "15", "20"]) == 2
     assert "W0 = 15000.0 N is not above the wearflat contact part" in capsys.readouterr().err

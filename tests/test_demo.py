@@ -12,6 +12,7 @@ from types import SimpleNamespace
 
 import drillstring.apps.demo as demo
 from drillstring.fileio import write_json, write_text
+from drillstring.model.params import REFERENCE_RIG
 
 
 def _strict(text: str):
@@ -21,9 +22,12 @@ def _strict(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
+calls: list[tuple] = []
+
+
 def _stub_steps(monkeypatch) -> None:
     gains = SimpleNamespace(A=0.5, taubar_crit=2.4, F=(1.0, 2.0, 3.0, 4.0), K0=0.1, R_ff=-0.1,
-                            alpha=math.nan, spectral_abscissa=-0.2)  # fmt: skip
+                            alpha=math.nan, spectral_abscissa=-0.2, params=None)  # fmt: skip
     monkeypatch.setattr(demo, "read_gains", lambda path: gains)
     monkeypatch.setattr(demo, "read_average_points", lambda path: None)
     monkeypatch.setattr(demo, "_check_fmus_carry", lambda *a: None)
@@ -69,14 +73,19 @@ def _stub_steps(monkeypatch) -> None:
 
     monkeypatch.setattr(demo, "write_string_fig6", string_fig6)
     monkeypatch.setattr(demo, "modes_main", modes)
-    monkeypatch.setattr(
-        demo,
-        "write_controller_comparison",
-        lambda folder, *a, **kw: SimpleNamespace(rows=[{"law": "pi", "peak": math.nan}],
-                                                 files=figure("comparison")(folder)),
-    )  # fmt: skip
+
+    def comparison(folder, *a, string=None, **kw):
+        n = 1 if string is None else string.elements
+        calls.append(("compare", n, kw.get("without_braking")))
+        rows = [{"law": "pi", "peak": math.nan, "controller": "pi", "braking": "none",
+                 "outcome": "steady" if n == 1 else "stick-slip"}]  # fmt: skip
+        return SimpleNamespace(rows=rows, files=figure("comparison")(folder))
+
+    monkeypatch.setattr(demo, "write_controller_comparison", comparison)
+    monkeypatch.setattr(demo, "known_rig", lambda params: REFERENCE_RIG)
 
     def cmap(folder, gains_path, **kw):
+        calls.append(("map", kw.get("elements"), kw.get("n")))
         write_text(Path(folder) / "results.csv", "index\n")  # written, not returned
         write_text(Path(folder) / "plots" / "outcome.png", "png")
         path = write_text(Path(folder) / "by_controller.csv", "csv")
@@ -86,6 +95,7 @@ def _stub_steps(monkeypatch) -> None:
 
 
 def test_summary_is_json_and_lists_every_file_the_run_wrote(tmp_path, monkeypatch):
+    calls.clear()
     _stub_steps(monkeypatch)
     out = tmp_path / "out"
     # not the run's: the design beside it (make demo's out/design), a file of an earlier run
@@ -103,3 +113,20 @@ def test_summary_is_json_and_lists_every_file_the_run_wrote(tmp_path, monkeypatc
     assert "summary.json" in data["files"]
     assert data["fig5"]["max_abs_diff_du"] is None and data["fig5"]["late"] is None
     assert data["design"]["alpha"] is None and data["controllers"][0]["peak"] is None
+    # the comparison on the converged string and on the one-mode model, with and without
+    # braking; the map on the string; what changed
+    assert ("compare", 16, True) in calls and ("compare", 1, True) in calls
+    assert ("map", 16, 2) in calls
+    assert data["controller_changes"] == ["pi (without braking): steady -> stick-slip"]
+    assert "controllers/string/comparison.png" in data["files"]
+    assert "controllers/one-mode/comparison.png" in data["files"]
+
+
+def test_comparison_changes_lists_the_outcomes_the_string_changes():
+    one = [{"controller": "z-torque", "braking": "four-quadrant", "outcome": "steady"},
+           {"controller": "lmi", "braking": "none", "outcome": "steady"}]  # fmt: skip
+    string = [{"controller": "z-torque", "braking": "four-quadrant", "outcome": "steady"},
+              {"controller": "lmi", "braking": "none", "outcome": "reverse_rotation"}]  # fmt: skip
+    assert demo.comparison_changes(one, string) == [
+        "lmi (without braking): steady -> reverse_rotation"
+    ]

@@ -239,7 +239,7 @@ def test_string_torque_from_the_motor_is_the_twist_of_equation_13():
     for k in range(30):
         r = run.step(k * Ts, -w, 0.0, 0.0, dtheta, Ts)  # the twist theta - phi = w
         dtheta += Ts * (r - w) / POINT.rho  # (13) over the sample
-        estimate = sense.string_torque(run.block, (k + 1) * Ts, -w, 0.0, dtheta)
+        estimate = sense.string_torque(run.block, (k + 1) * Ts, w, dtheta)
         assert estimate == pytest.approx(w, rel=1e-10)
 
 

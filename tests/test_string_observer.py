@@ -185,7 +185,7 @@ def test_one_mode_replay_is_the_compiled_observer():
     est = one_mode_estimates(obs, theta, dtheta, torque, r)
     for k in range(40):
         phi = theta[k] - torque[k]
-        got = sense.sensed(run.block, k * TS, phi, 0.0, theta[k], dtheta[k])
+        got = sense.sensed(run.block, k * TS, phi, 0.0, theta[k], dtheta[k], torque[k])
         assert got[:2] == pytest.approx((est["phi"][k], est["dphi"][k]), abs=1e-12)
         assert run.step(k * TS, phi, 0.0, theta[k], dtheta[k], TS) == pytest.approx(r[k])
 

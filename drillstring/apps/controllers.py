@@ -27,7 +27,7 @@ import sys
 import textwrap
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +40,12 @@ from drillstring.analysis.severity import (
     severity_metrics,
 )
 from drillstring.apps.colors import CONTROLLER_COLORS
-from drillstring.apps.sweep.metrics import controller_column
+from drillstring.apps.sweep.metrics import (
+    CONTROLLER_METRICS,
+    SI_DISPLAY,
+    controller_column,
+    si_factor,
+)
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
 from drillstring.apps.sweep.spec import (
     CONSTRAINED_CONTROLLERS,
@@ -67,10 +72,11 @@ from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6, Experiment
-from drillstring.model.params import PhysicalParams, ScaledParams, known_rig
+from drillstring.model.params import KNOWN_PHYSICAL, PhysicalParams, ScaledParams, known_rig
+from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
 from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
-from drillstring.model.topdrive import RPM, top_drive_from_spec
+from drillstring.model.topdrive import BRAKING, RPM, top_drive_from_spec
 from drillstring.plotting import new_figure
 from drillstring.validation import check_int, check_real
 
@@ -78,6 +84,8 @@ __all__ = [
     "COMPARISON_COLUMNS",
     "MAP_OUTCOMES",
     "MAP_RPM",
+    "MAP_SI",
+    "MAP_WOB_MAX",
     "MAP_V0",
     "Comparison",
     "ControllerMap",
@@ -85,15 +93,20 @@ __all__ = [
     "controllers_main",
     "format_comparison",
     "wob_range",
+    "write_map_si",
     "write_controller_comparison",
     "write_controller_map",
 ]
 
-#: Columns of ``comparison.csv``.
+#: Columns of ``comparison.csv``: SI, the unit in the name (``_kNm`` kN m, ``_kW``, ``_rpm``,
+#: ``_s``); ``_over_R0`` a ratio to the nominal torque, ``_scaled`` the paper's scaled time;
+#: the others are counts, fractions or dimensionless.
 COMPARISON_COLUMNS = (
     "controller",
     "sensing",
     "top_drive",
+    "braking",
+    "string_elements",
     "outcome",
     "severity",
     "utr",
@@ -108,8 +121,17 @@ COMPARISON_COLUMNS = (
     "settling_time_s",
     "stick_entries_after_on",
     "status",
-    "tau_reached",
+    "t_reached_s",
+    "tau_reached_scaled",
 )
+#: The drive's braking in the ``braking`` column: with braking (four-quadrant), without (the
+#: torque range [0, R_max]: no torque against the rotation), none for the rows without a drive.
+BRAKING_ROWS = ("four-quadrant", "none")
+#: The suffix of a run's name (:attr:`Comparison.runs`) under the drive without braking.
+NO_BRAKING = " (no braking)"
+#: Elements of the converged string, the default of ``drillstring controllers compare|map``
+#: (``docs/controllers.md``, "On the distributed string").
+STRING_ELEMENTS = 16
 OPEN_LOOP = "open-loop"
 #: The paper's set-up of Fig. 6: its LMI law evaluated continuously, no top drive (the
 #: reproduction of the figure; no real drive delivers its torque).
@@ -130,6 +152,20 @@ def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
 def _matching_rig(params: ScaledParams) -> PhysicalParams | None:
     """A known physical rig whose scaled set is ``params`` (to 1e-9), for the SI columns."""
     return known_rig(params)
+
+
+def string_of_rig(rig: PhysicalParams, elements: int) -> StringParams | None:
+    """The rig's drill pipe as ``elements`` elements (None for one: the paper's one-mode model).
+
+    A rig with a known pipe (:data:`~drillstring.model.pipe.KNOWN_STRINGS`) gives its own
+    kappa; any other the reference pipe's (``StringParams`` defaults)."""
+    elements = check_int("elements", elements, lower=1)
+    if elements == 1:
+        return None
+    for name, known in KNOWN_PHYSICAL.items():
+        if name in KNOWN_STRINGS and known.to_scaled() == rig.to_scaled():
+            return rig_string(name, elements)
+    return StringParams(elements=elements)
 
 
 # --------------------------------------------------------------------------------------------
@@ -155,6 +191,7 @@ class Comparison:
     window: float = COMPARISON_WINDOW
     top_drive: str = "tds-11sa"
     tuning: Tuning = field(default_factory=Tuning)
+    elements: int = 1
 
 
 def _row(
@@ -164,6 +201,7 @@ def _row(
     window: float,
     t_on: float,
     rig: PhysicalParams | None,
+    braking: str = "four-quadrant",
 ) -> dict[str, Any]:
     s = severity_metrics(result, window, t_from=t_on)
     p = result.params
@@ -178,6 +216,8 @@ def _row(
         "controller": name,
         "sensing": SENSING_TEXT[name],
         "top_drive": drive,
+        "braking": braking if drive != "none" else "-",
+        "string_elements": 1 if result.string is None else result.string.elements,
         "outcome": s.outcome,
         "severity": s.severity,
         "utr": s.utr,
@@ -192,8 +232,14 @@ def _row(
         "settling_time_s": s.settling_time * t_star,
         "stick_entries_after_on": entries,
         "status": result.status.code,
-        "tau_reached": s.tau_reached,
+        "t_reached_s": s.tau_reached * t_star,
+        "tau_reached_scaled": s.tau_reached,
     }
+
+
+def _brake_text(row: dict[str, Any]) -> str:
+    b = row.get("braking", "-")
+    return {"four-quadrant": "yes", "none": "no"}.get(b, "-")
 
 
 def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
@@ -215,7 +261,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
         A row lacks one of the keys read.
     """
     head = (
-        f"{'controller':<16} {'sensing':<25} {'outcome':<16} {'sev.':>6} {'stick':>5} "
+        f"{'controller':<16} {'brake':<5} {'sensing':<25} {'outcome':<16} {'sev.':>6} {'stick':>5} "
         f"{'peak R/R0':>9} {'peak kN m':>9} {'late pk':>8} {'late rms':>8} {'kW':>6} {'sat.':>5} "
         f"{'min rpm':>7} {'settle s':>8}"
     )
@@ -226,7 +272,7 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
 
     for r in rows:
         lines.append(
-            f"{r['controller']:<16} {r['sensing']:<25} {r['outcome']:<16} "
+            f"{r['controller']:<16} {_brake_text(r):<5} {r['sensing']:<25} {r['outcome']:<16} "
             f"{num(r['severity'], '6.3f'):>6} {num(r['stick_fraction'], '5.3f'):>5} "
             f"{num(r['peak_torque_over_R0'], '9.1f'):>9} {num(r['peak_torque_kNm'], '9.3g'):>9} "
             f"{num(r['peak_torque_late_kNm'], '8.3g'):>8} "
@@ -240,31 +286,71 @@ def format_comparison(rows: Sequence[dict[str, Any]]) -> str:
 def _plot(
     path: Path,
     runs: dict[str, SimulationResult],
-    omega0: float,
+    rows: dict[str, dict[str, Any]],
+    rig: PhysicalParams,
     t_on: float,
     window: float,
     title: str,
+    rating_kNm: tuple[float, float] | None,
 ) -> Path:
-    names = [n for n in runs if n != OPEN_LOOP]
-    fig = new_figure((9.0, 1.6 * len(names) + 1.0))
-    axes = fig.subplots(len(names), 1, sharex=True, sharey=True)
+    """The bit speeds [rpm] against time [s], one panel per controller (with braking solid,
+    without dashed; the outcome in the legend), and a panel of the applied table torque [kN m]
+    with the drive's rating."""
+    t_star = rig.t_star
+    omega0 = runs[OPEN_LOOP].params.omega0
+    names = [n for n in runs if n != OPEN_LOOP and not n.endswith(NO_BRAKING)]
+    fig = new_figure((9.0, 1.6 * len(names) + 3.0))
+    axes = np.atleast_1d(fig.subplots(len(names) + 1, 1, sharex=True))
     open_loop = runs[OPEN_LOOP]
-    tau_end = float(open_loop.tau[-1])
-    for ax, name in zip(np.atleast_1d(axes), names, strict=True):
-        ax.plot(open_loop.tau, omega0 + open_loop.dphi, color="0.75", lw=0.8, label="open loop")
-        r = runs[name]
-        color = CONTROLLER_COLORS.get(name.split("-")[0] if name.startswith("lmi") else name)
-        ax.plot(r.tau, omega0 + r.dphi, color=color, lw=1.0, label=f"{name}: {r.status.code}")
-        ax.axvline(t_on, color="k", ls=":", lw=1)
-        ax.axvspan(tau_end - window, tau_end, color="0.93", zorder=0)
-        ax.axhline(omega0, color="k", lw=0.5)
-        ax.set_ylabel(r"$\dot\Phi$ (bit)")
+    t_end = float(open_loop.tau[-1]) * t_star
+
+    def rpm(r: SimulationResult) -> np.ndarray:
+        return (omega0 + r.dphi) / t_star / RPM
+
+    def color(name: str) -> Any:
+        return CONTROLLER_COLORS.get(name.split("-")[0] if name.startswith("lmi") else name)
+
+    tq = axes[-1]
+    for ax, name in zip(axes[:-1], names, strict=True):
+        ax.plot(open_loop.tau * t_star, rpm(open_loop), color="0.75", lw=0.8,
+                label=f"open loop: {rows[OPEN_LOOP]['outcome']}")  # fmt: skip
+        for key, ls, what in ((name, "-", ""), (name + NO_BRAKING, "--", ", no braking")):
+            if key not in runs:
+                continue
+            r = runs[key]
+            ax.plot(r.tau * t_star, rpm(r), color=color(name), lw=1.0, ls=ls,
+                    label=f"{name}{what}: {_legend_outcome(rows[key])}")  # fmt: skip
+            if name != LMI_UNLIMITED:  # the paper's set-up has no drive: 1000 times the rating
+                R = (r.params.R0 + r.R_minus_R0) * rig.C / 1e3
+                tq.plot(r.tau * t_star, R, color=color(name), lw=0.7, ls=ls)
+        ax.axvline(t_on * t_star, color="k", ls=":", lw=1)
+        ax.axvspan(t_end - window * t_star, t_end, color="0.93", zorder=0)
+        ax.axhline(omega0 / t_star / RPM, color="k", lw=0.5)
+        ax.set_ylabel("bit [rpm]")
         ax.legend(loc="upper left", fontsize=7, ncol=2)
         ax.grid(alpha=0.3)
-    np.atleast_1d(axes)[-1].set_xlabel(r"$\tau$")
-    np.atleast_1d(axes)[0].set_title(title, fontsize="small")
+    if rating_kNm is not None:
+        lo, hi = rating_kNm
+        for v, text in ((hi, f"rating {hi:.1f} kN m"), (lo, f"braking limit {lo:.1f} kN m")):
+            tq.axhline(v, color="r", ls="-.", lw=0.8)
+            tq.annotate(text, (0.995, v), xycoords=("axes fraction", "data"), ha="right",
+                        va="bottom", fontsize=7, color="r")  # fmt: skip
+        tq.axhline(0.0, color="r", ls=":", lw=0.8)  # the limit without braking
+        tq.set_ylim(1.15 * min(lo, 0.0) - 0.05 * hi, 1.15 * hi)
+    tq.axvline(t_on * t_star, color="k", ls=":", lw=1)
+    tq.set_ylabel("table torque [kN m]\n(every drive-limited law)")
+    tq.grid(alpha=0.3)
+    tq.set_xlabel("time [s]")
+    axes[0].set_title(title, fontsize="small")
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def _legend_outcome(row: dict[str, Any]) -> str:
+    """What a run did: its outcome (steady, stick-slip, ...); a stopped run's reason."""
+    if row["status"] != "ok":
+        return f"stopped ({row['status']})"
+    return str(row["outcome"])
 
 
 def write_controller_comparison(
@@ -280,6 +366,8 @@ def write_controller_comparison(
     top_drive: str = "tds-11sa",
     tuning: Tuning | None = None,
     rig: PhysicalParams | None = None,
+    string: StringParams | None = None,
+    without_braking: bool = False,
     log: Callable[[str], Any] | None = print,
 ) -> Comparison:
     """Every controller switched on from the same torsional stick-slip state (Fig. 6 set-up),
@@ -324,6 +412,13 @@ def write_controller_comparison(
     rig : PhysicalParams, optional
         For the SI columns, the drive and the pipe; default: a known rig whose scaled set is the
         gains' (the reference rig for the reference set).
+    string : StringParams, optional
+        The drill pipe of every run (default: the paper's one-mode string; ``drillstring
+        controllers compare`` takes the converged string of :data:`STRING_ELEMENTS` elements).
+        On the distributed string the controllers measure the torque at the top of the string.
+    without_braking : bool
+        Also run every controller under the same drive without braking (torque range [0,
+        R_max]); its rows have ``braking`` "none" and its runs the suffix :data:`NO_BRAKING`.
     log : callable, optional
         Receives the printed table (None: silent).
 
@@ -356,30 +451,54 @@ def write_controller_comparison(
         raise ValueError("no physical rig maps onto the gains' parameter set: give rig=")
     tuning = Tuning() if tuning is None else tuning
     drive = None if top_drive == "none" else top_drive_from_spec(top_drive, params.R0, rig)
+    drives = {"four-quadrant": drive}
+    if without_braking and drive is not None:
+        drives["none"] = replace(drive, R_min=max(0.0, drive.R_min), braking="none")
     model = averaged_model(params, g.A, g.taubar_crit)
     paper = lmi_gain(model, g, feedforward="file")
     cgain = None if gc is None else lmi_gain(model, gc, feedforward="file")
     names = [n for n in RIG_CONTROLLERS if cgain is not None or n not in _CONSTRAINED_ROWS]
     # the timing of a real drive: the rows of TIMED_CONTROLLERS whose controller runs here
     names += [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in names]
-    controllers = rig_lineup(
-        params, model, paper=paper, constrained=cgain, top_drive=drive, scales=rig, Ts=Ts,
-        tuning=tuning, t_on=t_on, latch=experiment.latch, names=names,
-    )  # fmt: skip
+    lineups = {
+        b: rig_lineup(
+            params,
+            model,
+            paper=paper,
+            constrained=cgain,
+            top_drive=d,
+            scales=rig,
+            Ts=Ts,
+            tuning=tuning,
+            t_on=t_on,
+            latch=experiment.latch,
+            names=names,
+        )  # fmt: skip
+        for b, d in drives.items()
+    }
+    controllers = lineups["four-quadrant"]
     options = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)
-    start = {"initial": experiment.initial(), "options": options}
+    start: dict[str, Any] = {"initial": experiment.initial(), "options": options}
+    if string is not None:
+        start["string"] = string
     runs: dict[str, SimulationResult] = {
         OPEN_LOOP: simulate(params, tau_end, control=paper.R_ff, **start)
     }
-    for name, controller in controllers.items():
-        runs[name] = simulate_sampled(params, controller, tau_end, Ts, **start)
+    braking_of: dict[str, str] = {}
+    for name in controllers:
+        for b, lineup in lineups.items():
+            key = name if b == "four-quadrant" else name + NO_BRAKING
+            runs[key] = simulate_sampled(params, lineup[name], tau_end, Ts, **start)
+            braking_of[key] = b
     continuous = AffineFeedback(paper.F, paper.K0, paper.R_ff, t_on, experiment.latch)
     runs[LMI_UNLIMITED] = simulate(params, tau_end, control=continuous, **start)
-    rows = [
-        _row(name, "none" if name in (OPEN_LOOP, LMI_UNLIMITED) else top_drive, r, window, t_on,
-             rig)
-        for name, r in runs.items()
-    ]  # fmt: skip
+    row_of = {
+        key: _row(key.removesuffix(NO_BRAKING),
+                  "none" if key in (OPEN_LOOP, LMI_UNLIMITED) else top_drive, r, window, t_on,
+                  rig, braking_of.get(key, "four-quadrant"))
+        for key, r in runs.items()
+    }  # fmt: skip
+    rows = list(row_of.values())
     laws_out: dict[str, dict[str, Any]] = {}
     for name, controller in controllers.items():
         law = controller.law
@@ -391,9 +510,17 @@ def write_controller_comparison(
             "timing_s": controller.timing.to_si(rig),
         }
     out = Path(out_dir)
+    elements = 1 if string is None else string.elements
+    model_text = (
+        "the one-mode string (the paper's model)"
+        if string is None or string.is_paper
+        else f"the distributed string, {elements} elements"
+    )
     title = (
-        f"{experiment.name} set-up: controllers on at tau = {t_on:g}, sampled every {Ts:g}, "
-        f"top drive {top_drive} ({LMI_UNLIMITED}: none, the paper's)\n"
+        f"{experiment.name} set-up on {model_text}: controllers on at t = "
+        f"{t_on * rig.t_star:.3g} s, sampled every {Ts * rig.t_star * 1e3:.3g} ms, "
+        f"top drive {top_drive}\n(solid: with braking, dashed: without; {LMI_UNLIMITED}: no "
+        "drive, the paper's; grey band: the metrics' window)\n"
         + "\n".join(
             textwrap.wrap(
                 sensing_note([n for n in runs if n in SENSING]), 120, break_on_hyphens=False
@@ -401,7 +528,9 @@ def write_controller_comparison(
         )
     )
     files = {
-        "figure": _plot(out / "comparison.png", runs, params.omega0, t_on, window, title),
+        "figure": _plot(
+            out / "comparison.png", runs, row_of, rig, t_on, window, title, _rating_kNm(drive, rig)
+        ),  # fmt: skip
         "table": write_csv(
             out / "comparison.csv",
             COMPARISON_COLUMNS,
@@ -416,6 +545,11 @@ def write_controller_comparison(
         "window": window,
         "top_drive": {"spec": top_drive, "limits": None if drive is None else drive.to_si(rig)},
         "tuning": tuning.values(),
+        "string": {
+            "elements": elements,
+            "lumping": "paper" if string is None else string.lumping,
+            "kappa": None if string is None else string.kappa,
+        },
         "params": params.to_dict(),
         "rig": rig.to_dict(),
         "rows": rows,
@@ -434,7 +568,15 @@ def write_controller_comparison(
         window=window,
         top_drive=top_drive,
         tuning=tuning,
+        elements=elements,
     )
+
+
+def _rating_kNm(drive: Any, rig: PhysicalParams) -> tuple[float, float] | None:
+    """The drive's torque range [kN m] (its braking limit and rating), None without a drive."""
+    if drive is None or not (math.isfinite(drive.R_min) and math.isfinite(drive.R_max)):
+        return None
+    return drive.R_min * rig.C / 1e3, drive.R_max * rig.C / 1e3
 
 
 _CONSTRAINED_ROWS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
@@ -493,8 +635,11 @@ def _count_rows(results: Path, controllers: Sequence[str]) -> list[dict[str, Any
     return out
 
 
-#: The rpm range of the default map (the reference rig turns at 51.8 rpm).
-MAP_RPM = (30.0, 150.0)
+#: The rpm range of the default map (the reference rig turns at 51.8 rpm; at 20.7 rpm and 27 kN
+#: Z-Torque sustains a slow oscillation that a map from 30 rpm missed).
+MAP_RPM = (20.0, 150.0)
+#: The upper end of the default map's nominal weight on bit [kN].
+MAP_WOB_MAX = 40.0
 #: The feeds v0 (scaled, at the reference speed) whose nominal WOB bounds the default map.
 MAP_V0 = (0.25, 2.0)
 
@@ -524,6 +669,78 @@ def wob_range(rig: PhysicalParams, v0: tuple[float, float] = MAP_V0) -> tuple[fl
     )
 
 
+#: The map's table in SI (:func:`write_map_si`); ``results.csv`` is the sweep's working file
+#: (scaled metrics, what ``--resume`` reads).
+MAP_SI = "map_si.csv"
+#: Column-name tokens of the SI units of :data:`~drillstring.apps.sweep.metrics.SI_DISPLAY`.
+_UNIT_TOKENS = {"kN m": "kNm", "kW": "kW", "rpm": "rpm", "s": "s", "1/s": "per_s"}
+#: Dimensionless controller metrics (no unit in their name).
+_PLAIN = {"outcome", "utr", "severity", "stick_fraction", "stall", "saturated_fraction"}
+
+
+def write_map_si(spec: SweepSpec, results: Path, path: Path) -> Path:
+    """The controller map's ``results.csv`` in SI, the unit in each column name.
+
+    The axes (``rpm``, ``W0_kN``), the imposed speed and hook speed (``Omega0_rad_per_s``,
+    ``V0_m_per_s``), the design inputs A and taubar_crit (``_scaled``: the paper's scaled
+    slope and delay), the open loop's and each controller's linear abscissa [1/s], and per
+    controller (``<metric>_<unit>.<controller>``) the severity metrics with each point's rig
+    scales (peak torque in kN m, power in kW, table speed in rpm, times in s; outcome, UTR,
+    severity, stick and saturated fractions and the stall flag have no unit); ``best``,
+    ``wall_time_s``, ``error``.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The controller map's spec (a physical base).
+    results : Path
+        Its ``results.csv``.
+    path : Path
+        Where to write.
+
+    Returns
+    -------
+    Path
+    """
+    with open(results, newline="", encoding="utf-8") as fh:
+        rows = sorted(csv.DictReader(fh), key=lambda r: int(r["index"]))
+    controllers = list(spec.options["controllers"])
+    names: list[tuple[str, str, str | None]] = []  # (out name, in name, metric or None)
+    for m, _ in CONTROLLER_METRICS:
+        for c in controllers:
+            if m in _PLAIN:
+                names.append((controller_column(m, c), controller_column(m, c), None))
+            else:
+                token = _UNIT_TOKENS[SI_DISPLAY[m][2]]
+                names.append((controller_column(f"{m}_{token}", c), controller_column(m, c), m))
+    header = [
+        "index", "i", "j", "rpm", "W0_kN", "Omega0_rad_per_s", "V0_m_per_s", "A_scaled",
+        "taubar_crit_scaled", "open_loop_abscissa_per_s", *(n for n, _, _ in names), "best",
+        "wall_time_s", "error",
+    ]  # fmt: skip
+
+    def num(v: str) -> float:
+        return float(v) if v not in ("", None) else math.nan
+
+    out = []
+    for r in rows:
+        k = int(r["index"])
+        sc = spec.point_scales(k)
+        line: list[Any] = [k, r["i"], r["j"], r["rpm"], r["W0_kN"], r["Omega0"], r["V0"],
+                           r["A"], r["taubar_crit"],
+                           num(r["open_loop_abscissa_scaled"]) / sc.t_star]  # fmt: skip
+        for _, src, metric in names:
+            v = r.get(src, "")
+            if metric is None:
+                line.append(v)
+            else:
+                factor, _ = si_factor(metric, sc.C, sc.t_star)
+                line.append(num(v) * factor)
+        line += [r["best"], r["seconds"], r["error"]]
+        out.append(line)
+    return write_csv(path, header, out)
+
+
 def controller_map_spec(
     gains_path: str | os.PathLike[str],
     *,
@@ -540,6 +757,8 @@ def controller_map_spec(
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
     tuning: Tuning | None = None,
+    elements: int = 1,
+    braking: str = "four-quadrant",
 ) -> SweepSpec:
     """The sweep of :func:`write_controller_map` (its parameters, same defaults).
 
@@ -563,7 +782,7 @@ def controller_map_spec(
             "the map's axes are physical (rpm, kN): the design's parameter set matches no known "
             "rig; pass rig="
         )
-    wob = wob_range(rig) if wob_kN is None else wob_kN
+    wob = (wob_range(rig)[0], MAP_WOB_MAX) if wob_kN is None else wob_kN
     names = list(controllers)
     tuning = Tuning() if tuning is None else tuning
     if tuning.pipe is not None:
@@ -583,6 +802,8 @@ def controller_map_spec(
         "impedance": tuning.impedance,
         "soft_speed": tuning.soft_speed,
         "z_matching": tuning.z_matching,
+        "elements": check_int("elements", elements, lower=1),
+        "braking": braking,
     }
     if any(c in CONSTRAINED_CONTROLLERS for c in names):
         path = (
@@ -623,6 +844,8 @@ def write_controller_map(
     Ts: float = DEFAULT_TS,
     dphi0_rel: float = -0.5,
     tuning: Tuning | None = None,
+    elements: int = 1,
+    braking: str = "four-quadrant",
     serial: bool = False,
     workers: int | None = None,
     client: Any = None,
@@ -660,7 +883,8 @@ def write_controller_map(
     rpm : (float, float)
         Range of the surface speed [rpm].
     wob_kN : (float, float), optional
-        Range of the nominal weight on bit [kN] (default: :func:`wob_range` of the rig).
+        Range of the nominal weight on bit [kN] (default: from the low end of
+        :func:`wob_range` of the rig to :data:`MAP_WOB_MAX`).
     tau_end, window, min_periods, Ts, dphi0_rel : float
         Run length, late window, the periods of the slowest stick-slip the window must hold,
         sample period, initial bit speed as a fraction of omega0 (options of the study,
@@ -668,6 +892,11 @@ def write_controller_map(
     tuning : Tuning, optional
         The industrial rules' choices (options ``impedance``, ``soft_speed``, ``z_matching``;
         ``"pipe"`` is each point's rig's pipe, so ``Tuning.pipe`` must be None).
+    elements : int
+        The drill pipe's elements (1: the paper's one-mode model; ``drillstring controllers
+        map`` takes :data:`STRING_ELEMENTS`): the runs and the linear overlay on that string.
+    braking : str
+        The drive's braking: "four-quadrant" or "none" (its torque range [0, R_max]).
     serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
@@ -699,6 +928,8 @@ def write_controller_map(
         Ts=Ts,
         dphi0_rel=dphi0_rel,
         tuning=tuning,
+        elements=elements,
+        braking=braking,
     )
     report = run_sweep(
         spec,
@@ -714,13 +945,15 @@ def write_controller_map(
     files = {
         "by_controller": write_csv(
             Path(out_dir) / "by_controller.csv", header, ([r[h] for h in header] for r in table)
-        )
+        ),
+        "si": write_map_si(spec, report.results, Path(out_dir) / MAP_SI),
     }
     if log is not None:
         log(
             f"{spec.n_points} points ({spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
             f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN nominal WOB; {spec.feed}; "
-            f"top drive {top_drive}), {report.n_failed} failed, {report.wall_time:.1f} s; "
+            f"top drive {top_drive}, braking {braking}; {elements} element(s)), "
+            f"{report.n_failed} failed, {report.wall_time:.1f} s; "
             "outcomes per controller:"
         )
         log(" ".join(f"{h:>16}" for h in header))
@@ -782,6 +1015,13 @@ def _parser() -> argparse.ArgumentParser:
             "default two-mass)",
         )
         p.add_argument(
+            "--elements",
+            type=int,
+            default=STRING_ELEMENTS,
+            help=f"elements of the drill pipe (default {STRING_ELEMENTS}: the converged "
+            "distributed string; 1: the paper's one-mode model)",
+        )
+        p.add_argument(
             "--z-matching",
             type=float,
             default=1.0,
@@ -802,6 +1042,11 @@ def _parser() -> argparse.ArgumentParser:
         help="top drive of every controller: a rating (tds-11sa), 50R0, 52kNm, or none",
     )
     c.add_argument("--tau-end", type=float, default=COMPARISON_TAU_END, help="run length")
+    c.add_argument(
+        "--braking-only",
+        action="store_true",
+        help="only the drive with braking (default: every controller with and without)",
+    )
     m = sub.choices["map"]
     m.description = m.description + (
         ": surface speed [rpm] x nominal weight on bit [kN] on the design's rig, every controller "
@@ -822,9 +1067,9 @@ def _parser() -> argparse.ArgumentParser:
         nargs=2,
         default=None,
         metavar=("LO", "HI"),
-        help="range of the nominal weight on bit [kN] (default: what the rig's feed gives for "
-        f"v0 in [{MAP_V0[0]:g}, {MAP_V0[1]:g}] at its speed; it must stay above the wearflat "
-        "contact part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
+        help="range of the nominal weight on bit [kN] (default: from what the rig's feed gives "
+        f"for v0 = {MAP_V0[0]:g} at its speed to {MAP_WOB_MAX:g}; it must stay above the "
+        "wearflat contact part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
     )
     m.add_argument(
         "--gains-constrained",
@@ -848,6 +1093,13 @@ def _parser() -> argparse.ArgumentParser:
         "torque (50R0), a torque (52kNm) or none (default tds-11sa)",
     )
     m.add_argument("--tau-end", type=float, default=200.0, help="run length (default 200)")
+    m.add_argument(
+        "--braking",
+        choices=BRAKING,
+        default="four-quadrant",
+        help="the drive's braking: four-quadrant (as rated) or none (torque in [0, R_max]; "
+        "default four-quadrant)",
+    )
     m.add_argument(
         "--workers", type=int, default=None, help="Dask workers (default: CPU count; 0: serial)"
     )
@@ -886,10 +1138,17 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
             if constrained is None:
                 beside = Path(args.gains).with_name(CONSTRAINED_FILE)
                 constrained = beside if beside.is_file() else None
+            g = read_gains(args.gains)
+            rig = _matching_rig(g.params)
+            string = None if rig is None else string_of_rig(rig, args.elements)
+            if rig is None and args.elements != 1:
+                string = StringParams(elements=check_int("elements", args.elements, lower=1))
             result = write_controller_comparison(
                 args.out,
-                args.gains,
+                g,
                 constrained,
+                string=string,
+                without_braking=not args.braking_only,
                 Ts=args.Ts,
                 window=args.window,
                 min_periods=args.min_periods,
@@ -916,6 +1175,8 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
             min_periods=args.min_periods,
             Ts=args.Ts,
             tuning=tuning,
+            elements=args.elements,
+            braking=args.braking,
             serial=args.workers == 0,
             workers=args.workers or None,
             resume=args.resume,

@@ -16,9 +16,11 @@
    string with the string's modes (``out/string/``); then Fig. 5 in SI units from the SSP
    package in Ecos
    and in the project's master, against the monolithic solver in SI; then the controllers on the
-   reference rig's top drive: every one switched on from the Fig. 6 state, and a map of their
-   outcomes over surface speed and weight on bit (Dask). ``summary.json`` lists every file and
-   number.
+   reference rig's top drive, with and without braking: every one switched on from the Fig. 6
+   state on the converged string (``out/controllers/string/``) beside the one-mode model
+   (``out/controllers/one-mode/``), the outcomes that change printed, and a small map of their
+   outcomes over surface speed and weight on bit on the string (Dask). ``summary.json`` lists
+   every file and number.
 """
 
 from __future__ import annotations
@@ -40,7 +42,9 @@ from drillstring.analysis.figures import (
 )
 from drillstring.analysis.string_figures import write_string_fig6
 from drillstring.apps.controllers import (
+    STRING_ELEMENTS,
     format_comparison,
+    string_of_rig,
     write_controller_comparison,
     write_controller_map,
 )
@@ -50,6 +54,7 @@ from drillstring.controller.design import CONSTRAINED_FILE, FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import replace_dir, write_json
 from drillstring.model.control import AffineFeedback
+from drillstring.model.params import known_rig
 from drillstring.orchestration.closed_loop import read_loop_model
 from drillstring.orchestration.figures import write_fig5, write_fig6
 
@@ -57,6 +62,12 @@ __all__ = ["DemoSummary", "demo_main", "run_demo"]
 
 #: The demo's summary in its output folder.
 SUMMARY_FILE = "summary.json"
+
+
+#: Points per axis of the demo's controller map: on the 16-element string a point costs about
+#: 2.5 s (9 points of the default map, serial, warm: 22.6 s), so 7 x 7 keeps the demo's map
+#: near a minute on two workers (``drillstring controllers map`` defaults to 25 x 25).
+DEMO_MAP_POINTS = 7
 
 
 @dataclass
@@ -77,6 +88,9 @@ class DemoSummary:
     si: dict[str, Any] = field(default_factory=dict)
     string: dict[str, Any] = field(default_factory=dict)
     controllers: list[dict[str, Any]] = field(default_factory=list)
+    controllers_one_mode: list[dict[str, Any]] = field(default_factory=list)
+    controller_changes: list[str] = field(default_factory=list)
+    controller_elements: int = STRING_ELEMENTS
     controller_map: list[dict[str, Any]] = field(default_factory=list)
     map_points: int = 0
     seconds: dict[str, float] = field(default_factory=dict)
@@ -101,7 +115,7 @@ def run_demo(
     *,
     H: float = 1e-3,
     workers: int | None = 2,
-    map_points: int = 25,
+    map_points: int = DEMO_MAP_POINTS,
     progress: bool = False,
     log: Any = print,
 ) -> DemoSummary:
@@ -185,13 +199,26 @@ def run_demo(
     summary.seconds["si"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    log("Controllers on the reference rig's top drive: Fig. 6-like comparison, map")
+    log(
+        "Controllers on the reference rig's top drive, with and without braking: Fig. 6-like "
+        f"comparison on the {STRING_ELEMENTS}-element string and on the one-mode model, map"
+    )
     constrained = design_dir / CONSTRAINED_FILE
+    cfile = constrained if constrained.is_file() else None
+    rig = known_rig(gains.params)
+    string = None if rig is None else string_of_rig(rig, STRING_ELEMENTS)
     comparison = write_controller_comparison(
-        out / "controllers", gains, constrained if constrained.is_file() else None, log=None
+        out / "controllers" / "string", gains, cfile, string=string, without_braking=True,
+        log=None,
+    )  # fmt: skip
+    one_mode = write_controller_comparison(
+        out / "controllers" / "one-mode", gains, cfile, without_braking=True, log=None
     )
     summary.controllers = list(comparison.rows)
+    summary.controllers_one_mode = list(one_mode.rows)
+    summary.controller_changes = comparison_changes(one_mode.rows, comparison.rows)
     summary.figures["controllers"] = {k: str(v) for k, v in comparison.files.items()}
+    summary.figures["controllers_one_mode"] = {k: str(v) for k, v in one_mode.files.items()}
     # The map is the demo's own artifact: computed afresh into a staging folder that replaces the
     # previous map when complete (the sweep itself refuses to overwrite results without --resume).
     map_dir = out / "controllers" / "map"
@@ -200,7 +227,7 @@ def run_demo(
         shutil.rmtree(staging)
     cmap = write_controller_map(
         staging, design_dir / GAINS_FILE, n=map_points, workers=workers, progress=progress,
-        log=None,
+        elements=STRING_ELEMENTS, log=None,
     )  # fmt: skip
     summary.map_points = map_points
     replace_dir(staging, map_dir)
@@ -214,6 +241,40 @@ def run_demo(
     summary.files = sorted(written | {SUMMARY_FILE})
     write_json(out / SUMMARY_FILE, summary.to_json())
     return summary
+
+
+def comparison_changes(
+    one_mode: Sequence[Mapping[str, Any]], string: Sequence[Mapping[str, Any]]
+) -> list[str]:
+    """What the distributed string changes in the comparison: one line per row (controller and
+    braking) whose outcome differs between the one-mode model and the string.
+
+    Parameters
+    ----------
+    one_mode, string : sequence of mapping
+        Rows of the two comparisons (:data:`~drillstring.apps.controllers.COMPARISON_COLUMNS`).
+
+    Returns
+    -------
+    list of str
+        ``"<controller> (braking <b>): <one-mode outcome> -> <string outcome>"``; empty when
+        every outcome is the same.
+    """
+
+    def key(r: Mapping[str, Any]) -> tuple[Any, Any]:
+        return r.get("controller"), r.get("braking")
+
+    before = {key(r): r for r in one_mode}
+    out = []
+    for r in string:
+        b = before.get(key(r))
+        if b is None or b.get("outcome") == r.get("outcome"):
+            continue
+        brake = {"four-quadrant": "with braking", "none": "without braking"}.get(
+            r.get("braking"), "no drive"
+        )
+        out.append(f"{r.get('controller')} ({brake}): {b.get('outcome')} -> {r.get('outcome')}")
+    return out
 
 
 def _file_states(root: Path) -> dict[str, tuple[int, int, int]]:
@@ -329,13 +390,23 @@ def print_summary(summary: DemoSummary) -> None:
         print(line)
     for line in si_demo_lines(summary.si):
         print(f"   {line}")
-    print("   controllers switched on at tau = 25 from the Fig. 6 state, on the rig's top drive:")
+    n_el = summary.controller_elements
+    print(
+        "   controllers switched on at tau = 25 from the Fig. 6 state, on the rig's top drive "
+        f"with and without braking, on the {n_el}-element string:"
+    )
     for line in format_comparison(summary.controllers).splitlines():
+        print(f"     {line}")
+    print("   the same on the one-mode model (the paper's):")
+    for line in format_comparison(summary.controllers_one_mode).splitlines():
+        print(f"     {line}")
+    print("   what the string changes (outcome on the one-mode model -> on the string):")
+    for line in summary.controller_changes or ["no outcome changes"]:
         print(f"     {line}")
     n = summary.map_points
     print(
-        f"   {n} x {n} map over surface speed [rpm] x weight on bit [kN], every controller "
-        "under the TDS-11SA, outcomes per controller:"
+        f"   {n} x {n} map over surface speed [rpm] x weight on bit [kN] on the {n_el}-element "
+        "string, every controller under the TDS-11SA, outcomes per controller:"
     )
     for row in summary.controller_map:
         counts = ", ".join(f"{k} {v}" for k, v in row.items() if k != "controller")
@@ -373,7 +444,10 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
         "--workers", type=int, default=2, help="Dask workers of the controller map (0: serial)"
     )
     ap.add_argument(
-        "--map-points", type=int, default=25, help="points per axis of the controller map"
+        "--map-points",
+        type=int,
+        default=DEMO_MAP_POINTS,
+        help=f"points per axis of the controller map (default {DEMO_MAP_POINTS})",
     )
     args = ap.parse_args(argv)
     try:

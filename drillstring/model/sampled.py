@@ -20,12 +20,13 @@ from typing import Any
 import numpy as np
 
 from drillstring.model.digital.controller import DigitalController
+from drillstring.model.digital.layout import B_RHO
 from drillstring.model.digital.loop import EXTRA_COLUMNS, ROW_SIZE, run_sampled_from
 from drillstring.model.engine import Engine, EngineOptions, InitialState, Status
 from drillstring.model.experiments import DEFAULT_DT_OUT
 from drillstring.model.laws import Law
 from drillstring.model.params import ScaledParams
-from drillstring.model.pipe import StringParams
+from drillstring.model.pipe import StringParams, torsional_chain
 from drillstring.model.prehistory import HistoryFunction
 from drillstring.model.simulate import COLUMNS, SimulationResult
 from drillstring.validation import check_real
@@ -126,7 +127,10 @@ def simulate_sampled(
         Output sampling, a multiple of ``Ts``.
     string : StringParams, optional
         The drill pipe (default: the paper's one-mode string; ``docs/model.md``, "The
-        distributed string"). The rows hold the bit's and the table's signals.
+        distributed string"). The rows hold the bit's and the table's signals. On a string of
+        N > 1 elements the controller's string torque is the top element's (a sub under the
+        top drive: ``top_torque_minus_R0``) and its motor-torque estimate uses the table
+        node's inertia rho + kappa/(2N).
 
     Returns
     -------
@@ -158,6 +162,9 @@ def simulate_sampled(
             )
     engine = Engine(params, options=options, initial=initial, history=history, string=string)
     block = controller.block(params)
+    if not engine.string.is_paper:
+        # the motor-torque estimate's inertia: the table node's, rho + kappa/(2N)
+        block[B_RHO] = torsional_chain(engine.string, params.rho).inertia[0]
     rows = np.empty((n // every + 2, ROW_SIZE))
     acc = np.array([-math.inf, math.inf, 0.0, 0.0])
     k, i = 0, 0

@@ -89,8 +89,12 @@ def controller_column(metric: str, controller: str) -> str:
     Returns
     -------
     str
-        ``"<metric>.<controller>"`` (``"utr.stiff-pi"``); not checked against the names.
+        ``"<metric>.<controller>"`` (``"utr.stiff-pi"``), a metric with a physical dimension
+        (:data:`SI_DISPLAY`) as ``"<metric>_scaled.<controller>"`` (``"peak_torque_scaled.lmi"``:
+        the column holds the paper's scaled value); not checked against the names.
     """
+    if metric in SI_DISPLAY:
+        return f"{metric}_scaled.{controller}"
     return f"{metric}.{controller}"
 
 
@@ -135,12 +139,12 @@ METRICS: dict[str, tuple[tuple[str, str], ...]] = {
     "controllers": (
         ("A", "float"),
         ("taubar_crit", "float"),
-        ("open_loop_abscissa", "float"),
+        ("open_loop_abscissa_scaled", "float"),
         ("lmi_gain_norm", "float"),
-        ("lmi_abscissa", "float"),
+        ("lmi_abscissa_scaled", "float"),
         ("lmi_design_error", "str"),
         ("lmi_constrained_gain_norm", "float"),
-        ("lmi_constrained_abscissa", "float"),
+        ("lmi_constrained_abscissa_scaled", "float"),
         *(
             (controller_column(m, c), kind)
             for c in RIG_CONTROLLERS

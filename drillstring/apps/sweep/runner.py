@@ -41,7 +41,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -69,6 +69,7 @@ from drillstring.apps.sweep.studies import (
     OPEN_LOOP,
     DesignInputs,
     axial_design,
+    boundary_model,
     design_key,
     evaluate_point,
     linear_boundary,
@@ -97,6 +98,7 @@ __all__ = [
     "kernel_warmup",
     "read_results",
     "run_sweep",
+    "shown_values",
     "sweep_main",
     "write_plots",
 ]
@@ -703,6 +705,7 @@ def _boundary_overlays(
     fine: dict[str, np.ndarray] = {}
     x, y = spec.axes[0].values(), spec.axes[1].values()
     xf, yf = x, y
+    model = boundary_model(spec.options["elements"])
     if len(inputs) == 1:
         A, tc = (float(v) for v in inputs.pop())
         boundary = linear_boundary(spec, DesignInputs(math.nan, math.nan, A=A, taubar_crit=tc))
@@ -719,24 +722,56 @@ def _boundary_overlays(
         raw = _column(spec, rows, column)
         return np.array([float(v) if v else math.nan for v in raw]).reshape(x.size, y.size)
 
+    ol_label = f"open loop: stability boundary of the {model}"
     open_loop = (
-        Overlay(xf, yf, fine[OPEN_LOOP], "open loop, linearised", {"ls": ":", "lw": 1.5})
+        Overlay(xf, yf, fine[OPEN_LOOP], ol_label, {"ls": ":", "lw": 1.5})
         if OPEN_LOOP in fine
-        else Overlay(
-            x, y, coarse("open_loop_abscissa"), "open loop, linearised", {"ls": ":", "lw": 1.5}
-        )  # fmt: skip
+        else Overlay(x, y, coarse("open_loop_abscissa_scaled"), ol_label, {"ls": ":", "lw": 1.5})
     )
+    open_loop = replace(open_loop, subject="open loop, linearised")
     out = {}
+    own_label = f"hatched: unstable in the {model} (not the runs' outcome)"
     for c in spec.options["controllers"]:
         if c in fine:
-            own = Overlay(xf, yf, fine[c], "linearised boundary (hatched: unstable)", UNSTABLE,
-                          "closed loop, linearised")  # fmt: skip
+            own = Overlay(xf, yf, fine[c], own_label, UNSTABLE, "closed loop, linearised")
         else:
             own = Overlay(x, y, coarse(controller_column("linear_abscissa", c)),
-                          "linearised boundary (map points; hatched: unstable)",
-                          UNSTABLE, "closed loop, linearised")  # fmt: skip
+                          own_label + " (map points)", UNSTABLE,
+                          "closed loop, linearised")  # fmt: skip
         out[c] = [own, open_loop]
     return out
+
+
+#: Metrics shown only where the run settled (steady): elsewhere they have no meaning.
+SETTLED_ONLY = ("settling_time",)
+#: A controller's outcomes of a complete run; any other (a status code) is a stopped run.
+_COMPLETE = (*OUTCOMES, "no_design")
+
+
+def shown_values(metric: str, raw: Sequence[str], outcomes: Sequence[str]) -> list[float | None]:
+    """The values of a controller's numeric metric its map colours (None: grey).
+
+    A run that stopped (its outcome a status code: reverse rotation, bit bounce, ...) is grey
+    on every numeric map (its stall flag would read 0 and its severity is of a run cut short);
+    the settling time (:data:`SETTLED_ONLY`) is coloured only where the run ended steady.
+
+    Parameters
+    ----------
+    metric : str
+        A name of :data:`~drillstring.apps.sweep.metrics.CONTROLLER_METRICS`.
+    raw : sequence of str
+        The metric's column of ``results.csv`` per point ("" for no value).
+    outcomes : sequence of str
+        The same controller's outcome per point.
+
+    Returns
+    -------
+    list of float or None
+    """
+    return [
+        float(v) if v and o in _COMPLETE and (metric not in SETTLED_ONLY or o == "steady") else None
+        for v, o in zip(raw, outcomes, strict=True)
+    ]
 
 
 def _controller_plots(
@@ -746,7 +781,20 @@ def _controller_plots(
     reference = spec.reference_values()
     drive = spec.options["top_drive"]
     sensing = textwrap.wrap(sensing_note(spec.options["controllers"]), 120, break_on_hyphens=False)
-    note = "\n".join([f"{spec.feed}; top drive: {drive}", *sensing])
+    elements = spec.options["elements"]
+    string = (
+        "the paper's one-mode string"
+        if elements == 1
+        else f"the distributed string, {elements} elements"
+    )
+    braking = "with braking" if spec.options["braking"] == "four-quadrant" else "without braking"
+    note = "\n".join(
+        [
+            f"{spec.feed}; {string}; top drive: {drive}, {braking}; grey: a run that stopped "
+            "(reverse rotation, bit bounce) or failed",
+            *sensing,
+        ]
+    )
     overlays = _boundary_overlays(spec, rows, out_dir)
     scales = (
         [spec.point_scales(k) for k in range(spec.n_points)]
@@ -763,7 +811,8 @@ def _controller_plots(
                 values,
                 spec.axes,
                 reference,
-                f"{title_base}: best controller",
+                f"{title_base}: best controller (of the runs neither stopped nor stalled, the "
+                f"lowest severity; within {spec.options['tie']:g} of it the lowest peak torque)",
                 categories=RIG_CONTROLLERS,
                 palette=CONTROLLER_COLORS,
                 axis_labels=AXIS_LABELS,
@@ -778,13 +827,16 @@ def _controller_plots(
                 if kind == "str":
                     panels[c] = raw
                     continue
-                values = [float(v) if v else None for v in raw]
+                outcome = _column(spec, rows, controller_column("outcome", c))
+                values = shown_values(metric, raw, outcome)
                 if scales is not None:  # a physical base: SI units
                     for k, v in enumerate(values):
                         factor, unit = si_factor(metric, scales[k].C, scales[k].t_star)
                         values[k] = None if v is None else v * factor
                     label = f"{metric} [{unit}]" if unit else metric
                 panels[c] = values
+            if metric in SETTLED_ONLY:
+                label += " (steady runs only)"
             fig = panel_figure(
                 label,
                 kind,

@@ -75,7 +75,7 @@ from drillstring.model.params import (
 )
 from drillstring.model.sampled import sample_count
 from drillstring.model.tables import Scales
-from drillstring.model.topdrive import RPM, top_drive_from_spec
+from drillstring.model.topdrive import BRAKING, RPM, top_drive_from_spec
 from drillstring.validation import check_int
 
 __all__ = [
@@ -169,10 +169,15 @@ OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
     # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing;
     # impedance, soft_speed, z_matching: the industrial rules' choices (Tuning: the string
     # impedance "lumped" or "pipe" of the point's rig, SoftSpeed's "two-mass" or "impedance"
-    # rule, Z-Torque's fraction of full matching)
+    # rule, Z-Torque's fraction of full matching); elements: the drill pipe's elements (1: the
+    # paper's one-mode model; N > 1 the point's rig's pipe as N elements, the controllers
+    # measuring the torque at its top, the linear abscissa on the same string); braking: the
+    # drive's braking ("four-quadrant", or "none": the torque range [0, R_max])
     "controllers": {
         "controllers": MAP_CONTROLLERS,
         "top_drive": "tds-11sa",
+        "elements": 1,
+        "braking": "four-quadrant",
         "h": 5e-4,
         "Ts": 1e-3,
         "dt_out": 1e-2,
@@ -709,6 +714,10 @@ def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
             out[key] = _real(where, v, lower=-1.0)
         elif key == "max_periods":
             out[key] = _int(where, v, lower=1)
+        elif key == "elements":
+            out[key] = _int(where, v, lower=1)
+        elif key == "braking":
+            out[key] = _str(where, v, BRAKING)
         elif key == "feedforward":
             out[key] = _str(where, v, FEEDFORWARD)
         elif key == "latch":

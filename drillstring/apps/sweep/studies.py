@@ -28,7 +28,7 @@ once per distinct pair (the sweep runs it as a separate task that the point task
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -44,12 +44,14 @@ from drillstring.controller.averaged import (
     open_loop_roots,
 )
 from drillstring.controller.lineup import LmiGain, Tuning, lmi_gain, rig_lineup
+from drillstring.controller.string_spectrum import string_abscissa
 from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.controller.tuning import linear_closed_loop
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
-from drillstring.model.params import PhysicalParams, ScaledParams
+from drillstring.model.params import KNOWN_PHYSICAL, PhysicalParams, ScaledParams
+from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.tables import Scales
@@ -61,6 +63,7 @@ __all__ = [
     "LinearBoundary",
     "axial_design",
     "axial_metrics",
+    "boundary_model",
     "closed_loop_metrics",
     "controllers_metrics",
     "design_key",
@@ -70,6 +73,7 @@ __all__ = [
     "map_top_drive",
     "open_loop_metrics",
     "point_controllers",
+    "point_string",
     "rightmost_nonzero_root",
     "study_tuning",
 ]
@@ -318,8 +322,10 @@ def closed_loop_metrics(
     return out
 
 
-def map_top_drive(value: str, params: ScaledParams, scales: Scales | None) -> TopDrive | None:
-    """The top drive of the option ``top_drive`` at a point.
+def map_top_drive(
+    value: str, params: ScaledParams, scales: Scales | None, braking: str = "four-quadrant"
+) -> TopDrive | None:
+    """The top drive of the option ``top_drive`` at a point, with or without braking.
 
     Parameters
     ----------
@@ -330,6 +336,9 @@ def map_top_drive(value: str, params: ScaledParams, scales: Scales | None) -> To
         The point (its R0 for a multiple of the nominal torque).
     scales : PhysicalParams or None
         The point's rig (C, t*) for a rating or a torque in N m.
+    braking : str
+        The option ``braking``: "four-quadrant" (the drive as specified) or "none" (its torque
+        range cut to [0, R_max]: no torque against the rotation).
 
     Returns
     -------
@@ -338,7 +347,30 @@ def map_top_drive(value: str, params: ScaledParams, scales: Scales | None) -> To
     """
     if value == "none":
         return None
-    return top_drive_from_spec(value, params.R0, scales)
+    drive = top_drive_from_spec(value, params.R0, scales)
+    if braking == "none":
+        drive = replace(drive, R_min=max(0.0, drive.R_min), braking="none")
+    return drive
+
+
+def point_string(scales: Scales | None, elements: int) -> StringParams | None:
+    """The drill pipe of a point as ``elements`` elements (None for one: the paper's model).
+
+    The pipe of the point's rig when it is a known rig at another speed or feed (its masses,
+    inertias and stiffnesses those of :data:`~drillstring.model.params.KNOWN_PHYSICAL`), else
+    the reference pipe (:class:`~drillstring.model.pipe.StringParams`' defaults)."""
+    if elements == 1:
+        return None
+    if isinstance(scales, PhysicalParams):
+        for name, known in KNOWN_PHYSICAL.items():
+            same = all(getattr(known, f) == getattr(scales, f) for f in _PIPE_FIELDS)
+            if name in KNOWN_STRINGS and same:
+                return rig_string(name, elements)
+    return StringParams(elements=elements)
+
+
+#: The fields of a physical rig that fix its pipe's scaled string (speed and feed do not).
+_PIPE_FIELDS = ("M", "I1", "I2", "C", "K")
 
 
 def _abscissa(M: np.ndarray) -> float:
@@ -350,7 +382,11 @@ def _abscissa(M: np.ndarray) -> float:
     return float(np.max(np.linalg.eigvals(M).real))
 
 
-def linear_abscissa(model: AveragedModel, controller: DigitalController | None) -> float:
+def linear_abscissa(
+    model: AveragedModel,
+    controller: DigitalController | None,
+    string: StringParams | None = None,
+) -> float:
     """Spectral abscissa of the torsional model (13), (27) linearised about the point, closed by
     the controller's law in continuous time (:func:`~drillstring.controller.tuning.
     linear_closed_loop`); ``None``: the open loop, R - R0 = R_ff.
@@ -361,22 +397,39 @@ def linear_abscissa(model: AveragedModel, controller: DigitalController | None) 
     string torque there. A law whose bit angle and speed are delayed (telemetry) or estimated
     (observer) gets NaN: its closed loop is not that ODE.
 
+    On the distributed string (``string`` of N > 1 elements) it is the same loop on the
+    string the map's runs take: :func:`~drillstring.controller.string_spectrum.string_abscissa`
+    with the bit law's delay (the toolkit's delay-equation root finder) and the string torque
+    the controller senses (the top element's, or the motor's estimate); NaN where the root
+    finder does not find the rigid-body root s = 0 it must leave out (it raises then).
+
     Parameters
     ----------
     model : AveragedModel
         The averaged model (29)-(31) of the point (c, tau_n0, rho).
     controller : DigitalController or None
         The controller.
+    string : StringParams, optional
+        The pipe (None: the paper's one-mode model, the ODE (13), (27)).
 
     Returns
     -------
     float
         The largest real part; < 0: the linearised closed loop is stable.
     """
+    if controller is not None and controller.sensing.downhole != "ideal":
+        return math.nan
+    if string is not None and not string.is_paper:
+        law = None if controller is None else controller.law
+        torque = (
+            "motor" if controller is not None and controller.sensing.torque == "motor" else "top"
+        )
+        try:
+            return string_abscissa(model, law, string, torque=torque, bit="delay")
+        except RuntimeError:  # the root finder missed the rigid-body root: no abscissa
+            return math.nan
     if controller is None:
         return _abscissa(linearised_ode_matrix(model))
-    if controller.sensing.downhole != "ideal":
-        return math.nan
     return _abscissa(linear_closed_loop(model, controller.law))
 
 
@@ -461,7 +514,7 @@ def point_controllers(
         model,
         paper=paper,
         constrained=constrained,
-        top_drive=map_top_drive(opts["top_drive"], params, scales),
+        top_drive=map_top_drive(opts["top_drive"], params, scales, opts["braking"]),
         scales=scales if scales is not None else _NO_RIG,
         Ts=opts["Ts"],
         tuning=study_tuning(opts),
@@ -502,6 +555,15 @@ class LinearBoundary:
     x: np.ndarray
     y: np.ndarray
     abscissa: dict[str, np.ndarray]
+    #: What was linearised, for the maps' legend (:func:`boundary_model`).
+    model: str = "linearised averaged one-mode model (13), (27)"
+
+
+def boundary_model(elements: int) -> str:
+    """What the map's linear overlay is computed on, as its legend says."""
+    if elements == 1:
+        return "linearised averaged one-mode model (13), (27)"
+    return f"linearised averaged bit law (28) with its delay on the {elements}-element string"
 
 
 #: The name of the open loop (R - R0 = R_ff) in a :class:`LinearBoundary`.
@@ -509,7 +571,10 @@ OPEN_LOOP = "open-loop"
 
 
 def linear_boundary(
-    spec: SweepSpec, design: DesignInputs, refine: int = 4, names: tuple[str, ...] | None = None
+    spec: SweepSpec,
+    design: DesignInputs,
+    refine: int | None = None,
+    names: tuple[str, ...] | None = None,
 ) -> LinearBoundary:
     """:func:`linear_abscissa` of the open loop and of each controller on a grid ``refine``
     times finer than the map's (the same ranges and scales), for the stability boundary.
@@ -524,8 +589,10 @@ def linear_boundary(
         A 2-D controllers sweep.
     design : DesignInputs
         A and taubar_crit of the sweep.
-    refine : int
-        Intervals of the fine grid per interval of the map's, >= 1.
+    refine : int, optional
+        Intervals of the fine grid per interval of the map's, >= 1 (default 4 on the one-mode
+        model; 1 on the distributed string, whose delay-equation roots cost about 40 ms a law
+        and a point).
     names : tuple of str, optional
         The controllers (default: the study's, less the point-wise designed LMI law).
 
@@ -540,6 +607,8 @@ def linear_boundary(
     """
     if spec.study != "controllers" or len(spec.axes) != 2:
         raise ValueError("the linearised boundary is drawn for a 2-D controllers sweep")
+    if refine is None:
+        refine = 4 if spec.options["elements"] == 1 else 1
     if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
         raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
     design.check()
@@ -561,11 +630,14 @@ def linear_boundary(
             params = spec.params_at(values)
             scales = spec.physical_at(values) if physical else spec.point_scales(0)
             model = averaged_model(params, design.A, design.taubar_crit)
-            out[OPEN_LOOP][i, j] = linear_abscissa(model, None)
+            string = point_string(scales, opts["elements"])
+            out[OPEN_LOOP][i, j] = linear_abscissa(model, None, string)
             controllers = point_controllers(params, model, opts, scales, names, roots=False)[0]
             for name, c in controllers.items():
-                out[name][i, j] = linear_abscissa(model, c)
-    return LinearBoundary(x=fine[0], y=fine[1], abscissa=out)
+                out[name][i, j] = linear_abscissa(model, c, string)
+    return LinearBoundary(
+        x=fine[0], y=fine[1], abscissa=out, model=boundary_model(opts["elements"])
+    )
 
 
 @dataclass(frozen=True)
@@ -635,21 +707,22 @@ def controllers_metrics(
     model = averaged_model(params, design.A, design.taubar_crit)
     names = tuple(opts["controllers"])
     controllers, paper, constrained, error = point_controllers(params, model, opts, scales)
+    string = point_string(scales, opts["elements"])
     options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
     run_lmi = "lmi" in names
     out: dict[str, Any] = {
         "A": design.A,
         "taubar_crit": design.taubar_crit,
-        "open_loop_abscissa": linear_abscissa(model, None),
+        "open_loop_abscissa_scaled": linear_abscissa(model, None, string),
         "lmi_gain_norm": (math.nan if error else float(np.linalg.norm(paper.F)))
         if run_lmi
         else None,
-        "lmi_abscissa": paper.abscissa if run_lmi else None,
+        "lmi_abscissa_scaled": paper.abscissa if run_lmi else None,
         "lmi_design_error": error,
         "lmi_constrained_gain_norm": None
         if constrained is None
         else float(np.linalg.norm(constrained.F)),
-        "lmi_constrained_abscissa": None if constrained is None else constrained.abscissa,
+        "lmi_constrained_abscissa_scaled": None if constrained is None else constrained.abscissa,
     }
     found: dict[str, Severity] = {}
     for name in names:
@@ -666,11 +739,12 @@ def controllers_metrics(
                 initial={"dphi": opts["dphi0_rel"] * params.omega0},
                 options=options,
                 dt_out=opts["dt_out"],
+                string=string,
             )
             sev = severity_metrics(
                 res, opts["window"], t_from=opts["t_on"], vibration_tol=opts["vibration_tol"]
             )
-            linear = linear_abscissa(model, controllers[name])
+            linear = linear_abscissa(model, controllers[name], string)
         found[name] = sev
         values = {**sev.to_dict(), "linear_abscissa": linear}
         for metric, kind in CONTROLLER_METRICS:

@@ -125,10 +125,10 @@ def _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
 
 
 @inline
-def _sample(b, tau, phi, dphi, theta, dtheta):
+def _sample(b, tau, phi, dphi, theta, dtheta, top):
     """:func:`sample`'s numbers and (due, r_law, r_law_lim): whether the law computes at
     ``tau`` and its command before and after the drive's limits (the anti-windup's)."""
-    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta)
+    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta, top)
     if b[B_TM + TM_PERIOD] <= 0.0:
         r_cmd = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
         r_lim, r_app, R = actuate(b, tau, r_cmd, dtheta)
@@ -142,26 +142,27 @@ def _sample(b, tau, phi, dphi, theta, dtheta):
 
 
 @inline
-def sample(b, tau, phi, dphi, theta, dtheta):
+def sample(b, tau, phi, dphi, theta, dtheta, top):
     """(r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s) at the sample instant ``tau``.
 
-    ``phi, dphi, theta, dtheta`` are the plant's (scaled perturbations); the law sees them
+    ``phi, dphi, theta, dtheta`` are the plant's (scaled perturbations) and ``top`` the torque
+    at the top of its string less R0 (theta - phi on the one-mode string); the law sees them
     through the sensing (``phi_s, dphi_s, torque_s``); ``r_cmd`` is the command R - R0 at the
     drive (the law's, or with a latency the one that has arrived), ``r_lim`` the command within
     the top drive's limits, ``r_app`` the torque applied (held over the sample) and ``R`` the
     applied absolute torque R/C.
     """
-    out = _sample(b, tau, phi, dphi, theta, dtheta)
+    out = _sample(b, tau, phi, dphi, theta, dtheta, top)
     return out[0], out[1], out[2], out[3], out[4], out[5], out[6]
 
 
 @jit
-def commit(b, tau, phi, dphi, theta, dtheta, Ts):
+def commit(b, tau, phi, dphi, theta, dtheta, top, Ts):
     """The sample ``tau`` (as :func:`sample`) and the controller's state at ``tau + Ts``.
 
     Returns the applied torque R - R0 of the sample.
     """
-    out = _sample(b, tau, phi, dphi, theta, dtheta)
+    out = _sample(b, tau, phi, dphi, theta, dtheta, top)
     r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim = out
     period = b[B_TM + TM_PERIOD]
     if due and _started(b, tau):
@@ -181,7 +182,7 @@ def commit(b, tau, phi, dphi, theta, dtheta, Ts):
         b[B_TDX + TDX_T] = tau
         b[B_TDX + TDX_DT] = Ts
         b[B_TDX + TDX_INIT] = 1.0
-    sense_commit(b, tau, phi, dphi, theta, dtheta, r_app, Ts)
+    sense_commit(b, tau, phi, dphi, theta, dtheta, top, r_app, Ts)
     b[B_RCMD] = r_cmd
     b[B_RAPP] = r_app
     saturated = r_lim != r_cmd
@@ -257,7 +258,8 @@ def _fmu_torque(b, r):
 def fmu_output(b):
     """The FMU's output at its time and inputs, into ``OUT`` (pure)."""
     tau, phi, dphi, theta, dtheta = _fmu_inputs(b, b[B_TIME])
-    r_app = sample(b, tau, phi, dphi, theta, dtheta)[0]
+    # an FMU has the four angle and speed inputs: the one-mode string's twist
+    r_app = sample(b, tau, phi, dphi, theta, dtheta, theta - phi)[0]
     b[B_OUT] = _fmu_torque(b, r_app)
 
 
@@ -267,5 +269,5 @@ def fmu_step(b, t, h):
     ``t`` with its inputs and the period ``h``; the time becomes ``t + h``."""
     tau, phi, dphi, theta, dtheta = _fmu_inputs(b, t)
     Ts = h / b[B_TSTAR] if b[B_SI] != 0.0 else h
-    commit(b, tau, phi, dphi, theta, dtheta, Ts)
+    commit(b, tau, phi, dphi, theta, dtheta, theta - phi, Ts)
     b[B_TIME] = t + h

@@ -147,18 +147,37 @@ class Running:
         self.controller = controller
         self.block = block
 
-    def output(self, tau: float, phi: float, dphi: float, theta: float, dtheta: float) -> float:
-        """R - R0 the controller applies from the sample instant ``tau`` (pure)."""
+    def output(
+        self,
+        tau: float,
+        phi: float,
+        dphi: float,
+        theta: float,
+        dtheta: float,
+        top: float | None = None,
+    ) -> float:
+        """R - R0 the controller applies from the sample instant ``tau`` (pure); ``top`` is the
+        string torque at the top less R0 (default: the one-mode string's twist theta - phi)."""
+        top = float(theta) - float(phi) if top is None else float(top)
         return float(sample(self.block, float(tau), float(phi), float(dphi), float(theta),
-                            float(dtheta))[0])  # fmt: skip
+                            float(dtheta), top)[0])  # fmt: skip
 
     def step(
-        self, tau: float, phi: float, dphi: float, theta: float, dtheta: float, Ts: float
+        self,
+        tau: float,
+        phi: float,
+        dphi: float,
+        theta: float,
+        dtheta: float,
+        Ts: float,
+        top: float | None = None,
     ) -> float:
-        """Commit the sample ``tau`` and advance the state by ``Ts``; returns R - R0 applied."""
+        """Commit the sample ``tau`` and advance the state by ``Ts``; returns R - R0 applied.
+        ``top`` as in :meth:`output`."""
         Ts = check_real("Ts", Ts, lower=0.0)
+        top = float(theta) - float(phi) if top is None else float(top)
         return float(commit(self.block, float(tau), float(phi), float(dphi), float(theta),
-                            float(dtheta), Ts))  # fmt: skip
+                            float(dtheta), top, Ts))  # fmt: skip
 
     @property
     def law_state(self) -> tuple[float, ...]:

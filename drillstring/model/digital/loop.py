@@ -2,7 +2,8 @@
 sample, without Python in between.
 
 At each sample instant tau_k = k*Ts: the plant's perturbation state at the engine's time, the
-controller's sample and commit (:func:`drillstring.model.digital.block.commit`), its applied
+controller's sample and commit (:func:`drillstring.model.digital.block.commit`; the string
+torque it senses is the top element's, the kernel's ``top_torque_minus_R0``), its applied
 torque held over [tau_k, tau_k + Ts) as the input R - R0 of (13), a row of outputs every
 ``every`` samples, and the kernel's advance to tau_k + Ts (the end a unit reaches when a
 fixed-step master steps it from tau_k by Ts, so that a co-simulation of the controller FMU
@@ -26,6 +27,8 @@ from drillstring.model.kernel.coordinates import to_perturbation
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.kernel.state import (
     OUT_SIZE,
+    P_KT,
+    P_NT,
     ST_EVLOG_FULL,
     ST_HIST_FULL,
     ST_OK,
@@ -36,6 +39,7 @@ from drillstring.model.kernel.state import (
     Y_V,
     Y_W,
     Y_WT,
+    Z_NOW,
     KernelState,
 )
 from drillstring.model.kernel.stepper import advance_drained, hold, write_sample
@@ -62,7 +66,13 @@ def _run(s, b, k, n, Ts, every, rows, i, acc, keep_events):
         _, _, phi, dphi, theta, dtheta = to_perturbation(
             P, X[X_TAU], Y[Y_U], Y[Y_V], Y[Y_PHI], Y[Y_W], Y[Y_THETA], Y[Y_WT]
         )
-        hold(s, commit(b, tau, phi, dphi, theta, dtheta, Ts))
+        # the torque a sub under the top drive reads: the twist on one element, else the top
+        # element's (the kernel's top_torque_minus_R0)
+        if int(P[P_NT]) == 0:
+            top = theta - phi
+        else:
+            top = P[P_KT] * (Y[Y_THETA] - s.chain[Z_NOW, 0])
+        hold(s, commit(b, tau, phi, dphi, theta, dtheta, top, Ts))
         R = b[B_RAPP] + b[B_R0]
         power = abs(R * (b[B_OMEGA0] + dtheta))
         acc[0] = max(acc[0], R)

@@ -11,11 +11,15 @@ surface signals, and the string torque measured or estimated at the surface.
   0); or estimated from surface signals alone (``SENSE_OBSERVER``): a Kalman filter on the
   linearised averaged torsional model (13), (27) with the measurements y = [dtheta, x3], x3 =
   phi - theta - K0 = -(string torque) - K0, and the applied torque as its input.
-* The string torque at the top, theta - phi: exact (``TORQUE_TWIST``, a torque sub or the twist
-  itself); or from the motor (``TORQUE_MOTOR``): by (13), ``rho*dtheta' = (R - R0) - (theta -
-  phi)``, so over the last sample, with the applied torque held, the mean string torque is
-  ``r_prev - rho*(dtheta - dtheta_prev)/(tau - tau_prev)``, exact for the mean (it lags by half
-  a sample), 0 before the first sample.
+* The string torque at the top, ``top``: what a torque sub under the top drive reads, the
+  torque of the string's top element less R0 (the host passes it: theta - phi, the twist, on
+  the one-mode string; the kernel's ``top_torque_minus_R0`` on the distributed string,
+  ``docs/model.md``, "The distributed string"): exact (``TORQUE_TWIST``); or from the motor
+  (``TORQUE_MOTOR``): by (13), ``rho*dtheta' = (R - R0) - top`` with rho the table node's
+  inertia (rho + kappa/(2N) on the string of N elements, the host's ``RHO``), so over the last
+  sample, with the applied torque held, the mean string torque is ``r_prev - rho*(dtheta -
+  dtheta_prev)/(tau - tau_prev)``, exact for the mean (it lags by half a sample), 0 before the
+  first sample.
 
 The noise is a counter-based generator (a 32-bit integer hash of the seed, the frame number and
 the channel, then Box-Muller), so the Python and the compiled paths give the same numbers and a
@@ -94,10 +98,11 @@ def gaussian(seed, k, channel):
 
 
 @inline
-def string_torque(b, tau, phi, theta, dtheta):
-    """The string torque at the top (its deviation theta - phi) as the controller knows it."""
+def string_torque(b, tau, top, dtheta):
+    """The string torque at the top less R0 as the controller knows it; ``top`` is its true value
+    (theta - phi on the one-mode string)."""
     if int(b[B_SN + SN_TORQUE]) != TORQUE_MOTOR:
-        return theta - phi
+        return top
     x = B_SNX
     if b[x + SNX_PREV] == 0.0 or not b[x + SNX_PT] > 0.0:
         return 0.0
@@ -141,9 +146,10 @@ def _observer_view(b, theta, dtheta, torque):
 
 
 @inline
-def sensed(b, tau, phi, dphi, theta, dtheta):
-    """(phi, dphi, torque) as the controller knows them at the sample ``tau`` (pure)."""
-    torque = string_torque(b, tau, phi, theta, dtheta)
+def sensed(b, tau, phi, dphi, theta, dtheta, top):
+    """(phi, dphi, torque) as the controller knows them at the sample ``tau`` (pure); ``top`` is
+    the true string torque at the top less R0."""
+    torque = string_torque(b, tau, top, dtheta)
     mode = int(b[B_SN + SN_MODE])
     if mode == SENSE_TELEMETRY:
         k = int(b[B_SNX + SNX_K])
@@ -164,12 +170,12 @@ def sensed(b, tau, phi, dphi, theta, dtheta):
 
 
 @inline
-def sense_commit(b, tau, phi, dphi, theta, dtheta, r_app, Ts):
+def sense_commit(b, tau, phi, dphi, theta, dtheta, top, r_app, Ts):
     """Commit the sample ``tau`` (period ``Ts``): take a due telemetry frame, propagate the
     observer with the applied torque ``r_app``, keep what the torque estimate needs."""
     x = B_SNX
     mode = int(b[B_SN + SN_MODE])
-    torque = string_torque(b, tau, phi, theta, dtheta)
+    torque = string_torque(b, tau, top, dtheta)
     if mode == SENSE_TELEMETRY and _due(b, tau):
         k = int(b[x + SNX_K])
         p, dp = _frame(b, k, phi, dphi)
