@@ -44,6 +44,7 @@ from drillstring.model.engine import Engine, EngineOptions
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
 from drillstring.model.pipe import StringParams
 from drillstring.model.sensing import Sensing
+from drillstring.model.timing import Timing
 
 pytestmark = pytest.mark.fmu
 
@@ -222,8 +223,21 @@ def test_documentation_states_what_a_host_reads_as_time(built):
 #: frame period and latency.
 TIMES = {
     "plant": (("tau_n", "delay"), ("h", "h"), ("event_tol", "event_tol")),
-    "controller": tuple((n, n) for n in ("t_on", "lag", "period", "latency")),
-    "topdrive": tuple((n, n) for n in ("t_on", "tracking_time", "lag", "period", "latency")),
+    "controller": tuple(
+        (n, n) for n in ("t_on", "lag", "period", "latency", "control_period", "control_latency")
+    ),
+    "topdrive": tuple(
+        (n, n)
+        for n in (
+            "t_on",
+            "tracking_time",
+            "lag",
+            "period",
+            "latency",
+            "control_period",
+            "control_latency",
+        )
+    ),  # fmt: skip
 }
 
 
@@ -374,8 +388,14 @@ def test_declared_ranges_are_the_validators(built):
     controller = _ranges(built.controller)
     assert set(controller) == {
         "omega0", "rho", "rate", "lag", "P_max", "period", "latency", "noise_phi", "noise_dphi",
-        "seed",
+        "seed", "control_period", "control_latency",
     }  # fmt: skip
+    for name in ("control_period", "control_latency"):
+        (_, lo, hi) = controller[name]
+        x = float(lo)
+        Timing(**{name.removeprefix("control_"): x})
+        with pytest.raises(ValueError, match=f"Timing.{name.removeprefix('control_')}"):
+            Timing(**{name.removeprefix("control_"): math.nextafter(x, -math.inf)})
     for name in ("period", "latency", "noise_phi", "noise_dphi"):
         (_, lo, hi) = controller[name]
         x = float(lo)

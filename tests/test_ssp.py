@@ -386,7 +386,8 @@ def test_one_experiment_per_ssd_with_complete_sets(built, package):
     experiments = loop_experiments(variant)
     default = read_ssp(ssp, unpack=False)
     names = [e.name for e in experiments]
-    assert list(default.variants) == [names[0], *sorted(names[1:])]  # the default, then by file
+    # the default, then by file
+    assert list(default.variants) == [names[0], *sorted(names[1:], key=lambda n: f"{n}.ssd")]
     assert default.variants[names[0]] == SSD_FILE and names[0] == "fig5"
     assert all(default.variants[n] == f"{n}.ssd" for n in names[1:])
     assert default.parameter_set_names == tuple(default.variants)
@@ -410,9 +411,11 @@ def test_one_experiment_per_ssd_with_complete_sets(built, package):
         # (Ecos) are the same values
         assert p.parameters() == p.parameters(e.name) == p.parameters([e.name, e.name])
         # complete: every parameter of each FMU, its start value unless the experiment (the
-        # whole initial state, in SI converted on the reference rig) or the tuning sets it
+        # whole initial state, in SI converted on the reference rig), the tuning or the SSD's
+        # plant parameters set it
         given = experiment_start_values(e.experiment, variant, full_initial=True)
         given["controller"].update(tunings.get(e.tuning, {}))
+        given["plant"].update(dict(e.plant))  # the string's elements of its SSD
         for comp, md in mds.items():
             params = [v.name for v in md.modelVariables if v.causality == "parameter"]
             values = {k: v for k, (_, v) in p.start_values()[comp].items()}

@@ -248,7 +248,9 @@ def test_packages_carry_the_tunings_and_the_default_is_the_fmus_start(built, var
     b = built.si if variant.name == "si" else built
     p = read_ssp(b.topdrive_ssp, unpack=False)
     assert set(p.parameter_set_names) == set(TOPDRIVE_SETS)
-    assert TOPDRIVE_SETS == ("fig5", *(f"fig6-{t}" for t in INDUSTRIAL))
+    assert TOPDRIVE_SETS == (
+        "fig5", *(f"fig6-{t}" for t in INDUSTRIAL), "fig6-soft-speed-string"
+    )  # fmt: skip
     assert [c.name for c in p.components] == ["plant", "controller"]
     assert [str(c) for c in p.connections] == list(variant.connections)
     t_on = SC.time(FIG6.t_on) if variant.name == "si" else 25.0
