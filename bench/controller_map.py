@@ -2,20 +2,23 @@
 
 The map is ``drillstring controllers map``'s (:func:`drillstring.apps.controllers.
 controller_map_spec`: rpm x nominal WOB on the design's rig, every controller under the
-TDS-11SA, tau_end = 200, window 35, sample period 1e-3, h = 5e-4, output every 1e-2).
+TDS-11SA, tau_end = 200, window 35, sample period 1e-3, h = 5e-4, output every 1e-2), on the
+converged string of --elements (16, the command's default; 1: the paper's one-mode model).
 
 1. Per map point and controller, in this process: the study's point function with that
    controller alone (setup, the sampled run of the compiled digital controller, the severity
    metrics, the linearised abscissa) against a monolithic run of the same length at the same
    point (:func:`drillstring.model.simulate.simulate` with the held torque R_ff, the same h,
-   the same output grid, the torsional-stick model on); interleaved point by point, each the
-   best of --repeat runs. The target: a controller run at most about twice the monolithic run.
+   the same output grid, the torsional-stick model on, the same string); interleaved point by
+   point, each the best of --repeat runs. The target: a controller run at most about twice
+   the monolithic run.
 2. The --dask-n x --dask-n map with every controller on a LocalCluster of 1 and of 2 worker
    processes (both started, warmed and kept up, the runs interleaved); the two maps must be
    identical.
-3. From the measured times, the projected wall time of a --project x --project x 5 map on N
-   workers: the mean time per point (all controllers) times the points, over N and the
-   parallel efficiency measured in 2. (2-worker speed-up / 2), never below the slowest point.
+3. From the measured times, the projected wall time of a --project x --project map with
+   every law (25 x 25 by default) on 1, 2, 8 and 32 workers: the mean time per point (all
+   controllers) times the points, over N and the parallel efficiency measured in 2. (2-worker
+   speed-up / 2), never below the slowest point.
 
 Run: .venv/bin/python bench/controller_map.py --gains out/design/gains.json
 (the constrained design's gains_constrained.json beside it: drillstring design --torque-limit).
@@ -36,7 +39,7 @@ from drillstring.analysis.severity import OUTCOMES, SLOWEST_PERIOD
 from drillstring.apps.controllers import controller_map_spec
 from drillstring.apps.sweep.runner import kernel_warmup, run_sweep
 from drillstring.apps.sweep.spec import MAP_WINDOW, spec_from_dict
-from drillstring.apps.sweep.studies import axial_design, evaluate_point
+from drillstring.apps.sweep.studies import axial_design, evaluate_point, point_string
 from drillstring.controller.averaged import averaged_model
 from drillstring.model.engine import EngineOptions
 from drillstring.model.simulate import simulate
@@ -98,11 +101,13 @@ def point_times(spec, points, repeat):
         design = axial_design(p)
         model = averaged_model(p, design.A, design.taubar_crit)
         options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
+        string = point_string(spec.point_scales(index), opts["elements"])
 
-        def mono(p=p, model=model, options=options):
+        def mono(p=p, model=model, options=options, string=string):
             return simulate(p, spec.tau_end, control=float(model.R_ff),
                             initial={"dphi": opts["dphi0_rel"] * p.omega0},
-                            dt_out=opts["dt_out"], options=options, progress=False)  # fmt: skip
+                            dt_out=opts["dt_out"], options=options, progress=False,
+                            string=string)  # fmt: skip
 
         t, res = best_of(mono, repeat)
         row = {"mono": t}
@@ -166,12 +171,14 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=3, help="points per axis timed in 1. (3)")
     ap.add_argument("--repeat", type=int, default=2, help="best of R runs in 1. (2)")
     ap.add_argument("--dask-n", type=int, default=4, help="points per axis of 2. (4)")
-    ap.add_argument("--project", type=int, default=30, help="points per axis of 3. (30)")
+    ap.add_argument("--project", type=int, default=25, help="points per axis of 3. (25)")
+    ap.add_argument("--elements", type=int, default=16, help="elements of the string (16)")
     args = ap.parse_args()
     logging.getLogger("distributed").setLevel(logging.WARNING)
     window = min(MAP_WINDOW, args.tau_end / 4.0)
     # a shorter run times the points, it does not classify: its window may hold fewer periods
     periods = {"window": window, "min_periods": min(5.0, window / SLOWEST_PERIOD)}
+    periods["elements"] = args.elements
     spec = controller_map_spec(args.gains, n=args.n, tau_end=args.tau_end, **periods)
     names = spec.options["controllers"]
     print(
@@ -179,7 +186,7 @@ def main() -> None:
         f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN, controllers {', '.join(names)}, "
         f"top drive {spec.options['top_drive']}; tau_end = {spec.tau_end:g}, window "
         f"{spec.options['window']:g}, Ts = {spec.options['Ts']:g}, h = {spec.options['h']:g}, "
-        f"dt_out = {spec.options['dt_out']:g}"
+        f"dt_out = {spec.options['dt_out']:g}, string of {spec.options['elements']} element(s)"
     )
     print(f"cores: {os.cpu_count()}, load average before: {os.getloadavg()}")
     print(f"kernel warm-up in this process: {kernel_warmup()}")
