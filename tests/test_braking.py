@@ -170,6 +170,7 @@ def _kNm(text: str, pattern: str) -> float:
     return float(m.group(1))
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_the_command_line_refuses_no_braking_and_names_the_least_braking(tmp_path, capsys):
     base = ["--A", repr(A), "--taubar-crit", repr(TAUBAR_CRIT), "--no-paper",
             "--torque-limit", "tds-11sa"]  # fmt: skip

@@ -581,6 +581,7 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
                                     log=None)  # fmt: skip
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_the_tuning_choices_reach_the_map_and_the_comparison(
     paper_gains, constrained_gains, tmp_path, capsys
 ):
@@ -641,6 +642,7 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
     assert {k: written[k] for k in choices} == choices
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
     assert (
         controllers_main(

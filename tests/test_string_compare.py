@@ -52,6 +52,7 @@ def _same(a, b) -> bool:
     return a == b
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_the_one_mode_comparison_is_todays_bit_for_bit(gains, tmp_path) -> None:
     result = write_controller_comparison(tmp_path, *gains, log=None, **SHORT)
     stored = json.loads(DATA.read_text())["rows"]
@@ -68,6 +69,7 @@ def test_the_one_mode_comparison_is_todays_bit_for_bit(gains, tmp_path) -> None:
         assert new["string_elements"] == 1
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_the_comparison_on_the_string_in_si_with_and_without_braking(gains, tmp_path) -> None:
     string = string_of_rig(REFERENCE_RIG, 4)
     assert string.kappa == REFERENCE_KAPPA and string_of_rig(REFERENCE_RIG, 1) is None
@@ -106,6 +108,7 @@ def test_the_comparison_on_the_string_in_si_with_and_without_braking(gains, tmp_
     assert result.files["figure"].stat().st_size > 10_000
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_a_3x3_map_on_the_string_without_braking_in_si(gains, tmp_path) -> None:
 
     assert MAP_RPM == (20.0, 150.0) and MAP_WOB_MAX == 40.0

@@ -49,6 +49,7 @@ def gains_path(designed, tmp_path):
     return write_gains(designed[1], tmp_path / "gains_string.json")
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_the_certificate_is_rechecked_from_its_file(designed, gains_path, capsys):
     design, _ = designed
     assert design.certificate.passed

@@ -190,6 +190,7 @@ def test_one_mode_replay_is_the_compiled_observer():
         assert run.step(k * TS, phi, 0.0, theta[k], dtheta[k], TS) == pytest.approx(r[k])
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_string_observer_closes_the_constrained_lmi_with_noise_and_inertia_error():
     """tools/observer_closed_loop.py on the one-mode plant (the string the constrained design
     holds on): with the full noise and the inertia 20 % high the law settles through the string

@@ -207,6 +207,7 @@ def test_abscissae_converge_in_n(abscissae, name) -> None:
     assert steps[-1] < 0.02
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_z_torque_converges_slower_from_its_high_modes(abscissae) -> None:
     # its rightmost roots are high modes (about 25 rad/tau): resolved from N = 64 on
     a128 = string_abscissa(MODEL, LAWS["z-torque"], rig_string("reference-rig", 128))
