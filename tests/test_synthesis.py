@@ -185,7 +185,9 @@ def test_design_command_writes_certified_gains(tmp_path, capsys):
 def test_design_command_rejects_bad_input(tmp_path, capsys):
     out = tmp_path / "design"
     assert design_main(["--A", "-0.2", "--out", str(out)]) == 2
-    assert "A (slope of (22)) must be > 0" in capsys.readouterr().err
+    assert "drillstring design: --A must be > 0, got -0.2" in capsys.readouterr().err
+    assert design_main(["--A", "0.3", "--taubar-crit", "nan", "--out", str(out)]) == 2
+    assert "drillstring design: --taubar-crit must be finite, got nan" in capsys.readouterr().err
     assert not out.exists()
     # the option as typed (the constrained design calls it sigma), before anything is designed
     argv = ["--A", str(A_REF), "--torque-limit", "tds-11sa", "--out", str(out)]

@@ -368,8 +368,12 @@ def design_main(argv: Sequence[str] | None = None) -> int:
         return _check_main(args.check)
     try:
         check_out_folder("--out", args.out)
-        # the option as typed, not the design's name for it (sigma)
+        # the options as typed, not the design's names for them (sigma, A of (22))
         check_real("--decay", args.decay, lower=0.0, strict=False)
+        if args.A is not None:
+            check_real("--A", args.A, lower=0.0)
+        if args.taubar_crit is not None:
+            check_real("--taubar-crit", args.taubar_crit, lower=0.0)
         if args.string_elements is not None:  # named as typed, before the long design runs
             check_int("--string-elements", args.string_elements, lower=2)
         params: ScaledParams = params_from_spec(args.params)
