@@ -19,7 +19,7 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 
@@ -40,6 +40,7 @@ from drillstring.analysis.modes import (
     torsional_exact_shape,
     torsional_modes,
 )
+from drillstring.apps.usage import OneLineParser, UsageError
 from drillstring.fileio import save_figure, write_json
 from drillstring.model.params import (
     KNOWN_PARAMS,
@@ -62,15 +63,6 @@ MAX_COUNT = 32
 REL_TOL = 0.01
 
 
-class _UsageError(ValueError):
-    """A bad command line, reported in one line like every other bad value."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        raise _UsageError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Argument parser of the ``modes`` subcommand.
 
@@ -80,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
         The parser (``prog="drillstring modes"``); its options are listed by ``--help``. Its
         errors raise instead of exiting, so that :func:`modes_main` reports them in one line.
     """
-    ap = _Parser(
+    ap = OneLineParser(
         prog="drillstring modes",
         description="Modes of the distributed string: the N-element chain beside the "
         "continuous string's exact modes, and their convergence in N.",
@@ -123,9 +115,9 @@ def _whole(option: str, text: str, upper: int | None = None) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise _UsageError(f"{option} must be a positive integer, got {text!r}") from None
+        raise UsageError(f"{option} must be a positive integer, got {text!r}") from None
     if upper is not None and not 1 <= value <= upper:
-        raise _UsageError(f"{option} must be an integer in [1, {upper}], got {text!r}")
+        raise UsageError(f"{option} must be an integer in [1, {upper}], got {text!r}")
     return value
 
 
@@ -149,7 +141,7 @@ def _rig(spec: str, t_star: float | None) -> tuple[ScaledParams, float, str]:
             scaled = read
     if t_star is not None:
         if not (math.isfinite(t_star) and t_star > 0):
-            raise _UsageError(f"--t-star must be a positive number of seconds, got {t_star!r}")
+            raise UsageError(f"--t-star must be a positive number of seconds, got {t_star!r}")
         return scaled, t_star, f"{name}, t* given"
     if phys is None:
         phys = known_rig(scaled)
@@ -157,7 +149,7 @@ def _rig(spec: str, t_star: float | None) -> tuple[ScaledParams, float, str]:
             rig = next(k for k, v in KNOWN_PHYSICAL.items() if v is phys)
             name = f"{name} = {rig}"
     if phys is None:
-        raise _UsageError(
+        raise UsageError(
             f"--params {spec!r} is a scaled set of no known rig, so t* is unknown: "
             "give --t-star SECONDS or a physical parameter file"
         )
@@ -293,7 +285,7 @@ def modes_main(argv: Sequence[str] | None = None) -> int:
             )
         except ValueError as exc:
             msg = str(exc).replace("StringParams.", "--").replace("StringParams: ", "")
-            raise _UsageError(msg.replace("_", "-")) from None
+            raise UsageError(msg.replace("_", "-")) from None
         params, t_star, rig = _rig(args.params, args.t_star)
         result, panels = _compute(string, params, args.table, args.axial, count, t_star)
         result.update(
@@ -321,7 +313,7 @@ def modes_main(argv: Sequence[str] | None = None) -> int:
         out = args.out
         write_json(out / "modes.json", result)
         _write_figure(out / "modes.png", title, panels, t_star)
-    except (_UsageError, ParameterError, ValueError, OSError) as exc:
+    except (UsageError, ParameterError, ValueError, OSError) as exc:
         print(f"drillstring modes: {exc}", file=sys.stderr)
         return 2
     hz = ", ".join(f"{f:.4g}" for f in result["frequency_hz"] if f is not None)

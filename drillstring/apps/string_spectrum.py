@@ -23,8 +23,9 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
+from drillstring.apps.usage import OneLineParser, UsageError
 from drillstring.controller.averaged import AveragedModel, averaged_model
 from drillstring.controller.design import CONSTRAINED_FILE
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
@@ -68,18 +69,9 @@ COLUMNS = (
 N_ROOTS = 4000
 
 
-class _UsageError(ValueError):
-    """A bad command line, reported in one line like every other bad value."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        raise _UsageError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Argument parser of the ``string-spectrum`` subcommand (errors raise, not exit)."""
-    ap = _Parser(
+    ap = OneLineParser(
         prog="drillstring string-spectrum",
         description="The spectral abscissa of every law's linearised closed loop on the "
         "N-element string, against N.",
@@ -146,7 +138,7 @@ def parse_elements(text: str) -> tuple[int, ...]:
 
     Raises
     ------
-    _UsageError
+    UsageError
         A value that is not an integer in [1, MAX_ELEMENTS], naming it.
     """
     values = []
@@ -154,11 +146,11 @@ def parse_elements(text: str) -> tuple[int, ...]:
         try:
             value = int(part.strip())
         except ValueError:
-            raise _UsageError(
+            raise UsageError(
                 f"--elements must be integers in [1, {MAX_ELEMENTS}], got {part.strip()!r}"
             ) from None
         if not 1 <= value <= MAX_ELEMENTS:
-            raise _UsageError(f"--elements must be integers in [1, {MAX_ELEMENTS}], got {value}")
+            raise UsageError(f"--elements must be integers in [1, {MAX_ELEMENTS}], got {value}")
         values.append(value)
     if len(values) == 1:
         top = values[0]
@@ -301,7 +293,7 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
         try:
             StringParams(elements=max(elements), kappa=args.kappa)
         except ValueError as exc:
-            raise _UsageError(str(exc).replace("StringParams.", "--")) from None
+            raise UsageError(str(exc).replace("StringParams.", "--")) from None
         gains = read_gains(args.gains)
         path = args.constrained
         if path is None:
@@ -310,12 +302,12 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
         constrained = None if path is None else read_gains(path)
         params = gains.params
         if args.params is not None and params_from_spec(args.params) != params:
-            raise _UsageError(
+            raise UsageError(
                 f"--params {args.params!r} is not the parameter set of the gains file "
                 f"{str(args.gains)!r}"
             )
         if constrained is not None and constrained.params != params:
-            raise _UsageError(
+            raise UsageError(
                 f"--constrained {str(path)!r} is for another parameter set than --gains"
             )
         tuning = Tuning(
@@ -394,7 +386,7 @@ def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
                 },
             },
         )
-    except (_UsageError, GainsFileError, ParameterError, ValueError, OSError) as exc:
+    except (UsageError, GainsFileError, ParameterError, ValueError, OSError) as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
     _print(rows, elements)
