@@ -21,7 +21,6 @@ from drillstring.apps.controllers import (
     MAP_SI,
     MAP_WOB_MAX,
     NO_BRAKING,
-    string_of_rig,
     write_controller_comparison,
     write_controller_map,
 )
@@ -30,7 +29,7 @@ from drillstring.apps.sweep.runner import columns as sweep_columns
 from drillstring.controller.gains import PAPER_F, write_gains
 from drillstring.controller.lineup import RIG_CONTROLLERS, TIMED_CONTROLLERS
 from drillstring.model.params import REFERENCE_RIG
-from drillstring.model.pipe import REFERENCE_KAPPA
+from drillstring.model.pipe import REFERENCE_KAPPA, string_of_rig
 
 DATA = Path(__file__).parent / "data" / "comparison_short_109c713.json"
 #: The old columns (before the SI names) and their new names.

@@ -72,8 +72,8 @@ from drillstring.fileio import save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6, Experiment
-from drillstring.model.params import KNOWN_PHYSICAL, PhysicalParams, ScaledParams, known_rig
-from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
+from drillstring.model.params import PhysicalParams, ScaledParams, known_rig
+from drillstring.model.pipe import StringParams, string_of_rig
 from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.topdrive import BRAKING, RPM, top_drive_from_spec
@@ -152,20 +152,6 @@ def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
 def _matching_rig(params: ScaledParams) -> PhysicalParams | None:
     """A known physical rig whose scaled set is ``params`` (to 1e-9), for the SI columns."""
     return known_rig(params)
-
-
-def string_of_rig(rig: PhysicalParams, elements: int) -> StringParams | None:
-    """The rig's drill pipe as ``elements`` elements (None for one: the paper's one-mode model).
-
-    A rig with a known pipe (:data:`~drillstring.model.pipe.KNOWN_STRINGS`) gives its own
-    kappa; any other the reference pipe's (``StringParams`` defaults)."""
-    elements = check_int("elements", elements, lower=1)
-    if elements == 1:
-        return None
-    for name, known in KNOWN_PHYSICAL.items():
-        if name in KNOWN_STRINGS and known.to_scaled() == rig.to_scaled():
-            return rig_string(name, elements)
-    return StringParams(elements=elements)
 
 
 # --------------------------------------------------------------------------------------------

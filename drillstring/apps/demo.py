@@ -44,7 +44,6 @@ from drillstring.analysis.string_figures import write_string_fig6
 from drillstring.apps.controllers import (
     STRING_ELEMENTS,
     format_comparison,
-    string_of_rig,
     write_controller_comparison,
     write_controller_map,
 )
@@ -55,6 +54,7 @@ from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
 from drillstring.fileio import replace_dir, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.params import known_rig
+from drillstring.model.pipe import string_of_rig
 from drillstring.orchestration.closed_loop import read_loop_model
 from drillstring.orchestration.figures import write_fig5, write_fig6
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drillstring.model.params import PIPE_RIG, REFERENCE_PIPE_MASS
+from drillstring.model.params import KNOWN_PHYSICAL, PIPE_RIG, REFERENCE_PIPE_MASS, PhysicalParams
 from drillstring.validation import check_choice, check_int, check_real
 
 #: How the pipe's inertia is put on the nodes (``docs/model.md``, "The distributed string").
@@ -292,4 +292,40 @@ def rig_string(name: str, elements: int = 1, lumping: str | None = None) -> Stri
     )
 
 
-__all__ += ["KNOWN_STRINGS", "rig_string"]
+#: The fields of a physical rig that fix its pipe's string (its speed and feed do not).
+_PIPE_FIELDS = ("M", "I1", "I2", "C", "K")
+
+
+def string_of_rig(rig: object, elements: int) -> StringParams | None:
+    """A rig's drill pipe as ``elements`` elements (None for one: the paper's one-mode model).
+
+    The pipe of a known rig (:data:`KNOWN_STRINGS`) when ``rig`` has its masses, inertias and
+    stiffnesses, whatever its speed and feed; else (another rig, or no physical rig at all) the
+    reference pipe (:class:`StringParams`' defaults).
+
+    Parameters
+    ----------
+    rig : object
+        The physical rig (a :class:`~drillstring.model.params.PhysicalParams`), or anything else
+        for a rig without a known pipe.
+    elements : int
+        N, at least 1.
+
+    Returns
+    -------
+    StringParams or None
+        The string, or None for one element.
+    """
+    elements = check_int("elements", elements, lower=1)
+    if elements == 1:
+        return None
+    if isinstance(rig, PhysicalParams):
+        for name, known in KNOWN_PHYSICAL.items():
+            if name in KNOWN_STRINGS and all(
+                getattr(known, f) == getattr(rig, f) for f in _PIPE_FIELDS
+            ):
+                return rig_string(name, elements)
+    return StringParams(elements=elements)
+
+
+__all__ += ["KNOWN_STRINGS", "rig_string", "string_of_rig"]

@@ -50,8 +50,8 @@ from drillstring.controller.tuning import linear_closed_loop
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
-from drillstring.model.params import KNOWN_PHYSICAL, PhysicalParams, ScaledParams
-from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
+from drillstring.model.params import PhysicalParams, ScaledParams
+from drillstring.model.pipe import StringParams, string_of_rig
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.tables import Scales
@@ -354,23 +354,9 @@ def map_top_drive(
 
 
 def point_string(scales: Scales | None, elements: int) -> StringParams | None:
-    """The drill pipe of a point as ``elements`` elements (None for one: the paper's model).
-
-    The pipe of the point's rig when it is a known rig at another speed or feed (its masses,
-    inertias and stiffnesses those of :data:`~drillstring.model.params.KNOWN_PHYSICAL`), else
-    the reference pipe (:class:`~drillstring.model.pipe.StringParams`' defaults)."""
-    if elements == 1:
-        return None
-    if isinstance(scales, PhysicalParams):
-        for name, known in KNOWN_PHYSICAL.items():
-            same = all(getattr(known, f) == getattr(scales, f) for f in _PIPE_FIELDS)
-            if name in KNOWN_STRINGS and same:
-                return rig_string(name, elements)
-    return StringParams(elements=elements)
-
-
-#: The fields of a physical rig that fix its pipe's scaled string (speed and feed do not).
-_PIPE_FIELDS = ("M", "I1", "I2", "C", "K")
+    """The drill pipe of a point as ``elements`` elements (None for one: the paper's model):
+    :func:`~drillstring.model.pipe.string_of_rig` of the point's rig."""
+    return string_of_rig(scales, elements)
 
 
 def _abscissa(M: np.ndarray) -> float:
