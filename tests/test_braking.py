@@ -1,4 +1,4 @@
-"""Braking as an input of the input-constrained LMI design (issue 27, item 2).
+"""Braking as an input of the input-constrained LMI design.
 
 * an asymmetric torque range: the budget is the smaller of the two margins about the operating
   torque, and on the certificate's (centred) ellipsoid the feedback torque does reach both -peak

@@ -1,4 +1,4 @@
-"""Forged FMU states (issue 28, item 1): bytes whose checksum was recomputed after their content
+"""Forged FMU states: bytes whose checksum was recomputed after their content
 was changed must be refused with fmi2Error naming the field, and leave the instance as it was.
 
 The envelope's checksum (``fmu_src/fmi_front/states.c``) guards against corruption, not against a

@@ -274,7 +274,7 @@ def test_missing_or_bad_resources_are_a_logged_null(built, host, tmp_path, clean
 def test_the_hosts_sigint_disposition_is_left_alone(
     built, sigint_host, clean_home, tmp_path, which, mode
 ):
-    """Ctrl-C stops a C host running the FMUs (issue 28, item 2): after the FMU started Python,
+    """Ctrl-C stops a C host running the FMUs: after the FMU started Python,
     made an instance and stepped it (tests/c_host/sigint.c), SIGINT has the disposition the host
     gave it: the default one ends the process by the signal (CPython's own handler, which its
     _signal module installs when first imported, only set a flag: the host ran on), the host's

@@ -1,4 +1,4 @@
-"""The FMUs in hosts that are themselves a Python other than the FMUs' own (issue 20, item 6).
+"""The FMUs in hosts that are themselves a Python other than the FMUs' own.
 
 A host process that runs Python lends its interpreter to the FMU (``fmu_src/fmi_front/
 runtime.c``): a process holds one Python, and the FMU's compiled modules (numpy, numba,

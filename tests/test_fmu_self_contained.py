@@ -122,7 +122,7 @@ def test_c_host_runs_the_self_contained_fmus_where_no_python_is(
 def test_self_contained_fmus_run_from_a_read_only_unpack_folder_and_home(
     built, self_contained, tmp_path, clean_home
 ):
-    """Issue 28, item 4: HOME and the unpack folder read-only, in isolation: no package cache can
+    """HOME and the unpack folder read-only, in isolation: no package cache can
     be written (warned), and numba, with no writable folder for its cache, reads the kernel the
     FMU ships in its read-only __pycache__ folders as it is: nothing compiled (numba's "no
     locator available" stopped every FMU at fmi2Instantiate before), the same numbers as the

@@ -1,4 +1,4 @@
-"""Modes of the distributed string (issue 26, item 5): the chain, the continuous string, the CLI.
+"""Modes of the distributed string: the chain, the continuous string, the CLI.
 
 Every expected value comes from outside the code under test: the paper's one-mode closed forms,
 the frequency equations evaluated here in their tan form (and a pole-free form whose sign changes

@@ -1,6 +1,6 @@
 """The reflection of a torsional wave at the top drive (controller/reflection.py) against values
 computed by hand (docs/controllers.md, "Reflection at the top drive"), and the field tunings on
-the string (issue 27, item 4)."""
+the string."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The comparison and the map on the distributed string (issue 27, items 7 and 8).
+"""The comparison and the map on the distributed string.
 
 The one-mode comparison is today's bit for bit (the rows stored from the commit before the
 string's comparison); the comparison on N elements writes SI columns with their units and

@@ -1,5 +1,5 @@
 """The design that holds on the distributed string (drillstring.controller.string_design,
-``drillstring design --string-elements K``; issue 27, item 3).
+``drillstring design --string-elements K``).
 
 * the certificate is re-checked from its gains file (the command's ``--check``), and a changed
   file is refused;

@@ -1,4 +1,4 @@
-"""The digital controller's string torque on the distributed string (issue 27, item 7).
+"""The digital controller's string torque on the distributed string.
 
 A torque sub under the top drive reads the torque of the string's top element (the kernel's
 ``top_torque_minus_R0``), not the twist theta - phi of the whole string; the motor-torque

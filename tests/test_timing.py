@@ -1,4 +1,4 @@
-"""The controller's own period and latency (drillstring/model/timing.py; issue 27, item 6):
+"""The controller's own period and latency (drillstring/model/timing.py):
 a latency of one period delays the applied torque by exactly one period, the law's state
 advances by its own period, the default is the controller of before bit for bit."""
 

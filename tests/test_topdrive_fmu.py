@@ -157,7 +157,7 @@ def test_lmi_fmu_with_top_drive_and_telemetry_equals_its_digital_controller(buil
 def test_controller_fmus_period_and_latency_are_the_digital_controllers(built):
     """The controller FMU's own period and latency (control_period, control_latency) are the
     DigitalController's Timing: 20 ms on the reference rig with one period of latency, the
-    master and the sampled loop bit for bit (issue 27, item 6)."""
+    master and the sampled loop bit for bit."""
     g = built.gains_values
     P = 0.02 / REFERENCE_RIG.t_star
     overrides = {"controller.control_period": P, "controller.control_latency": P}

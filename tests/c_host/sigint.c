@@ -1,5 +1,5 @@
 /*
- * sigint.c -- a plain C host's signal dispositions survive the FMU's Python (issue 28, item 2).
+ * sigint.c -- a plain C host's signal dispositions survive the FMU's Python.
  *
  * The FMU starts Python in the host's process; that interpreter must leave the host's handling
  * of SIGINT (Ctrl-C) as it was: CPython 3.11 installs its own SIGINT handler when its `signal`
