@@ -51,6 +51,7 @@ from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sensing import Sensing
 from drillstring.model.timing import Timing
 from drillstring.model.topdrive import TDS_11SA, TopDrive, top_drive
+from drillstring.model.units import SCALED_UNITS, Scales, UnitSystem
 
 SCALED, SI = units.SCALED, units.SI
 declare = units.declare
@@ -71,6 +72,14 @@ _SI_INPUT_START = {
     "bit_speed": REFERENCE_RIG.Omega0,
     "table_angle": REFERENCE_RIG.R0 / REFERENCE_RIG.C,
     "table_speed": REFERENCE_RIG.Omega0,
+}
+_KIND = {SCALED: "", SI: " (SI units)"}
+_TIME_AND_UNITS = {
+    SI: "All quantities are in SI units (the unit of each variable is declared, with its SI "
+    "base units); time is in seconds. The inputs are the plant's total angles and speeds, the "
+    "output the absolute rotary-table torque; the law acts on their errors from the nominal "
+    "motion (angle Omega0 t, speed Omega0, twist R0/C) and runs in the paper's scaled units, "
+    "converted with C and t* = sqrt(I1/C)."
 }
 #: Enumeration types of the choice parameters.
 _TYPES = {
@@ -96,7 +105,6 @@ class Family:
     depends_on: tuple[str, ...]
     description: str
     defaults: Mapping[str, Any]
-    build: Callable[[Mapping[str, Any]], Law]
     config: Callable[[Mapping[str, Any]], dict[str, Any]]
 
 
@@ -138,7 +146,6 @@ FAMILIES: dict[str, Family] = {
             "latch": "angle",
             "on_saturation": "none",
         },  # fmt: skip
-        build=SampledAffine.from_values,
         config=_lmi_config,
     ),
     "topdrive": Family(
@@ -158,7 +165,6 @@ FAMILIES: dict[str, Family] = {
             "anti_windup": "back-calculation",
             "tracking_time": 0.0,
         },  # fmt: skip
-        build=ZTorque.from_values,
         config=_topdrive_config,
     ),
 }
@@ -239,6 +245,9 @@ class ControllerFmu(fmu.FmuModel):
 
     FAMILY: ClassVar[str] = "lmi"
     UNIT_SYSTEM: ClassVar[str] = SCALED
+    SYSTEM: ClassVar[UnitSystem] = SCALED_UNITS
+    #: The scaled name -> this system's name of each variable.
+    NAMES: ClassVar[dict[str, str | None]] = {}
     DECLARED: ClassVar[tuple[units.Declared, ...]] = ()
     OUTPUT: ClassVar[str] = "R_minus_R0"
     INPUT_NAMES: ClassVar[tuple[str, ...]] = ()
@@ -258,29 +267,25 @@ class ControllerFmu(fmu.FmuModel):
         if cls.FAMILY not in FAMILIES:
             raise ValueError(f"{cls.__name__}: unknown family {cls.FAMILY!r}")
         family = FAMILIES[cls.FAMILY]
+        system = cls.SYSTEM = units.system(cls.UNIT_SYSTEM)
         cls.DECLARED = tuple(_declarations(family))
-        cls.VARIABLES = units.variables(cls.DECLARED, cls.UNIT_SYSTEM)
-        cls.OUTPUT = units.name_in(cls.DECLARED, cls.UNIT_SYSTEM, "R_minus_R0")
-        cls.INPUT_NAMES = tuple(units.name_in(cls.DECLARED, cls.UNIT_SYSTEM, s) for s, *_ in INPUTS)
-        cls.description = family.description + (" (SI units)" if cls.UNIT_SYSTEM == SI else "")
-        if cls.UNIT_SYSTEM == SI:
-            cls.TIME_AND_UNITS = (
-                "All quantities are in SI units (the unit of each variable is declared, with its "
-                "SI base units); time is in seconds. The inputs are the plant's total angles and "
-                "speeds, the output the absolute rotary-table torque; the law acts on their "
-                "errors from the nominal motion (angle Omega0 t, speed Omega0, twist R0/C) and "
-                "runs in the paper's scaled units, converted with C and t* = sqrt(I1/C)."
-            )
+        cls.VARIABLES = units.variables(cls.DECLARED, system)
+        cls.OUTPUT = units.name_in(cls.DECLARED, system, "R_minus_R0")
+        cls.INPUT_NAMES = tuple(units.name_in(cls.DECLARED, system, s) for s, *_ in INPUTS)
+        cls.NAMES = {d.scaled: d.name(system) for d in cls.DECLARED if d.scaled}
+        cls.description = family.description + _KIND[system.name]
+        cls.TIME_AND_UNITS = _TIME_AND_UNITS.get(system.name, cls.TIME_AND_UNITS)
 
     block: np.ndarray | None = None
     _fast_block: fmu.FastPath | None = None
 
     # ----------------------------------------------------------------- the unit system
-    def _scales(self, v: Mapping[str, Any]) -> tuple[float, float]:
-        """(C, t*) of the conversion to the scaled law (1, 1 in scaled units)."""
-        if self.UNIT_SYSTEM == SI:
-            return v["C"], math.sqrt(v["I1"] / v["C"])
-        return 1.0, 1.0
+    def _scales(self, v: Mapping[str, Any]) -> Scales:
+        """The scales of the conversion to the scaled law: ``C`` and t* = sqrt(I1/C) (the
+        scaled FMUs declare no C and I1, their units of torque and inertia: 1, 1, the
+        identity)."""
+        C = v.get("C", 1.0)
+        return Scales(C=C, t_star=math.sqrt(v.get("I1", 1.0) / C))
 
     def _choices(self, table: Any, v: Mapping[str, Any]) -> dict[str, Any]:
         """The values of a table's parameters, Enumeration codes as their items' names."""
@@ -290,46 +295,36 @@ class ControllerFmu(fmu.FmuModel):
         return out
 
     def initial_values(self) -> Mapping[str, Any]:
-        """The family's start values of this FMU's build configuration (scaled, converted for
-        SI): gains of the synthesis or the default tuning."""
+        """The family's start values of this FMU's build configuration (scaled, converted by the
+        unit system): gains of the synthesis or the default tuning."""
+        dims = {d.scaled: d.dimension for d in self.DECLARED}
         values = FAMILIES[self.FAMILY].config(self.config)
-        if self.UNIT_SYSTEM == SI:
-            dims = {d.scaled: d.dimension for d in self.DECLARED}
-            values = {k: x * units.si_factor(dims[k]) for k, x in values.items()}
-        return values
+        return {k: x * self.SYSTEM.factor(dims[k]) for k, x in values.items()}
 
     def controller(self, v: Mapping[str, Any]) -> tuple[DigitalController, OperatingPoint]:
         """The digital controller and its operating point (scaled) of the parameter values."""
         family = FAMILIES[self.FAMILY]
-        C, t = self._scales(v)
-        scales = _Scales(C, t)
-        law_values = self._choices(_exposed(family), v)
-        if self.UNIT_SYSTEM == SI:
-            law = family.law.from_si(scales, law_values)
-            point = OperatingPoint(v["Omega0"] * t, v["R0"] / C, v["I2"] / v["I1"])
-        else:
-            law = family.build(law_values)
-            point = OperatingPoint(v["omega0"], v["R0"], v["rho"])
+        scales = self._scales(v)
+        C, t = scales.C, scales.t_star
+        law = family.law.from_si(scales, self._choices(_exposed(family), v))
+        n = self.NAMES
+        point = OperatingPoint(v[n["omega0"]] * t, v["R0"] / C, v[n["rho"]] / v.get("I1", 1.0))
         drive = None
         if v["top_drive"]:
             limits = self._choices(TopDrive.PARAMETERS, v)
             for k in _ZERO_IS_NONE:
                 if limits[k] == 0.0:
                     limits[k] = math.inf
-            drive = (
-                TopDrive.from_si(scales, limits) if self.UNIT_SYSTEM == SI else TopDrive(**limits)
-            )
+            drive = TopDrive.from_si(scales, limits)
         settings = self._choices(Sensing.PARAMETERS, v)
         if settings["downhole"] == "observer":
             raise ValueError(
                 "downhole = observer needs the observer's gains, which an FMU parameter cannot "
                 "carry: use ideal or telemetry (the observer runs in simulate_sampled)"
             )
-        sensing = (
-            Sensing.from_si(scales, settings) if self.UNIT_SYSTEM == SI else Sensing(**settings)
-        )
+        sensing = Sensing.from_si(scales, settings)
         times = {name: v[fmu_name] for name, fmu_name in _TIMING_NAMES.items()}
-        timing = Timing.from_si(scales, times) if self.UNIT_SYSTEM == SI else Timing(**times)
+        timing = Timing.from_si(scales, times)
         controller = DigitalController(
             law, drive, sensing, enabled=bool(v["enabled"]), timing=timing
         )
@@ -342,11 +337,11 @@ class ControllerFmu(fmu.FmuModel):
     def _block_at_rest(self, values: Mapping[str, Any]) -> np.ndarray:
         controller, point = self.controller(values)
         b = controller.block(point)
-        if self.UNIT_SYSTEM == SI:
-            C, t = self._scales(values)
+        if self.SYSTEM.physical:  # the block converts its connectors (digital.block)
+            scales = self._scales(values)
             b[L.B_SI] = 1.0
-            b[L.B_TSTAR] = t
-            b[L.B_C] = C
+            b[L.B_TSTAR] = scales.t_star
+            b[L.B_C] = scales.C
             b[L.B_OMEGA0_SI] = values["Omega0"]
             b[L.B_R0_SI] = values["R0"]
         return b
@@ -405,9 +400,3 @@ class ControllerFmu(fmu.FmuModel):
         check_block(saved, block)  # before anything is changed
         block[:] = saved
         self.block = block
-
-
-@dataclass(frozen=True)
-class _Scales:
-    C: float
-    t_star: float

@@ -22,95 +22,91 @@ from typing import Any
 
 import drillstring_fmu_support as fmu
 
-from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.tables import Parameter
-from drillstring.model.units import DIMENSIONS, SCALED_TIME, si_scale
+from drillstring.model.units import DIMENSIONS, SCALED_UNITS, SI_UNITS, UNIT_SYSTEMS, UnitSystem
 
 __all__ = [
     "SCALED",
     "SI",
-    "SYSTEMS",
     "Declared",
     "declare",
     "from_table",
     "name_in",
-    "si_factor",
+    "system",
     "variables",
 ]
 
-SCALED = "scaled"
-SI = "si"
-SYSTEMS = (SCALED, SI)
+SCALED = SCALED_UNITS.name
+SI = SI_UNITS.name
 
 
-def si_factor(dimension: str) -> float:
-    """The factor from scaled to SI values of ``dimension`` on the reference rig."""
-    r = REFERENCE_RIG
-    return si_scale(dimension, r.C, r.t_star, r.L_star)
+def system(name: str) -> UnitSystem:
+    """The unit system called ``name`` (a generated class's ``UNIT_SYSTEM``)."""
+    if name not in UNIT_SYSTEMS:
+        raise ValueError(f"unknown unit system {name!r} (known: {', '.join(UNIT_SYSTEMS)})")
+    return UNIT_SYSTEMS[name]
 
 
 @dataclass(frozen=True)
 class Declared:
-    """A variable declared once (see :func:`declare`)."""
+    """A variable declared once (see :func:`declare`): what is common to both unit systems,
+    and per system (``own``, by its name) what is its own: ``name`` (None: absent there),
+    ``start``, ``unit``, ``display``, ``note``, ``check``."""
 
-    scaled: str | None
-    si: str | None
     type: str
     causality: str
     description: str
     dimension: str = "1"
     start: Any = None
-    si_start: Any = None
-    si_unit: str | None = None
-    si_display: str | None = None
-    scaled_note: str = ""
-    si_note: str = ""
+    own: dict[str, dict[str, Any]] = field(default_factory=dict)
     options: dict[str, Any] = field(default_factory=dict)
 
-    def name(self, system: str) -> str | None:
+    @property
+    def scaled(self) -> str | None:
+        """The name in the scaled system."""
+        return self.own[SCALED]["name"]
+
+    @property
+    def si(self) -> str | None:
+        """The name in SI."""
+        return self.own[SI]["name"]
+
+    def name(self, system: UnitSystem) -> str | None:
         """The variable's name in ``system`` (None: absent there)."""
-        return self.scaled if system == SCALED else self.si
+        return self.own[system.name]["name"]
 
     @property
     def time_valued(self) -> bool:
         """Whether the variable is a time (a Real whose SI unit is the second)."""
-        return self.type == "Real" and (self.si_unit or DIMENSIONS[self.dimension].unit) == "s"
+        unit = self.own[SI].get("unit") or DIMENSIONS[self.dimension].unit
+        return self.type == "Real" and unit == "s"
 
-    def time_note(self, system: str) -> str:
-        """What a time-valued variable's description says of its unit: in the scaled system the
-        scaled time tau (:data:`~drillstring.model.units.SCALED_TIME`), which a tool cannot read
-        from its unit "1", in SI seconds; "" for any other variable."""
-        if not self.time_valued:
-            return ""
-        return f"; in the {SCALED_TIME}" if system == SCALED else "; in seconds"
+    def time_note(self, system: UnitSystem) -> str:
+        """What a time-valued variable's description says of its unit (the system's
+        :attr:`~drillstring.model.units.UnitSystem.time_note`); "" for any other variable."""
+        return system.time_note if self.time_valued else ""
 
-    def variable(self, system: str) -> fmu.Variable | None:
+    def variable(self, system: UnitSystem) -> fmu.Variable | None:
         """The variable of ``system``, or None when it has no name there."""
-        name = self.name(system)
+        own = self.own[system.name]
+        name = own["name"]
         if name is None:
             return None
         kw = dict(self.options)
-        si_check = kw.pop("si_check", None)
-        if system == SI and si_check is not None:
-            kw["check"] = si_check
-        note = self.scaled_note if system == SCALED else self.si_note
-        description = f"{self.description}{note}{self.time_note(system)}"
-        start = self.start
-        if system == SI and self.type == "Real":
+        if "check" in own:
+            kw["check"] = own["check"]
+        description = f"{self.description}{own.get('note', '')}{self.time_note(system)}"
+        start = own.get("start", self.start)
+        if self.type == "Real":
             d = DIMENSIONS[self.dimension]
-            kw["unit"] = self.si_unit or d.unit
-            display = self.si_display if self.si_unit else d.display
-            if display is not None:
-                kw["display_unit"] = display
-            if self.si_start is not None:
-                start = self.si_start
-            elif start is not None:
-                start = start * si_factor(self.dimension)
+            unit = own.get("unit", d.unit)
+            kw |= system.declared_unit(unit, own.get("display") if "unit" in own else d.display)
+            factor = system.factor(self.dimension)
+            if "start" not in own and start is not None:
+                start = start * factor
             for bound in ("min", "max"):
                 if kw.get(bound) not in (None, fmu.POSITIVE, 0.0):
-                    kw[bound] = kw[bound] * si_factor(self.dimension)
-        elif system == SI and self.si_start is not None:
-            start = self.si_start
+                    kw[bound] = kw[bound] * factor
         if self.type == "Enumeration":
             items, type_name = kw.pop("items"), kw.pop("type_name")
             return fmu.enumeration(name, type_name, items, start, description)
@@ -132,6 +128,7 @@ def declare(
     si_display: str | None = None,
     scaled_note: str = "",
     si_note: str = "",
+    si_check: Callable[[Any], Any] | None = None,
     **options: Any,
 ) -> Declared:
     """Declare a variable for both unit systems.
@@ -153,25 +150,31 @@ def declare(
         quantity: an angle with its offset, the absolute torque).
     scaled_note, si_note : str
         Appended to the description in that unit system.
+    si_check : callable, optional
+        The check in SI where it is not ``check`` (a check in the terms of the scaled model's
+        classes).
     **options
         Other fields of :class:`~drillstring_fmu_support.Variable` (``min``, ``max``,
-        ``check``, ``depends_on``, ``items``, ``type_name``); ``si_check``: the check in SI
-        where it is not ``check`` (a check in the terms of the scaled model's classes).
+        ``check``, ``depends_on``, ``items``, ``type_name``).
     """
-    pair = (names, names) if isinstance(names, str) else names
-    return Declared(
-        pair[0], pair[1], type, causality, description, dimension, start, si_start, si_unit,
-        si_display, scaled_note, si_note, options,
-    )  # fmt: skip
+    scaled, si = (names, names) if isinstance(names, str) else names
+    own_si: dict[str, Any] = {"name": si, "note": si_note}
+    for key, value in (("start", si_start), ("unit", si_unit), ("check", si_check)):
+        if value is not None:
+            own_si[key] = value
+    if si_unit is not None:
+        own_si["display"] = si_display
+    own = {SCALED: {"name": scaled, "note": scaled_note}, SI: own_si}
+    return Declared(type, causality, description, dimension, start, own, options)
 
 
-def name_in(declared: Iterable[Declared], system: str, name: str) -> str:
+def name_in(declared: Iterable[Declared], system: UnitSystem, name: str) -> str:
     """The name in ``system`` of the variable called ``name`` in either system."""
     for d in declared:
         if name in (d.scaled, d.si):
             found = d.name(system)
             if found is None:
-                raise KeyError(f"{name} has no variable in the {system} unit system")
+                raise KeyError(f"{name} has no variable in the {system.name} unit system")
             return found
     raise KeyError(name)
 
@@ -210,10 +213,8 @@ def from_table(
     return out
 
 
-def variables(declared: Iterable[Declared], system: str) -> tuple[fmu.Variable, ...]:
+def variables(declared: Iterable[Declared], system: UnitSystem) -> tuple[fmu.Variable, ...]:
     """The variables of ``system``, in declaration order (absent ones left out)."""
-    if system not in SYSTEMS:
-        raise ValueError(f"unknown unit system {system!r} (known: {', '.join(SYSTEMS)})")
     declared = tuple(declared)
     out = []
     for d in declared:

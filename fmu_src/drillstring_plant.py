@@ -47,9 +47,9 @@ from drillstring.model.engine import (
     EngineOptions,
 )
 from drillstring.model.experiments import FIG5
-from drillstring.model.params import REFERENCE, REFERENCE_RIG, PhysicalParams, ScaledParams
+from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
 from drillstring.model.pipe import MAX_ELEMENTS, REFERENCE_KAPPA, StringParams
-from drillstring.model.units import PLANT_SI, SIScaling, si_scale
+from drillstring.model.units import PLANT_SI, SCALED_UNITS, Scales, UnitSystem
 
 SCALED, SI = units.SCALED, units.SI
 declare = units.declare
@@ -300,31 +300,39 @@ DECLARED = _declarations()
 _OPTION_DIMENSIONS = {d.scaled: d.dimension for d in DECLARED if d.scaled in ("h", "event_tol")}
 
 
-def _si_factor(scaling: SIScaling, dimension: str) -> float:
-    """The factor from scaled to SI values of ``dimension`` on the rig of ``scaling``."""
-    return si_scale(dimension, scaling.rig.C, scaling.t_star, scaling.L_star)
+_SPEED = {
+    SCALED: "dPhi/dtau = omega0 + dphi > 0, so dphi0 > -omega0 (checked at "
+    "fmi2ExitInitializationMode)",
+    SI: "the initial bit speed Omega0 + dphi0 > 0 (checked at fmi2ExitInitializationMode), as "
+    "must the scaled parameter set of eqs. (15)-(16), beta = zeta mu xi <= 1 in particular",
+}
+_KIND = {SCALED: ", scaled form", SI: ", in SI units"}
+_TIME_AND_UNITS = {
+    SI: "All quantities are in SI units (the unit of each variable is declared, with its "
+    "SI base units); time is in seconds, t = t* tau with t* = sqrt(I1/C), the time "
+    "scale of the paper's scaled model, which the FMU integrates. The input is the "
+    "absolute rotary-table torque R; the outputs are total angles, speeds and "
+    "positions (not deviations): the bit angle is 0 at t = 0 of the nominal motion "
+    "and the table angle is ahead of it by the twist of the string, nominally R0/C. "
+    "The initial state is the deviation from the nominal motion at t = 0."
+}
+#: The outputs of the compiled step in each unit system (the io block's).
+_FAST_KEYS = {SCALED: native.PLANT_SCALED_KEYS, SI: native.PLANT_SI_KEYS}
 
 
-def _validity(si: bool) -> tuple[str, str]:
+def _validity(system: UnitSystem) -> tuple[str, str]:
     """The FMU documentation's section on the model's validity, in the unit system's terms."""
-    speed = (
-        "the initial bit speed Omega0 + dphi0 > 0 (checked at fmi2ExitInitializationMode), as "
-        "must the scaled parameter set of eqs. (15)-(16), beta = zeta mu xi <= 1 in particular"
-        if si
-        else "dPhi/dtau = omega0 + dphi > 0, so dphi0 > -omega0 (checked at "
-        "fmi2ExitInitializationMode)"
-    )
     return (
         "The model holds while the bit cuts the rock: a depth of cut d < 0 (bit bouncing, "
         "Section II) is outside it. With on_invalid = stop (the default) fmi2DoStep returns "
         "fmi2Discard at the first such instant, located to within event_tol, and names it; with "
         "on_invalid = continue the run goes on, every episode is counted in the output "
         "bit_bounce and the step returns fmi2Warning with a message.",
-        f"The bit must rotate forwards: {speed}. Where the bit stops rotating it sticks "
-        "torsionally: with torsional_stick_model = true that phase is modelled (docs/model.md, "
-        '"Torsional stick"), otherwise fmi2DoStep returns fmi2Discard there. A reverse rotation '
-        "during torsional stick, a non-finite state and a delay that cannot be found in the "
-        "history also end the run with fmi2Discard and a message.",
+        f"The bit must rotate forwards: {_SPEED[system.name]}. Where the bit stops rotating it "
+        "sticks torsionally: with torsional_stick_model = true that phase is modelled "
+        '(docs/model.md, "Torsional stick"), otherwise fmi2DoStep returns fmi2Discard there. A '
+        "reverse rotation during torsional stick, a non-finite state and a delay that cannot be "
+        "found in the history also end the run with fmi2Discard and a message.",
     )
 
 
@@ -333,30 +341,22 @@ class PlantFmu(fmu.FmuModel):
     torque, outputs the bit's and the table's motion."""
 
     UNIT_SYSTEM: ClassVar[str] = SCALED
-    VALIDITY = _validity(False)
+    SYSTEM: ClassVar[UnitSystem] = SCALED_UNITS
+    VALIDITY = _validity(SCALED_UNITS)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        si = cls.UNIT_SYSTEM == SI
-        cls.VARIABLES = units.variables(DECLARED, cls.UNIT_SYSTEM)
-        cls.FAST_KEYS = native.PLANT_SI_KEYS if si else native.PLANT_SCALED_KEYS
-        cls.FAST_SI = 1.0 if si else 0.0
-        cls.VALIDITY = _validity(si)
+        system = cls.SYSTEM = units.system(cls.UNIT_SYSTEM)
+        cls.VARIABLES = units.variables(DECLARED, system)
+        cls.FAST_KEYS = _FAST_KEYS[system.name]
+        cls.FAST_SI = float(system.physical)
+        cls.VALIDITY = _validity(system)
         cls.description = (
             "Axial-torsional drill-string stick-slip model of Besselink, van de Wouw and "
             "Nijmeijer (IEEE CCA 2011), eqs. (11)-(14) with Filippov wearflat contact (17)"
-            + (", in SI units" if si else ", scaled form")
+            + _KIND[system.name]
         )
-        if si:
-            cls.TIME_AND_UNITS = (
-                "All quantities are in SI units (the unit of each variable is declared, with its "
-                "SI base units); time is in seconds, t = t* tau with t* = sqrt(I1/C), the time "
-                "scale of the paper's scaled model, which the FMU integrates. The input is the "
-                "absolute rotary-table torque R; the outputs are total angles, speeds and "
-                "positions (not deviations): the bit angle is 0 at t = 0 of the nominal motion "
-                "and the table angle is ahead of it by the twist of the string, nominally R0/C. "
-                "The initial state is the deviation from the nominal motion at t = 0."
-            )
+        cls.TIME_AND_UNITS = _TIME_AND_UNITS.get(system.name, cls.TIME_AND_UNITS)
 
     engine: Engine | None = None
     _out: Mapping[str, Any] = MappingProxyType({})
@@ -372,7 +372,8 @@ class PlantFmu(fmu.FmuModel):
     _fast_kernel: Any = None
 
     # ----------------------------------------------------------------- the unit system
-    scaling: SIScaling = SIScaling(REFERENCE_RIG)
+    #: The scales of the FMU's rig (set by :meth:`engine_setup`; the identity when scaled).
+    scaling: Scales = SCALED_UNITS.scales()
 
     def engine_setup(
         self, v: Mapping[str, Any]
@@ -380,76 +381,70 @@ class PlantFmu(fmu.FmuModel):
         """The engine's parameters, options, initial perturbation and string from the FMU's
         values.
 
-        The options ``h`` and ``event_tol`` are converted by the dimension their variables
-        declare (:data:`_OPTION_DIMENSIONS`, time: divided by t* of the FMU's rig in SI)."""
+        The parameter set is the unit system's (:meth:`~drillstring.model.units.UnitSystem.
+        parameter_set`); the initial state and the options ``h`` and ``event_tol`` are
+        converted by its scales (time: divided by t* of the FMU's rig in SI)."""
         on_invalid = ON_INVALID[v["on_invalid"] - 1][0]
-        initial = {key: float(v[name]) for name, key, _, _ in _INITIAL}
-        scaling = None
-        if self.UNIT_SYSTEM != SI:
-            params = ScaledParams(n=v["n"], **{f: v[name] for name, f, *_ in _SCALED})
-        else:
-            rig = PhysicalParams(n=v["n"], **{name: v[name] for name, *_ in _PHYSICAL})
-            scaling = SIScaling(rig)  # raises for a rig whose scaled set is invalid (beta > 1)
-            speed = rig.Omega0 + v["dphi0"]
-            if not speed > 0.0:
-                raise ValueError(
-                    f"the initial bit speed Omega0 + dphi0 = {speed!r} rad/s is not > 0: the "
-                    "model needs a rotating bit (torsional stick at t = 0)"
-                )
-            params = scaling.scaled
-            initial = dataclasses.asdict(scaling.initial_to_scaled(initial))
+        named = {"n": v["n"], **{f: v[name] for name, f, *_ in _SCALED if name in v}}
+        named.update((name, v[name]) for name, *_ in _PHYSICAL if name in v)
+        # raises for a rig whose scaled set is invalid (beta > 1)
+        params, scaling = self.SYSTEM.parameter_set(named)
+        if self.SYSTEM.physical and not scaling.rig.Omega0 + v["dphi0"] > 0.0:
+            raise ValueError(
+                f"the initial bit speed Omega0 + dphi0 = {scaling.rig.Omega0 + v['dphi0']!r} "
+                "rad/s is not > 0: the model needs a rotating bit (torsional stick at t = 0)"
+            )
+        initial = scaling.initial_to_scaled({key: float(v[name]) for name, key, _, _ in _INITIAL})
         scaled = {
-            name: v[name] if scaling is None else v[name] / _si_factor(scaling, dimension)
+            name: v[name] / scaling.factor(dimension)
             for name, dimension in _OPTION_DIMENSIONS.items()
         }
-        if scaling is not None and not scaled["event_tol"] <= _EVENT_TOL_MAX:
+        if not scaled["event_tol"] <= _EVENT_TOL_MAX:
             raise ValueError(
-                f"event_tol = {v['event_tol']!r} s is above 1e-10 t* = "
-                f"{_EVENT_TOL_MAX * scaling.t_star!r} s"
+                f"event_tol = {v['event_tol']!r}{self.SYSTEM.time_unit} is above 1e-10 t* = "
+                f"{scaling.time(_EVENT_TOL_MAX)!r}{self.SYSTEM.time_unit}"
             )
         options = EngineOptions(
             **scaled, torsional_stick=bool(v["torsional_stick_model"]), on_invalid=on_invalid,
             keep_events=False,
         )  # fmt: skip
-        if scaling is None:
-            kappa, mu = v["pipe_inertia_ratio"], v["pipe_mass_ratio"]
-        else:
-            kappa, mu = v["I_pipe"] / scaling.rig.I1, v["M_pipe"] / scaling.rig.M
+        kappa, mu = (
+            (v["I_pipe"] / scaling.rig.I1, v["M_pipe"] / scaling.rig.M)
+            if self.SYSTEM.physical
+            else (v["pipe_inertia_ratio"], v["pipe_mass_ratio"])
+        )
         string = StringParams(elements=v["string_elements"], kappa=kappa, axial_mass_ratio=mu)
-        if scaling is not None:
-            self.scaling = scaling
-        return params, options, initial, string
+        self.scaling = scaling
+        return params, options, dataclasses.asdict(initial), string
 
     def engine_input(self) -> float:
         """The engine's input R - R0 (scaled) from the FMU's input."""
-        if self.UNIT_SYSTEM == SI:
-            return self.scaling.torque_deviation(self.values["table_torque"])
-        return self.values["R_minus_R0"]
+        return self.scaling.torque_deviation(self.values[self._input])
 
     def engine_time(self, t: float) -> float:
         """The engine's (scaled) time of the FMU's time ``t``."""
-        return self.scaling.tau(t) if self.UNIT_SYSTEM == SI else t
+        return self.scaling.tau(t)
 
     def fmu_time(self, tau: float) -> float:
         """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
-        return self.scaling.time(tau) if self.UNIT_SYSTEM == SI else tau
+        return self.scaling.time(tau)
 
     def converted_outputs(self, eng: Engine) -> Mapping[str, Any]:
         """The FMU's outputs from the engine's state."""
-        if self.UNIT_SYSTEM != SI:
+        if not self.SYSTEM.physical:
             return eng.outputs()
         T = eng.diagnostics()["torque_on_bit"]
         return self.scaling.plant_outputs(eng.outputs(), eng.tau, torque_on_bit=T)
 
     def stop_message(self, eng: Engine, message: str) -> str:
         """The message of a validity stop (the engine's names the scaled time; SI adds t)."""
-        if self.UNIT_SYSTEM == SI:
-            return f"{message} (t = {self.scaling.time(eng.tau)!r} s)"
-        return message
+        if not self.SYSTEM.time_unit:
+            return message
+        return f"{message} (t = {self.scaling.time(eng.tau)!r}{self.SYSTEM.time_unit})"
 
     def fast_constants(self) -> tuple[float, ...]:
         """The unit system's constants of the step (``native.PLANT.k``)."""
-        if self.UNIT_SYSTEM == SI:
+        if self.SYSTEM.physical:
             return self.scaling.plant_constants
         return (0.0,) * native.N_K
 

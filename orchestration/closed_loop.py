@@ -43,7 +43,7 @@ from drillstring.model.experiments import Experiment
 from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
 from drillstring.model.simulate import SimulationResult
-from drillstring.model.units import PLANT_SI, SIScaling
+from drillstring.model.units import IDENTITY, PLANT_SI, SCALED_UNITS, SI_UNITS, Scales, UnitSystem
 from drillstring.orchestration.connections import StartValue, Unit, effective_start_values
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.results import CosimResult
@@ -115,8 +115,9 @@ class LoopVariant:
 
     Attributes
     ----------
-    name : str
-        ``"scaled"`` or ``"si"``.
+    units : UnitSystem
+        The unit system of the FMUs (:data:`~drillstring.model.units.SCALED_UNITS` or
+        ``SI_UNITS``).
     plant_fmu, controller_fmu : str
         File names of the FMUs (as ``build_fmus.py`` writes them).
     feedback : tuple of str
@@ -132,7 +133,7 @@ class LoopVariant:
         or ``"topdrive"`` (the industrial laws, ``TopDriveController``, the same connectors).
     """
 
-    name: str
+    units: UnitSystem
     plant_fmu: str
     controller_fmu: str
     feedback: tuple[str, ...]
@@ -140,6 +141,11 @@ class LoopVariant:
     record: tuple[str, ...]
     ssp: str
     controller: str = "lmi"
+
+    @property
+    def name(self) -> str:
+        """The unit system's name, ``"scaled"`` or ``"si"``."""
+        return self.units.name
 
     @property
     def connections(self) -> tuple[str, ...]:
@@ -153,7 +159,7 @@ class LoopVariant:
 _COUNTERS = ("plant.mode", "plant.stick_events", "plant.torsional_stick", "plant.bit_bounce")
 #: The loop in the paper's scaled quantities.
 SCALED = LoopVariant(
-    "scaled",
+    SCALED_UNITS,
     PLANT_FMU,
     CONTROLLER_FMU,
     FEEDBACK,
@@ -163,7 +169,7 @@ SCALED = LoopVariant(
 )
 #: The loop in SI units and seconds.
 SI = LoopVariant(
-    "si",
+    SI_UNITS,
     "DrillStringPlantSI.fmu",
     "TorsionalControllerSI.fmu",
     ("bit_angle", "bit_speed", "table_angle", "table_speed"),
@@ -204,15 +210,17 @@ class LoopModel:
     control : AffineFeedback or float
         The controller's law (29)-(31), or its feed-forward R_ff alone when the feedback is
         disabled.
-    scaling : SIScaling or None
-        For the SI variant: the scales of the FMUs' rig (the model above is their scaled form).
+    scaling : Scales
+        The scales of the FMUs' unit system on their rig (the model above is their scaled
+        form): the rig's :class:`~drillstring.model.units.SIScaling` in SI, the identity in
+        scaled units.
     """
 
     params: ScaledParams
     initial: InitialState
     options: EngineOptions
     control: AffineFeedback | float
-    scaling: SIScaling | None = None
+    scaling: Scales = IDENTITY
 
 
 def fmu_paths(fmus_dir: str | os.PathLike[str], variant: LoopVariant = SCALED) -> tuple[Path, Path]:
@@ -260,8 +268,8 @@ def experiment_start_values(
     experiment : Experiment
         The set-up (``docs/model.md``, "Experiments of Figs. 5 and 6"), in scaled time.
     variant : LoopVariant
-        The unit system; for :data:`SI` the initial state, ``h`` and ``t_on`` are converted on
-        ``rig`` (:class:`~drillstring.model.units.SIScaling`).
+        The unit system: the initial state, ``h`` and ``t_on`` are converted by its scales on
+        ``rig`` (:meth:`~drillstring.model.units.UnitSystem.scales`).
     rig : PhysicalParams
         The physical rig of the SI FMUs (their start values are the reference rig).
     full_initial : bool
@@ -274,12 +282,9 @@ def experiment_start_values(
         enabled}}`` (no latch for the top-drive controller); the gains and the parameter set
         are the FMUs' own.
     """
-    initial = dict(dataclasses.asdict(InitialState.coerce(experiment.initial())))
-    h, t_on = float(experiment.h), float(experiment.t_on)
-    if variant.name == SI.name:
-        scaling = SIScaling(rig)
-        initial = scaling.initial_to_si(initial)
-        h, t_on = scaling.time(h), scaling.time(t_on)
+    scales = variant.units.scales(rig)
+    initial = scales.initial_to_si(experiment.initial())
+    h, t_on = scales.time(float(experiment.h)), scales.time(float(experiment.t_on))
     keys = _INITIAL if full_initial else {"dphi": "dphi0"}
     return {
         "plant": {
@@ -369,51 +374,31 @@ def loop_model(
             f"loop_model describes the loop closed by the paper's law, not by the "
             f"{variant.controller!r} controller (its law: drillstring.model.laws)"
         )
-    if variant.name == SI.name:
-        return _si_loop_model(plant, controller)
-    params = ScaledParams(**{field: plant[name] for field, name in _PARAMS.items()})
-    initial = InitialState(**{field: plant[name] for field, name in _INITIAL.items()})
+    system = variant.units
+    named = {f: plant[name] for f, name in _PARAMS.items() if name in plant}
+    named.update((f, plant[f]) for f in _PHYSICAL if f in plant)
+    params, scales = system.parameter_set(named)
+    initial = scales.initial_to_scaled({k: plant[name] for k, name in _INITIAL.items()})
     options = EngineOptions(
-        h=plant["h"],
+        h=scales.tau(plant["h"]),
         torsional_stick=bool(plant["torsional_stick_model"]),
         on_invalid=_item(ON_INVALID_CHOICES, plant["on_invalid"]),
-        event_tol=plant["event_tol"],
+        event_tol=scales.tau(plant["event_tol"]),
     )
-    control: AffineFeedback | float = AffineFeedback(
-        F=tuple(controller[name] for name in _GAINS),
-        K0=controller["K0"],
-        R_ff=controller["R_ff"],
-        t_on=controller["t_on"],
-        latch=_item(LATCH_MODES, controller["latch"]),
-    )
-    if not controller["enabled"]:
-        control = control.R_ff
-    return LoopModel(params, initial, options, control)
-
-
-def _si_loop_model(plant: Mapping[str, Any], controller: Mapping[str, Any]) -> LoopModel:
-    """:func:`loop_model` of the SI FMUs: the rig's scaled set, initial state, options, law."""
-    scaling = SIScaling(PhysicalParams(**{name: plant[name] for name in _PHYSICAL}))
-    initial = scaling.initial_to_scaled({k: plant[name] for k, name in _INITIAL.items()})
-    options = EngineOptions(
-        h=scaling.tau(plant["h"]),
-        torsional_stick=bool(plant["torsional_stick_model"]),
-        on_invalid=_item(ON_INVALID_CHOICES, plant["on_invalid"]),
-        event_tol=scaling.tau(plant["event_tol"]),
-    )
-    rig = scaling.rig
-    for name, plant_value in (("Omega0", rig.Omega0), ("R0", rig.R0), ("C", rig.C),
-                              ("I1", rig.I1)):  # fmt: skip
-        if not math.isclose(controller[name], plant_value, rel_tol=1e-12):
-            raise ValueError(
-                f"the controller's {name} = {controller[name]!r} is not the plant's "
-                f"{plant_value!r}: (29)-(31) is a law about the plant's nominal motion"
-            )
+    if system.physical:
+        rig = scales.rig
+        for name, plant_value in (("Omega0", rig.Omega0), ("R0", rig.R0), ("C", rig.C),
+                                  ("I1", rig.I1)):  # fmt: skip
+            if not math.isclose(controller[name], plant_value, rel_tol=1e-12):
+                raise ValueError(
+                    f"the controller's {name} = {controller[name]!r} is not the plant's "
+                    f"{plant_value!r}: (29)-(31) is a law about the plant's nominal motion"
+                )
     values = {name: controller[name] for name in (*_GAINS, "K0", "R_ff", "t_on")}
     values["latch"] = _item(LATCH_MODES, controller["latch"])
-    law = SampledAffine.from_si(rig, values).feedback
+    law = SampledAffine.from_si(scales, values).feedback
     control: AffineFeedback | float = law if controller["enabled"] else law.R_ff
-    return LoopModel(scaling.scaled, initial, options, control, scaling)
+    return LoopModel(params, initial, options, control, scales)
 
 
 def _item(names: Sequence[str], value: StartValue) -> str:

@@ -41,10 +41,9 @@ from drillstring.controller.lineup import INDUSTRIAL, industrial_lineup
 from drillstring.model.experiments import FIG5, FIG6, Experiment
 from drillstring.model.laws import ZTorque
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
-from drillstring.model.units import UNITS, SIScaling
+from drillstring.model.units import SCALED_UNITS, SI_UNITS, UNITS
 from drillstring.orchestration.closed_loop import (
     SCALED,
-    SI,
     LoopVariant,
     experiment_start_values,
     fmu_paths,
@@ -77,7 +76,7 @@ __all__ = [
 ]
 
 #: The fixed macro step of the packages' default experiments (scaled time; 1 ms in SI).
-DEFAULT_STEP = {SCALED.name: 1e-3, SI.name: 1e-3}
+DEFAULT_STEP = 1e-3
 #: The top-drive controller FMU's parameters a tuning sets.
 TOPDRIVE_PARAMETERS = ("kp", "ki", "z_gain", "omega_hp", "omega_lp")
 #: The tuning that is the top-drive controller FMU's start values.
@@ -180,13 +179,13 @@ def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float
 
     :func:`~drillstring.controller.lineup.industrial_lineup` of the scaled reference set; a
     SpeedPI is the FMU's law with ``z_gain = 0`` (its filter corners, unread, are ZTorque's
-    defaults). In the SI variant the values are converted on the reference rig
+    defaults). The values are converted by the unit system's scales on the reference rig
     (:meth:`~drillstring.model.laws.ZTorque.to_si`), as the SI FMU converts its start values.
 
     Parameters
     ----------
     variant : LoopVariant
-        The unit system (``variant.name``).
+        The unit system (``variant.units``).
 
     Returns
     -------
@@ -196,10 +195,7 @@ def topdrive_tunings(variant: LoopVariant = SCALED) -> dict[str, dict[str, float
     out = {}
     for name, law in industrial_lineup(REFERENCE).items():
         z = law if isinstance(law, ZTorque) else ZTorque(kp=law.kp, ki=law.ki, z_gain=0.0)
-        if variant.name == SI.name:
-            values = z.to_si(REFERENCE_RIG)
-        else:
-            values = {k: getattr(z, k) for k in TOPDRIVE_PARAMETERS}
+        values = z.to_si(variant.units.scales())
         out[name] = {k: float(values[k]) for k in TOPDRIVE_PARAMETERS}
     return out
 
@@ -222,21 +218,13 @@ def loop_default_experiment(
     Returns
     -------
     tuple of 3 float
-        ``(0, stop, step)`` with the fixed step :data:`DEFAULT_STEP` of the variant. Scaled:
-        stop = tau_end (60 for Figs. 5 and 6). SI: tau_end t* on the reference rig rounded up
-        to a whole number of steps (55.352 s for tau_end = 60), so that every host takes the
-        same equal steps.
-
-    Raises
-    ------
-    KeyError
-        ``variant.name`` is not in :data:`DEFAULT_STEP`.
+        ``(0, stop, step)`` with the fixed step :data:`DEFAULT_STEP`: stop is tau_end in the
+        variant's time (on the reference rig) rounded up to a whole number of steps, so that
+        every host takes the same equal steps (scaled: 60 for Figs. 5 and 6; SI: 55.352 s).
     """
-    step = DEFAULT_STEP[variant.name]
-    stop = experiment.tau_end
-    if variant.name == SI.name:
-        stop = round(math.ceil(SIScaling(REFERENCE_RIG).time(stop) / step) * step, 12)
-    return 0.0, float(stop), step
+    step = DEFAULT_STEP
+    stop = variant.units.scales().time(experiment.tau_end)
+    return 0.0, float(round(math.ceil(stop / step) * step, 12)), step
 
 
 def _parameters(md, values: Mapping[str, object]) -> tuple[SspParameter, ...]:
@@ -350,12 +338,12 @@ def write_loop_package(
 
 def _system_name(variant: LoopVariant) -> str:
     base = "DrillStringTopDrive" if variant.controller == "topdrive" else "DrillStringClosedLoop"
-    return base + ("SI" if variant.name == SI.name else "")
+    return base + variant.units.suffix
 
 
 def _loop_description(variant: LoopVariant) -> str:
     """What the package's loop is (the SSDs' descriptions without the experiment)."""
-    kind = "SI units and seconds" if variant.name == SI.name else "the paper's scaled quantities"
+    kind = variant.units.quantities
     if variant.controller == "topdrive":
         law = "industrial top-drive controller"
     else:
@@ -368,6 +356,30 @@ def _loop_description(variant: LoopVariant) -> str:
 
 def _description(variant: LoopVariant, e: LoopExperiment) -> str:
     return f"{_loop_description(variant)}. {e.summary}"
+
+
+#: What the package documentation says of the units and the time base of its FMUs.
+_TIME_NOTE = {
+    SI_UNITS.name: (
+        "<p>The FMUs are in SI units and seconds: every variable declares its unit (with its "
+        "SI base-unit exponents in the FMUs' <code>UnitDefinitions</code> and the SSD's "
+        "<code>Units</code>), and the time of <code>fmi2DoStep</code> and of the default "
+        "experiments is in seconds.</p>"
+    ),
+    SCALED_UNITS.name: (
+        "<p>The FMUs speak the paper's scaled, dimensionless quantities (unit "
+        '<code>"1"</code>). Their time is the scaled time tau = t/t*, t* = sqrt(I1/C), '
+        "which FMI 2.0 gives no unit a tool can read: an FMU that declares no independent "
+        "variable has one named <code>time</code> in <code>s</code> (FMI 2.0, section "
+        "2.2.7), so every tool shows tau as seconds. One unit of time is t* seconds of the "
+        "rig ({t_star:.6g} s for the reference rig), and so are the default experiments' "
+        "times, the step and the time-valued parameters (<code>h</code>, <code>t_on</code> "
+        "and the others; the FMUs' model descriptions say so in the FMU's and in each such "
+        "variable's description). To "
+        "couple the loop with models in seconds use the SI package "
+        "<code>{si_package}.ssp</code>.</p>"
+    ),
+}
 
 
 def package_documentation(variant: LoopVariant) -> str:
@@ -385,14 +397,14 @@ def package_documentation(variant: LoopVariant) -> str:
         The HTML page.
     """
     esc = html.escape
-    si = variant.name == SI.name
+    units = variant.units
     experiments = loop_experiments(variant)
     rows = []
     for i, e in enumerate(experiments):
         start, stop, step = loop_default_experiment(variant, e.experiment)
         file = SSD_FILE if i == 0 else f"{e.name}.ssd"
-        unit = " s" if si else ""
-        t_on = SIScaling(REFERENCE_RIG).time(e.experiment.t_on) if si else e.experiment.t_on
+        unit = units.time_unit
+        t_on = units.scales().time(e.experiment.t_on)
         rows.append(
             f"<tr><td><code>{esc(file)}</code></td><td><code>{esc(e.name)}</code></td>"
             f"<td>{esc(e.summary)}</td><td>{t_on:.6g}{unit}</td><td>{start:g} to "
@@ -402,28 +414,9 @@ def package_documentation(variant: LoopVariant) -> str:
     other = experiments[1].name
     _, stop, step = loop_default_experiment(variant, first.experiment)
     system = _system_name(variant)
-    if si:
-        time = (
-            "<p>The FMUs are in SI units and seconds: every variable declares its unit (with its "
-            "SI base-unit exponents in the FMUs' <code>UnitDefinitions</code> and the SSD's "
-            "<code>Units</code>), and the time of <code>fmi2DoStep</code> and of the default "
-            "experiments is in seconds.</p>"
-        )
-    else:
-        ts = REFERENCE_RIG.t_star
-        time = (
-            "<p>The FMUs speak the paper's scaled, dimensionless quantities (unit "
-            '<code>"1"</code>). Their time is the scaled time tau = t/t*, t* = sqrt(I1/C), '
-            "which FMI 2.0 gives no unit a tool can read: an FMU that declares no independent "
-            "variable has one named <code>time</code> in <code>s</code> (FMI 2.0, section "
-            f"2.2.7), so every tool shows tau as seconds. One unit of time is t* seconds of the "
-            f"rig ({ts:.6g} s for the reference rig), and so are the default experiments' "
-            "times, the step and the time-valued parameters (<code>h</code>, <code>t_on</code> "
-            "and the others; the FMUs' model descriptions say so in the FMU's and in each such "
-            "variable's description). To "
-            "couple the loop with models in seconds use the SI package "
-            f"<code>{esc(system)}SI.ssp</code>.</p>"
-        )
+    time = _TIME_NOTE[units.name].format(
+        si_package=esc(system + SI_UNITS.suffix), t_star=REFERENCE_RIG.t_star
+    )
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{esc(system)}</title></head>
 <body>

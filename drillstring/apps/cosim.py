@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from drillstring.fileio import remove_temporary_folders, save_figure, write_json
-from drillstring.model.units import UNITS
+from drillstring.model.units import SCALED_UNITS, SI_UNITS, UNITS
 from drillstring.orchestration.closed_loop import (
     SI,
     VARIANTS,
@@ -57,7 +57,16 @@ from drillstring.validation import check_out_folder
 
 __all__ = ["cosim_main", "plot_speeds", "run_si_demo", "si_demo_lines", "variant_of"]
 
-_RPM = UNITS["rad/s"].display_unit("rpm").factor
+#: The speed plot's factor and axis labels in each unit system (SI: rpm over seconds).
+_SPEED_AXES = {
+    SCALED_UNITS.name: (1.0, r"$\dot\varphi(\tau)$", r"$\dot\theta(\tau)$", r"$\tau$"),
+    SI_UNITS.name: (
+        UNITS["rad/s"].display_unit("rpm").factor,
+        "bit speed [rpm]",
+        "table speed [rpm]",
+        "t [s]",
+    ),
+}
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -135,17 +144,16 @@ def plot_speeds(
         The PNG.
     """
     bit, table = variant.feedback[1], variant.feedback[3]
-    si = variant.name == SI.name
-    factor = _RPM if si else 1.0
+    factor, bit_label, table_label, time_label = _SPEED_AXES[variant.units.name]
     fig = new_figure((8.0, 5.0))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     for i, (label, r) in enumerate(runs):
         ls = ("-", "--", ":", "-.")[i % 4]
         ax1.plot(r["time"], factor * np.asarray(r[f"plant.{bit}"]), ls, lw=1.0, label=label)
         ax2.plot(r["time"], factor * np.asarray(r[f"plant.{table}"]), ls, lw=1.0, label=label)
-    ax1.set_ylabel("bit speed [rpm]" if si else r"$\dot\varphi(\tau)$")
-    ax2.set_ylabel("table speed [rpm]" if si else r"$\dot\theta(\tau)$")
-    ax2.set_xlabel("t [s]" if si else r"$\tau$")
+    ax1.set_ylabel(bit_label)
+    ax2.set_ylabel(table_label)
+    ax2.set_xlabel(time_label)
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
     if len(runs) > 1:
@@ -377,7 +385,6 @@ def run_si_demo(
     wall["ecos"] = time.perf_counter() - t0
     model = loop_model(plant, controller, SI)
     scaling = model.scaling
-    assert scaling is not None
     t0 = time.perf_counter()
     taus = scaling.tau(np.asarray(res.time))
     mono = run_monolithic(model, float(taus[-1]), times=taus)

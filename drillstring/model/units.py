@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from drillstring.model.engine import InitialState
@@ -59,8 +59,14 @@ __all__ = [
     "DIMENSIONS",
     "Dimension",
     "PLANT_SI",
+    "IDENTITY",
     "SCALED_TIME",
+    "SCALED_UNITS",
     "SIScaling",
+    "SI_UNITS",
+    "Scales",
+    "UNIT_SYSTEMS",
+    "UnitSystem",
     "UNITS",
     "UnitDef",
     "UnitMismatch",
@@ -537,38 +543,46 @@ def si_plant_values(
 
 
 @dataclass(frozen=True)
-class SIScaling:
-    """The scales t*, L*, C of a physical rig and the conversions of the module docstring.
+class Scales:
+    """The scales of a unit system and the conversions of the module docstring.
 
-    Parameters
+    A value of a parameter in the unit system is its scaled value times ``C**torque *
+    t_star**time * L_star**length`` (:data:`DIMENSIONS`); a table angle or torque is offset by
+    the nominal twist ``twist0`` = R0/C. The defaults are the scaled system's: every conversion
+    is the identity (bit for bit: a product with 1.0, a quotient by 1.0, a sum with 0.0).
+    :class:`SIScaling` holds those of a physical rig.
+
+    Attributes
     ----------
-    rig : PhysicalParams
-        The physical parameter set; its scaled form (15)-(16) is :attr:`scaled`.
+    C : float
+        The torque scale: torsional stiffness of the string [N m/rad] (eq. (16)).
+    t_star : float
+        The time scale t* = sqrt(I1/C) [s] (Section II).
+    L_star : float
+        The length scale L* = 2C/(eps a^2) [m].
+    twist0 : float
+        Nominal twist R0/C of the scaled set [rad] (the scaled nominal torque, eq. (8)).
     """
 
-    rig: PhysicalParams
-    scaled: ScaledParams = field(init=False)
-    t_star: float = field(init=False)
-    L_star: float = field(init=False)
-    #: nominal twist R0/C of the scaled set [rad] (the scaled nominal torque, eq. (8))
-    twist0: float = field(init=False)
+    C: float = 1.0
+    t_star: float = 1.0
+    L_star: float = 1.0
+    twist0: float = 0.0
 
-    def __post_init__(self) -> None:
-        if not isinstance(self.rig, PhysicalParams):
-            raise TypeError(f"SIScaling needs a PhysicalParams, got {type(self.rig).__name__}")
-        scaled = self.rig.to_scaled()
-        object.__setattr__(self, "scaled", scaled)
-        object.__setattr__(self, "t_star", self.rig.t_star)
-        object.__setattr__(self, "L_star", self.rig.L_star)
-        object.__setattr__(self, "twist0", scaled.R0)
+    def factor(self, dimension: str) -> float:
+        """The factor from scaled values of ``dimension`` to this system's (:func:`si_scale`).
 
-    @property
-    def plant_constants(self) -> tuple[float, ...]:
-        """The constants of :func:`si_plant_values`: omega0, v0, t*, L*, R0/C of the scaled
-        set, and C, n, a, zeta, eps, l, sigma_bar of the rig."""
-        p, r = self.scaled, self.rig
-        return (p.omega0, p.v0, self.t_star, self.L_star, self.twist0, r.C, float(r.n), r.a,
-                r.zeta, r.eps, r.l, r.sigma_bar)  # fmt: skip
+        Parameters
+        ----------
+        dimension : str
+            A key of :data:`DIMENSIONS`.
+
+        Returns
+        -------
+        float
+            ``C**torque * t_star**time * L_star**length``.
+        """
+        return si_scale(dimension, self.C, self.t_star, self.L_star)
 
     # ------------------------------------------------------------------ time and torque
     def time(self, tau: Any) -> Any:
@@ -616,12 +630,12 @@ class SIScaling:
         float or ndarray
             R [N m].
         """
-        return self.rig.C * (self.twist0 + r)
+        return self.C * (self.twist0 + r)
 
     def torque_deviation(self, R: Any) -> Any:
         """The scaled deviation r = R/C - R0/C of an absolute table torque R [N m].
 
-        Eq. (16), as :func:`si_torque_deviation` with the rig's C and R0/C.
+        Eq. (16), as :func:`si_torque_deviation` with these C and R0/C.
 
         Parameters
         ----------
@@ -633,48 +647,7 @@ class SIScaling:
         float or ndarray
             r, the input R - R0 of (13).
         """
-        return si_torque_deviation(self.rig.C, self.twist0, R)
-
-    # ------------------------------------------------------------------ the plant
-    def plant_outputs(
-        self, values: Mapping[str, Any], tau: Any, torque_on_bit: Any = None
-    ) -> dict[str, Any]:
-        """The SI outputs (:data:`PLANT_SI`) of the scaled plant outputs at time ``tau``.
-
-        Parameters
-        ----------
-        values : mapping
-            Scaled outputs ``u, du, phi, dphi, theta, dtheta, d, g, tau_n`` and, on the
-            distributed string, ``top_torque_minus_R0`` (else the one-mode twist theta - phi)
-            (floats or arrays,
-            e.g. :meth:`Engine.outputs` or a :class:`SimulationResult`'s columns); any of
-            ``mode, stick_events, bit_bounce, torsional_stick`` are passed on unchanged.
-        tau : float or array
-            The scaled time of the values.
-        torque_on_bit : float or array, optional
-            The scaled torque on bit T (``Engine.diagnostics()["torque_on_bit"]``, which is the
-            twist torque during torsional stick); without it, eqs. (4) and (7) of the physical
-            rig at d and g (valid while the bit rotates).
-
-        Returns
-        -------
-        dict
-            Name -> SI value (see the module docstring).
-        """
-        v = values
-        T = 0.0 if torque_on_bit is None else torque_on_bit
-        si = si_plant_values(
-            self.plant_constants, tau, v["u"], v["du"], v["phi"], v["dphi"], v["theta"],
-            v["dtheta"], v["d"], v["g"], v["tau_n"], T,
-            v["top_torque_minus_R0"] if "top_torque_minus_R0" in v else v["theta"] - v["phi"],
-        )  # fmt: skip
-        out = dict(zip((q.name for q in PLANT_SI), si, strict=True))
-        if torque_on_bit is None:
-            out["torque_on_bit"] = self.rig.torque_on_bit(out["depth_of_cut"], v["g"])
-        for key in ("mode", "stick_events", "bit_bounce", "torsional_stick"):
-            if key in values:
-                out[key] = values[key]
-        return out
+        return si_torque_deviation(self.C, self.twist0, R)
 
     def initial_to_scaled(self, si: Mapping[str, float]) -> InitialState:
         """The scaled initial perturbation of SI deviations from the nominal motion at t = 0.
@@ -733,3 +706,203 @@ class SIScaling:
             "theta": x.theta,
             "dtheta": x.dtheta / ts,
         }
+
+
+#: The scales of the scaled system: every conversion the identity.
+IDENTITY = Scales()
+
+
+@dataclass(frozen=True, init=False)
+class SIScaling(Scales):
+    """The scales t*, L*, C of a physical rig (:class:`Scales`) and its plant's SI outputs.
+
+    Parameters
+    ----------
+    rig : PhysicalParams
+        The physical parameter set; its scaled form (15)-(16) is :attr:`scaled`.
+    """
+
+    rig: PhysicalParams
+    scaled: ScaledParams
+
+    def __init__(self, rig: PhysicalParams) -> None:
+        if not isinstance(rig, PhysicalParams):
+            raise TypeError(f"SIScaling needs a PhysicalParams, got {type(rig).__name__}")
+        scaled = rig.to_scaled()
+        for name, value in (("C", rig.C), ("t_star", rig.t_star), ("L_star", rig.L_star),
+                            ("twist0", scaled.R0), ("rig", rig), ("scaled", scaled)):  # fmt: skip
+            object.__setattr__(self, name, value)
+
+    @property
+    def plant_constants(self) -> tuple[float, ...]:
+        """The constants of :func:`si_plant_values`: omega0, v0, t*, L*, R0/C of the scaled
+        set, and C, n, a, zeta, eps, l, sigma_bar of the rig."""
+        p, r = self.scaled, self.rig
+        return (p.omega0, p.v0, self.t_star, self.L_star, self.twist0, r.C, float(r.n), r.a,
+                r.zeta, r.eps, r.l, r.sigma_bar)  # fmt: skip
+
+    # ------------------------------------------------------------------ the plant
+    def plant_outputs(
+        self, values: Mapping[str, Any], tau: Any, torque_on_bit: Any = None
+    ) -> dict[str, Any]:
+        """The SI outputs (:data:`PLANT_SI`) of the scaled plant outputs at time ``tau``.
+
+        Parameters
+        ----------
+        values : mapping
+            Scaled outputs ``u, du, phi, dphi, theta, dtheta, d, g, tau_n`` and, on the
+            distributed string, ``top_torque_minus_R0`` (else the one-mode twist theta - phi)
+            (floats or arrays,
+            e.g. :meth:`Engine.outputs` or a :class:`SimulationResult`'s columns); any of
+            ``mode, stick_events, bit_bounce, torsional_stick`` are passed on unchanged.
+        tau : float or array
+            The scaled time of the values.
+        torque_on_bit : float or array, optional
+            The scaled torque on bit T (``Engine.diagnostics()["torque_on_bit"]``, which is the
+            twist torque during torsional stick); without it, eqs. (4) and (7) of the physical
+            rig at d and g (valid while the bit rotates).
+
+        Returns
+        -------
+        dict
+            Name -> SI value (see the module docstring).
+        """
+        v = values
+        T = 0.0 if torque_on_bit is None else torque_on_bit
+        si = si_plant_values(
+            self.plant_constants, tau, v["u"], v["du"], v["phi"], v["dphi"], v["theta"],
+            v["dtheta"], v["d"], v["g"], v["tau_n"], T,
+            v["top_torque_minus_R0"] if "top_torque_minus_R0" in v else v["theta"] - v["phi"],
+        )  # fmt: skip
+        out = dict(zip((q.name for q in PLANT_SI), si, strict=True))
+        if torque_on_bit is None:
+            out["torque_on_bit"] = self.rig.torque_on_bit(out["depth_of_cut"], v["g"])
+        for key in ("mode", "stick_events", "bit_bounce", "torsional_stick"):
+            if key in values:
+                out[key] = values[key]
+        return out
+
+
+@dataclass(frozen=True)
+class UnitSystem:
+    """A unit system of the FMUs, the SSP packages and the loop: what each asks of it.
+
+    Two exist, :data:`SCALED_UNITS` (the paper's scaled quantities, whose conversions are the
+    identity) and :data:`SI_UNITS` (SI units and seconds on a rig, :class:`SIScaling`). Code that
+    serves both takes the system and asks it (:meth:`scales`, :meth:`factor`,
+    :meth:`declared_unit`, :meth:`parameter_set`) instead of branching on its name.
+
+    Attributes
+    ----------
+    name : str
+        ``"scaled"`` or ``"si"`` (the FMU scripts' ``UNIT_SYSTEM``).
+    suffix : str
+        Of the FMUs', packages' and systems' names (``DrillStringPlant`` + suffix).
+    physical : bool
+        Values are a physical rig's (then the rig's scales convert them) or scaled.
+    quantities : str
+        The system in words, for descriptions (``"SI units and seconds"``).
+    time_unit : str
+        Appended to a time shown to a person (``" s"``; ``""``: the scaled time tau).
+    time_note : str
+        Appended to the description of a time-valued variable: the unit of its number, which
+        a tool cannot read from the scaled FMUs' unit "1" (:data:`SCALED_TIME`).
+    """
+
+    name: str
+    suffix: str
+    physical: bool
+    quantities: str
+    time_unit: str
+    time_note: str
+
+    def scales(self, rig: PhysicalParams = REFERENCE_RIG) -> Scales:
+        """The scales of this system on ``rig``.
+
+        Parameters
+        ----------
+        rig : PhysicalParams
+            The physical rig (default: the reference rig, whose values the SI FMUs start
+            from).
+
+        Returns
+        -------
+        Scales
+            :class:`SIScaling` of ``rig`` in SI, :data:`IDENTITY` in the scaled system.
+        """
+        return SIScaling(rig) if self.physical else IDENTITY
+
+    def factor(self, dimension: str) -> float:
+        """The factor from scaled values of ``dimension`` to this system's on the reference rig.
+
+        Parameters
+        ----------
+        dimension : str
+            A key of :data:`DIMENSIONS`.
+
+        Returns
+        -------
+        float
+            1 in the scaled system.
+        """
+        return self.scales().factor(dimension)
+
+    def declared_unit(self, unit: str, display: str | None) -> dict[str, str]:
+        """The unit attributes a variable of SI ``unit`` declares in this system.
+
+        Parameters
+        ----------
+        unit : str
+            The variable's SI unit (a key of :data:`UNITS`).
+        display : str or None
+            Its display unit.
+
+        Returns
+        -------
+        dict
+            ``unit`` and ``display_unit`` (if any) in SI; none in the scaled system, whose
+            numbers are all of unit "1".
+        """
+        if not self.physical:
+            return {}
+        return {"unit": unit} | ({"display_unit": display} if display is not None else {})
+
+    def parameter_set(self, values: Mapping[str, Any]) -> tuple[ScaledParams, Scales]:
+        """The scaled parameter set that a plant's parameter values in this system give, and
+        the scales of their rig.
+
+        Parameters
+        ----------
+        values : mapping
+            By field name: of :class:`~drillstring.model.params.PhysicalParams` in SI, of
+            :class:`~drillstring.model.params.ScaledParams` in the scaled system (others are
+            ignored).
+
+        Returns
+        -------
+        (ScaledParams, Scales)
+            The set (15)-(16) and the rig's :class:`SIScaling`, or the set and
+            :data:`IDENTITY`.
+
+        Raises
+        ------
+        ValueError
+            A value the parameter set rejects (the message names it), or a rig whose scaled
+            set is invalid.
+        """
+        if self.physical:
+            rig = PhysicalParams(**{f.name: values[f.name] for f in fields(PhysicalParams)})
+            scaling = SIScaling(rig)
+            return scaling.scaled, scaling
+        scaled = {f.name: values[f.name] for f in fields(ScaledParams) if f.init}
+        return ScaledParams(**scaled), IDENTITY
+
+
+#: The paper's scaled quantities: every conversion the identity.
+SCALED_UNITS = UnitSystem(
+    "scaled", "", False, "the paper's scaled quantities", "", f"; in the {SCALED_TIME}"
+)
+#: SI units and seconds.
+SI_UNITS = UnitSystem("si", "SI", True, "SI units and seconds", " s", "; in seconds")
+#: The unit systems by name.
+UNIT_SYSTEMS: dict[str, UnitSystem] = {u.name: u for u in (SCALED_UNITS, SI_UNITS)}
