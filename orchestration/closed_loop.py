@@ -6,21 +6,25 @@ Two FMI 2.0 units, ``DrillStringPlant`` (model (11)-(14), (17)) and ``TorsionalC
     plant.phi, plant.dphi, plant.theta, plant.dtheta -> controller (same names)
     controller.R_minus_R0 -> plant.R_minus_R0
 
-One path for the data: the gains (F, K0, R_ff) and the parameter set are the FMUs' own, baked
-in by ``build_fmus.py``. An experiment (:class:`~drillstring.model.experiments.Experiment`)
-passes only what it defines as start values (:func:`experiment_start_values`), plus any
-explicit user overrides ``{"unit.variable": value}``. :func:`read_loop_model` reads the same
-start values back from the FMUs' model descriptions, so the monolithic twin
-(:mod:`.monolithic`) and the co-simulation describe the same system by construction.
+One wiring: the SSP package ``build_fmus.py`` writes (:mod:`.loop_ssp`, from
+:class:`LoopVariant`'s connections and :func:`experiment_start_values`) is what every run starts
+from: :func:`closed_loop_master` makes the master of its FMUs and connections, with the start
+values an experiment (:class:`~drillstring.model.experiments.Experiment`) defines and any
+explicit user overrides ``{"unit.variable": value}``. The gains (F, K0, R_ff) and the parameter
+set are the FMUs' own, baked in by ``build_fmus.py``. :func:`loop_model_of` reads the loop the
+master runs from the start values of its units (each model description read once per run), so
+the monolithic twin (:mod:`.monolithic`) and the co-simulation describe the same system by
+construction.
 :func:`errors_on_grid` compares the two at the co-simulation's communication points, which must
 lie on the monolithic output grid.
 
 The same loop exists in two unit systems (:class:`LoopVariant`): :data:`SCALED`, the FMUs above
 in the paper's scaled quantities, and :data:`SI`, ``DrillStringPlantSI`` and
 ``TorsionalControllerSI`` in SI units and seconds (:mod:`drillstring.model.units`). Every
-function here takes the variant (default :data:`SCALED`); :class:`LoopModel` is always the scaled
-model the FMUs describe, with the rig's :class:`~drillstring.model.units.SIScaling` for the SI
-variant, so the monolithic twin runs either.
+function here takes the variant (default :data:`SCALED`), whose unit system
+(:class:`~drillstring.model.units.UnitSystem`) converts; :class:`LoopModel` is always the scaled
+model the FMUs describe, with the scales of their rig (the identity for the scaled FMUs), so the
+monolithic twin runs either.
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
 from drillstring.model.simulate import SimulationResult
 from drillstring.model.units import IDENTITY, PLANT_SI, SCALED_UNITS, SI_UNITS, Scales, UnitSystem
-from drillstring.orchestration.connections import StartValue, Unit, effective_start_values
+from drillstring.orchestration.connections import StartValue, effective_start_values
 from drillstring.orchestration.master import Master
 from drillstring.orchestration.results import CosimResult
 
@@ -63,8 +67,8 @@ __all__ = [
     "LoopModel",
     "fmu_paths",
     "experiment_start_values",
-    "loop_units",
     "loop_model",
+    "loop_model_of",
     "read_loop_model",
     "closed_loop_master",
     "kept_sys_path",
@@ -318,39 +322,6 @@ def _split_overrides(overrides: Overrides | None) -> dict[str, dict[str, StartVa
     return out
 
 
-def loop_units(
-    fmus_dir: str | os.PathLike[str],
-    experiment: Experiment | None,
-    overrides: Overrides | None = None,
-    variant: LoopVariant = SCALED,
-) -> tuple[Unit, Unit]:
-    """Plant and controller units with the experiment's start values and the overrides.
-
-    Parameters
-    ----------
-    fmus_dir : path
-        Folder of the built FMUs.
-    experiment : Experiment or None
-        The set-up; None: the FMUs' own start values only.
-    overrides : mapping, optional
-        ``"plant.variable"`` / ``"controller.variable"`` -> start value, applied last.
-    variant : LoopVariant
-        The unit system (the SI experiment is converted on the reference rig).
-
-    Returns
-    -------
-    (Unit, Unit)
-        Plant and controller.
-    """
-    plant, controller = fmu_paths(fmus_dir, variant)
-    values = experiment_start_values(experiment, variant) if experiment is not None else {}
-    extra = _split_overrides(overrides)
-    return (
-        Unit("plant", plant, {**values.get("plant", {}), **extra["plant"]}),
-        Unit("controller", controller, {**values.get("controller", {}), **extra["controller"]}),
-    )
-
-
 def loop_model(
     plant: Mapping[str, Any], controller: Mapping[str, Any], variant: LoopVariant = SCALED
 ) -> LoopModel:
@@ -410,28 +381,6 @@ def _item(names: Sequence[str], value: StartValue) -> str:
     return names[value - 1]
 
 
-def read_loop_model(
-    fmus_dir: str | os.PathLike[str],
-    experiment: Experiment | None,
-    overrides: Overrides | None = None,
-    variant: LoopVariant = SCALED,
-) -> LoopModel:
-    """The closed loop the FMUs run in an experiment, read from their model descriptions.
-
-    Parameters
-    ----------
-    fmus_dir, experiment, overrides, variant
-        As for :func:`loop_units`.
-
-    Returns
-    -------
-    LoopModel
-        What :func:`closed_loop_master` co-simulates with the same arguments.
-    """
-    plant, controller = loop_units(fmus_dir, experiment, overrides, variant)
-    return loop_model(effective_start_values(plant), effective_start_values(controller), variant)
-
-
 def closed_loop_master(
     fmus_dir: str | os.PathLike[str],
     experiment: Experiment | None,
@@ -440,26 +389,94 @@ def closed_loop_master(
     record: Sequence[str] | None = None,
     variant: LoopVariant = SCALED,
 ) -> Master:
-    """A :class:`Master` of plant and controller set up for an experiment.
+    """A :class:`Master` of the variant's SSP package set up for an experiment.
+
+    The package ``build_fmus.py`` writes (``fmus_dir / variant.ssp``,
+    :mod:`.loop_ssp`) gives the FMUs and their connections; the start values are the FMUs' own,
+    replaced by the experiment's (:func:`experiment_start_values`) and then by the overrides.
 
     Parameters
     ----------
-    fmus_dir, experiment, overrides, variant
-        As for :func:`loop_units`.
+    fmus_dir : path
+        Folder of the built FMUs and packages.
+    experiment : Experiment or None
+        The set-up; None: the FMUs' own start values only.
+    overrides : mapping, optional
+        ``"plant.variable"`` / ``"controller.variable"`` -> start value, applied last.
     record : sequence of str, optional
         Extra variables recorded (default: the variant's ``record``, :data:`RECORD` for the
         scaled loop).
+    variant : LoopVariant
+        The loop and its unit system (the experiment is converted on the reference rig).
 
     Returns
     -------
     Master
-        The master (a context manager: close it to remove the extracted FMUs).
+        The master (a context manager: close it to remove the extracted FMUs);
+        :func:`loop_model_of` gives the loop it runs.
+
+    Raises
+    ------
+    ValueError
+        Naming the package that is missing and how to build it, or a bad start value.
     """
-    return Master(
-        loop_units(fmus_dir, experiment, overrides, variant),
-        variant.connections,
+    package = Path(fmus_dir) / variant.ssp
+    if not package.is_file():
+        raise ValueError(
+            f"no {variant.ssp} in {str(fmus_dir)!r} (build it with `python build_fmus.py "
+            f"--gains GAINS.json --out {fmus_dir}`)"
+        )
+    values = experiment_start_values(experiment, variant) if experiment is not None else {}
+    extra = _split_overrides(overrides)
+    return Master.from_ssp(
+        package,
+        (),
+        start_values={u: {**values.get(u, {}), **extra[u]} for u in UNITS},
         record=variant.record if record is None else record,
     )
+
+
+def loop_model_of(master: Master, variant: LoopVariant = SCALED) -> LoopModel:
+    """The closed loop a master of :func:`closed_loop_master` runs (its units' start values;
+    the model descriptions it has read already).
+
+    Parameters
+    ----------
+    master : Master
+        The master.
+    variant : LoopVariant
+        Its loop.
+
+    Returns
+    -------
+    LoopModel
+        What the master co-simulates: the monolithic twin's model.
+    """
+    plant, controller = (effective_start_values(u) for u in master.system.units)
+    return loop_model(plant, controller, variant)
+
+
+def read_loop_model(
+    fmus_dir: str | os.PathLike[str],
+    experiment: Experiment | None,
+    overrides: Overrides | None = None,
+    variant: LoopVariant = SCALED,
+) -> LoopModel:
+    """The closed loop the FMUs run in an experiment (:func:`loop_model_of` of
+    :func:`closed_loop_master` with the same arguments).
+
+    Parameters
+    ----------
+    fmus_dir, experiment, overrides, variant
+        As for :func:`closed_loop_master`.
+
+    Returns
+    -------
+    LoopModel
+        What :func:`closed_loop_master` co-simulates with the same arguments.
+    """
+    with closed_loop_master(fmus_dir, experiment, overrides=overrides, variant=variant) as m:
+        return loop_model_of(m, variant)
 
 
 @contextlib.contextmanager

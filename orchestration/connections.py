@@ -77,11 +77,15 @@ class Unit:
         Variable name -> start value set before initialization (parameters, inputs,
         ``initial="exact"`` or ``"approx"`` variables), replacing the one the model
         description declares.
+    description : fmpy ModelDescription, optional
+        The FMU's model description where the caller has read it already (it is then not read
+        again: :func:`build_system`, :func:`effective_start_values`).
     """
 
     name: str
     fmu: str | Path
     start_values: Mapping[str, StartValue] = field(default_factory=dict)
+    description: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or "." in self.name:
@@ -255,7 +259,9 @@ def read_fmu_description(what: str, fmu: str | Path, shown: str | None = None) -
 
 
 def _load(unit: Unit) -> tuple[Any, dict[str, Any]]:
-    md = read_fmu_description(f"unit {unit.name!r}", unit.fmu)
+    md = unit.description
+    if md is None:
+        md = read_fmu_description(f"unit {unit.name!r}", unit.fmu)
     if md.fmiVersion != "2.0":
         raise ValueError(f"unit {unit.name!r}: FMI version {md.fmiVersion!r}, need 2.0")
     if md.coSimulation is None:
@@ -552,7 +558,7 @@ def effective_start_values(unit: Unit) -> dict[str, StartValue]:
     Parameters
     ----------
     unit : Unit
-        The unit (its FMU's model description is read).
+        The unit (its FMU's model description is read unless the unit carries it).
 
     Returns
     -------

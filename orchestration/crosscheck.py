@@ -41,7 +41,7 @@ from drillstring.orchestration.closed_loop import (
     Overrides,
     closed_loop_master,
     errors_on_grid,
-    read_loop_model,
+    loop_model_of,
     run_cosim,
 )
 from drillstring.orchestration.monolithic import run_monolithic
@@ -263,20 +263,20 @@ def run_crosscheck(
     RuntimeError
         If the monolithic reference stops early.
     """
-    model = read_loop_model(fmus_dir, experiment, overrides)
     tau_end = experiment.tau_end
     steps = sorted({float(H) for H in steps}, reverse=True)
-    dt = check_steps(steps, model.options.h, tau_end)
     for scheme, ex in schemes:
         if scheme not in ("jacobi", "gauss-seidel") or ex not in ("zoh", "linear"):
             raise ValueError(f"unknown scheme/extrapolation {scheme!r}/{ex!r}")
-    w0 = time.perf_counter()
-    ref = run_monolithic(model, tau_end, dt_out=dt)
-    ref_wall = time.perf_counter() - w0
-    if not ref.status.ok:
-        raise RuntimeError(f"the monolithic reference stopped early: {ref.status.message}")
     rows = []
     with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
+        model = loop_model_of(master)
+        dt = check_steps(steps, model.options.h, tau_end)
+        w0 = time.perf_counter()
+        ref = run_monolithic(model, tau_end, dt_out=dt)
+        ref_wall = time.perf_counter() - w0
+        if not ref.status.ok:
+            raise RuntimeError(f"the monolithic reference stopped early: {ref.status.message}")
         for scheme, ex in schemes:
             for H in steps:
                 res = run_cosim(master, tau_end, H, scheme=scheme, extrapolation=ex)
@@ -483,7 +483,6 @@ def adaptive_vs_fixed(
     RuntimeError
         If the adaptive co-simulation fails.
     """
-    model = read_loop_model(fmus_dir, experiment, overrides)
     tau_end = experiment.tau_end
 
     def error(res: CosimResult) -> float:
@@ -494,6 +493,7 @@ def adaptive_vs_fixed(
         return float(np.max(np.abs(res["plant.dphi"] - ref.dphi)))
 
     with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
+        model = loop_model_of(master)
         ad = run_cosim(master, tau_end, None, step_control=control, extrapolation=extrapolation)
         if not ad.completed:
             raise RuntimeError(f"adaptive co-simulation failed: {ad.failure}")

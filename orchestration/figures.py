@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -42,10 +43,11 @@ from drillstring.model.params import ScaledParams, known_rig
 from drillstring.model.simulate import SimulationResult
 from drillstring.model.topdrive import RPM, TDS_11SA, top_drive
 from drillstring.orchestration.closed_loop import (
+    LoopModel,
     Overrides,
     closed_loop_master,
     grid_indices,
-    read_loop_model,
+    loop_model_of,
     run_cosim,
 )
 from drillstring.orchestration.monolithic import run_monolithic
@@ -122,10 +124,27 @@ def run_pair(
         Missing FMUs, bad start values, or an ``H`` that is not a multiple of the engine step
         or does not divide ``tau_end``.
     """
-    model = read_loop_model(fmus_dir, experiment, overrides)
+    cos, mono, summary, _ = _pair(fmus_dir, experiment, H, scheme, extrapolation, overrides)
+    return cos, mono, summary
+
+
+def _pair(
+    fmus_dir: str | os.PathLike[str],
+    experiment: Experiment,
+    H: float,
+    scheme: str,
+    extrapolation: str,
+    overrides: Overrides | None,
+    check: Callable[[LoopModel], None] | None = None,
+) -> tuple[CosimResult, SimulationResult, dict[str, Any], LoopModel]:
+    """:func:`run_pair`, and the loop both runs ran; ``check`` is called with it before
+    them."""
     tau_end = experiment.tau_end
-    _check_H(H, model.options.h, tau_end)
     with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
+        model = loop_model_of(master)
+        _check_H(H, model.options.h, tau_end)
+        if check is not None:
+            check(model)
         cos = run_cosim(master, tau_end, H, scheme=scheme, extrapolation=extrapolation)
     w0 = time.perf_counter()
     mono = run_monolithic(model, tau_end, dt_out=H)
@@ -158,7 +177,7 @@ def run_pair(
         "actuator": actuator,
         "assumes": assumes,
     }
-    return cos, mono, summary
+    return cos, mono, summary, model
 
 
 def _write_outputs(
@@ -355,16 +374,21 @@ def write_fig6(
     ValueError
         If the controller is not switched on inside ``(0, tau_end)``.
     """
-    law = read_loop_model(fmus_dir, experiment, overrides).control
     tau_end = experiment.tau_end
-    if not isinstance(law, AffineFeedback):
-        raise ValueError(f"Fig. 6 needs the feedback enabled (experiment {experiment.name!r})")
-    t_on = law.t_on
-    if not 0 < t_on < tau_end:
-        raise ValueError(f"t_on must lie inside (0, tau_end = {tau_end!r}), got {t_on!r}")
-    cos, mono, summary = run_pair(
-        fmus_dir, experiment, H, scheme=scheme, extrapolation=extrapolation, overrides=overrides
+
+    def switched_on_inside(model: LoopModel) -> None:
+        law = model.control
+        if not isinstance(law, AffineFeedback):
+            raise ValueError(f"Fig. 6 needs the feedback enabled (experiment {experiment.name!r})")
+        if not 0 < law.t_on < tau_end:
+            raise ValueError(f"t_on must lie inside (0, tau_end = {tau_end!r}), got {law.t_on!r}")
+
+    cos, mono, summary, model = _pair(
+        fmus_dir, experiment, H, scheme, extrapolation, overrides, switched_on_inside
     )
+    law = model.control
+    assert isinstance(law, AffineFeedback)
+    t_on = law.t_on
     dphi0 = summary["dphi0"]
     t = cos.time
     count = cos["plant.torsional_stick"]

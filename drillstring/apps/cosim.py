@@ -43,9 +43,8 @@ from drillstring.orchestration.closed_loop import (
     VARIANTS,
     LoopVariant,
     kept_sys_path,
-    loop_model,
+    loop_model_of,
 )
-from drillstring.orchestration.connections import effective_start_values
 from drillstring.orchestration.figures import actuator_note
 from drillstring.orchestration.hosts import run_ecos
 from drillstring.orchestration.master import Master
@@ -373,7 +372,7 @@ def run_si_demo(
         package = master.ssp
         assert package is not None and package.stop_time is not None and package.step is not None
         stop, step = package.stop_time if stop_time is None else stop_time, package.step
-        plant, controller = (effective_start_values(u) for u in master.system.units)
+        model = loop_model_of(master, SI)
         t0 = time.perf_counter()
         res: CosimResult = master.run(stop, step, exchange="simple", grid="sum", progress=False)
         wall["master"] = time.perf_counter() - t0
@@ -383,7 +382,6 @@ def run_si_demo(
     t0 = time.perf_counter()
     ecos = run_ecos(ssp, parameter_set, stop, step, recorded)
     wall["ecos"] = time.perf_counter() - t0
-    model = loop_model(plant, controller, SI)
     scaling = model.scaling
     t0 = time.perf_counter()
     taus = scaling.tau(np.asarray(res.time))
