@@ -516,9 +516,7 @@ class Master:
         )
 
 
-def _typed_values(
-    component: str, fmu: Path, md: Any, values: Mapping[str, SspParameter]
-) -> dict:
+def _typed_values(component: str, fmu: Path, md: Any, values: Mapping[str, SspParameter]) -> dict:
     """Start values of a component's parameters for its FMU's variables (``md``, its model
     description): an ``ssv:Enumeration`` item name becomes its value, a Real given in another
     unit is converted into the variable's; a parameter the FMU does not have is an error (not
