@@ -54,7 +54,7 @@ from drillstring.model.engine import Engine
 from drillstring.model.experiments import FIG5
 from drillstring.orchestration import native_loop
 from drillstring.orchestration.closed_loop import (
-    CONNECTIONS,
+    SCALED,
     closed_loop_master,
     experiment_start_values,
     fmu_paths,
@@ -88,7 +88,7 @@ def libcosim_time(fmus: dict[str, Path], starts: dict[str, dict], H: float, n: i
             name: ex.add_local_slave(CosimLocalSlave(fmu_path=str(p), instance_name=name))
             for name, p in fmus.items()
         }
-        for conn in CONNECTIONS:
+        for conn in SCALED.connections:
             src, dst = (s.strip().split(".", 1) for s in conn.split("->"))
             status = ex.connect_real_variables(
                 idx[src[0]], vr[src[0]][src[1]], idx[dst[0]], vr[dst[0]][dst[1]]
@@ -144,7 +144,7 @@ def c_host_config(fmus: dict[str, Path], starts: dict[str, dict], H: float, work
         for kind, ref, value in _typed(md, starts.get(name, {})):
             word = {"Real": "real", "Integer": "integer", "Enumeration": "integer"}.get(kind)
             lines.append(f"{word or 'boolean'} {name} {ref} {float(value)!r}")
-    for conn in CONNECTIONS:
+    for conn in SCALED.connections:
         src, dst = (s.strip().split(".", 1) for s in conn.split("->"))
         lines.append(f"connect {src[0]} {vr[src[0]][src[1]]} {dst[0]} {vr[dst[0]][dst[1]]}")
     lines += [

@@ -20,8 +20,9 @@ The general master, one module per job:
 * :mod:`.hosts` -- other hosts of an SSP package: Ecos (API and command line), fmpy's
   ``simulate_ssp``.
 
-The drill-string closed loop on top of it: :mod:`.closed_loop` (the two FMUs, the start values
-of an experiment, the model they describe), :mod:`.monolithic` (its monolithic twin),
+The drill-string closed loop on top of it: :mod:`.closed_loop` (the master of the loop's SSP
+package, the start values of an experiment, the model it runs), :mod:`.monolithic` (its
+monolithic twin),
 :mod:`.figures` (Figs. 5 and 6), :mod:`.crosscheck` (convergence in the macro step) and
 :mod:`.loop_ssp` (the loop as SSP packages, scaled and SI; ``docs/si_fmus.md``).
 """

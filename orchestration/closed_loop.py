@@ -45,7 +45,7 @@ from drillstring.model.control import LATCH_MODES, AffineFeedback
 from drillstring.model.engine import ON_INVALID_CHOICES, EngineOptions, InitialState
 from drillstring.model.experiments import Experiment
 from drillstring.model.laws import SampledAffine
-from drillstring.model.params import REFERENCE_RIG, PhysicalParams, ScaledParams
+from drillstring.model.params import PhysicalParams, ScaledParams
 from drillstring.model.simulate import SimulationResult
 from drillstring.model.units import IDENTITY, PLANT_SI, SCALED_UNITS, SI_UNITS, Scales, UnitSystem
 from drillstring.orchestration.connections import StartValue, effective_start_values
@@ -59,13 +59,9 @@ __all__ = [
     "TOPDRIVE_SI",
     "VARIANTS",
     "LoopVariant",
-    "PLANT_FMU",
-    "CONTROLLER_FMU",
-    "FEEDBACK",
-    "CONNECTIONS",
-    "RECORD",
     "LoopModel",
     "fmu_paths",
+    "loop_package",
     "experiment_start_values",
     "loop_model",
     "loop_model_of",
@@ -77,26 +73,7 @@ __all__ = [
     "errors_on_grid",
 ]
 
-PLANT_FMU = "DrillStringPlant.fmu"
-CONTROLLER_FMU = "TorsionalController.fmu"
 UNITS = ("plant", "controller")
-FEEDBACK = ("phi", "dphi", "theta", "dtheta")
-CONNECTIONS: tuple[str, ...] = (
-    *(f"plant.{n} -> controller.{n}" for n in FEEDBACK),
-    "controller.R_minus_R0 -> plant.R_minus_R0",
-)
-#: plant outputs recorded besides the connected ones
-RECORD: tuple[str, ...] = (
-    "plant.u",
-    "plant.du",
-    "plant.d",
-    "plant.g",
-    "plant.tau_n",
-    "plant.mode",
-    "plant.stick_events",
-    "plant.torsional_stick",
-    "plant.bit_bounce",
-)
 
 # The FMUs' variable names (fmu_src/drillstring_plant.py, fmu_src/drillstring_controller.py).
 #: ScaledParams field -> plant parameter
@@ -113,43 +90,63 @@ _PHYSICAL = tuple(f.name for f in dataclasses.fields(PhysicalParams))
 Overrides = Mapping[str, StartValue]
 
 
+#: The controller FMU's model and the loop's system of each controller family.
+_MODELS = {
+    "lmi": ("TorsionalController", "DrillStringClosedLoop"),
+    "topdrive": ("TopDriveController", "DrillStringTopDrive"),
+}
+
+
 @dataclass(frozen=True)
 class LoopVariant:
-    """The closed loop in one unit system: its two FMU files and the names that connect them.
+    """The closed loop in one unit system: its FMU files, package and connecting names.
 
     Attributes
     ----------
     units : UnitSystem
         The unit system of the FMUs (:data:`~drillstring.model.units.SCALED_UNITS` or
-        ``SI_UNITS``).
-    plant_fmu, controller_fmu : str
-        File names of the FMUs (as ``build_fmus.py`` writes them).
+        ``SI_UNITS``), whose suffix ends the names of the FMUs and of the package.
     feedback : tuple of str
         Plant outputs fed to the controller inputs of the same names.
     torque : str
         The controller output fed to the plant input of the same name.
     record : tuple of str
         Plant outputs recorded besides the connected ones.
-    ssp : str
-        File name of the SSP package of the loop.
     controller : str
         Which controller FMU closes the loop: ``"lmi"`` (the paper's law, ``TorsionalController``)
         or ``"topdrive"`` (the industrial laws, ``TopDriveController``, the same connectors).
     """
 
     units: UnitSystem
-    plant_fmu: str
-    controller_fmu: str
     feedback: tuple[str, ...]
     torque: str
     record: tuple[str, ...]
-    ssp: str
     controller: str = "lmi"
 
     @property
     def name(self) -> str:
         """The unit system's name, ``"scaled"`` or ``"si"``."""
         return self.units.name
+
+    @property
+    def system(self) -> str:
+        """The loop's name (``DrillStringClosedLoopSI``), the package's file stem."""
+        return _MODELS[self.controller][1] + self.units.suffix
+
+    @property
+    def plant_fmu(self) -> str:
+        """The plant FMU's file name (as ``build_fmus.py`` writes it)."""
+        return f"DrillStringPlant{self.units.suffix}.fmu"
+
+    @property
+    def controller_fmu(self) -> str:
+        """The controller FMU's file name."""
+        return f"{_MODELS[self.controller][0]}{self.units.suffix}.fmu"
+
+    @property
+    def ssp(self) -> str:
+        """The file name of the loop's SSP package."""
+        return f"{self.system}.ssp"
 
     @property
     def connections(self) -> tuple[str, ...]:
@@ -164,38 +161,22 @@ _COUNTERS = ("plant.mode", "plant.stick_events", "plant.torsional_stick", "plant
 #: The loop in the paper's scaled quantities.
 SCALED = LoopVariant(
     SCALED_UNITS,
-    PLANT_FMU,
-    CONTROLLER_FMU,
-    FEEDBACK,
+    ("phi", "dphi", "theta", "dtheta"),
     "R_minus_R0",
-    RECORD,
-    "DrillStringClosedLoop.ssp",
+    ("plant.u", "plant.du", "plant.d", "plant.g", "plant.tau_n", *_COUNTERS),
 )
 #: The loop in SI units and seconds.
 SI = LoopVariant(
     SI_UNITS,
-    "DrillStringPlantSI.fmu",
-    "TorsionalControllerSI.fmu",
     ("bit_angle", "bit_speed", "table_angle", "table_speed"),
     "table_torque",
     tuple(f"plant.{q.name}" for q in PLANT_SI if not q.name.endswith(("_angle", "_speed")))
     + _COUNTERS,
-    "DrillStringClosedLoopSI.ssp",
 )
 VARIANTS: dict[str, LoopVariant] = {v.name: v for v in (SCALED, SI)}
 #: The same loops closed by the industrial top-drive controller FMU instead of the LMI one.
-TOPDRIVE = dataclasses.replace(
-    SCALED,
-    controller_fmu="TopDriveController.fmu",
-    ssp="DrillStringTopDrive.ssp",
-    controller="topdrive",
-)
-TOPDRIVE_SI = dataclasses.replace(
-    SI,
-    controller_fmu="TopDriveControllerSI.fmu",
-    ssp="DrillStringTopDriveSI.ssp",
-    controller="topdrive",
-)
+TOPDRIVE = dataclasses.replace(SCALED, controller="topdrive")
+TOPDRIVE_SI = dataclasses.replace(SI, controller="topdrive")
 
 
 @dataclass(frozen=True)
@@ -261,7 +242,6 @@ def fmu_paths(fmus_dir: str | os.PathLike[str], variant: LoopVariant = SCALED) -
 def experiment_start_values(
     experiment: Experiment,
     variant: LoopVariant = SCALED,
-    rig: PhysicalParams = REFERENCE_RIG,
     *,
     full_initial: bool = False,
 ) -> dict[str, dict[str, StartValue]]:
@@ -273,9 +253,7 @@ def experiment_start_values(
         The set-up (``docs/model.md``, "Experiments of Figs. 5 and 6"), in scaled time.
     variant : LoopVariant
         The unit system: the initial state, ``h`` and ``t_on`` are converted by its scales on
-        ``rig`` (:meth:`~drillstring.model.units.UnitSystem.scales`).
-    rig : PhysicalParams
-        The physical rig of the SI FMUs (their start values are the reference rig).
+        the reference rig, the SI FMUs' (:meth:`~drillstring.model.units.UnitSystem.scales`).
     full_initial : bool
         Give all six initial deviations (``u0`` ... ``dtheta0``), not only ``dphi0``.
 
@@ -286,7 +264,7 @@ def experiment_start_values(
         enabled}}`` (no latch for the top-drive controller); the gains and the parameter set
         are the FMUs' own.
     """
-    scales = variant.units.scales(rig)
+    scales = variant.units.scales()
     initial = scales.initial_to_si(experiment.initial())
     h, t_on = scales.time(float(experiment.h)), scales.time(float(experiment.t_on))
     keys = _INITIAL if full_initial else {"dphi": "dphi0"}
@@ -381,6 +359,35 @@ def _item(names: Sequence[str], value: StartValue) -> str:
     return names[value - 1]
 
 
+def loop_package(fmus_dir: str | os.PathLike[str], variant: LoopVariant = SCALED) -> Path:
+    """The variant's SSP package in a folder of ``build_fmus.py``'s output.
+
+    Parameters
+    ----------
+    fmus_dir : path
+        Folder of the built FMUs and packages.
+    variant : LoopVariant
+        The loop.
+
+    Returns
+    -------
+    Path
+        ``fmus_dir / variant.ssp``.
+
+    Raises
+    ------
+    ValueError
+        Naming the package that is missing and how to build it.
+    """
+    package = Path(fmus_dir) / variant.ssp
+    if not package.is_file():
+        raise ValueError(
+            f"no {variant.ssp} in {str(fmus_dir)!r} (build it with `python build_fmus.py "
+            f"--gains GAINS.json --out {fmus_dir}`)"
+        )
+    return package
+
+
 def closed_loop_master(
     fmus_dir: str | os.PathLike[str],
     experiment: Experiment | None,
@@ -404,8 +411,7 @@ def closed_loop_master(
     overrides : mapping, optional
         ``"plant.variable"`` / ``"controller.variable"`` -> start value, applied last.
     record : sequence of str, optional
-        Extra variables recorded (default: the variant's ``record``, :data:`RECORD` for the
-        scaled loop).
+        Extra variables recorded (default: the variant's ``record``).
     variant : LoopVariant
         The loop and its unit system (the experiment is converted on the reference rig).
 
@@ -420,12 +426,7 @@ def closed_loop_master(
     ValueError
         Naming the package that is missing and how to build it, or a bad start value.
     """
-    package = Path(fmus_dir) / variant.ssp
-    if not package.is_file():
-        raise ValueError(
-            f"no {variant.ssp} in {str(fmus_dir)!r} (build it with `python build_fmus.py "
-            f"--gains GAINS.json --out {fmus_dir}`)"
-        )
+    package = loop_package(fmus_dir, variant)
     values = experiment_start_values(experiment, variant) if experiment is not None else {}
     extra = _split_overrides(overrides)
     return Master.from_ssp(

@@ -91,13 +91,14 @@ def run_pair(
     scheme: str = "jacobi",
     extrapolation: str = "linear",
     overrides: Overrides | None = None,
-) -> tuple[CosimResult, SimulationResult, dict[str, Any]]:
+    check: Callable[[LoopModel], None] | None = None,
+) -> tuple[CosimResult, SimulationResult, dict[str, Any], LoopModel]:
     """Co-simulation (fixed step H) and monolithic twin of one closed-loop experiment.
 
     Parameters
     ----------
     fmus_dir : path
-        Folder of the built FMUs (their gains and parameter set are used).
+        Folder of the built FMUs and packages (their gains and parameter set are used).
     experiment : Experiment
         The set-up, run over ``[0, experiment.tau_end]``.
     H : float
@@ -106,6 +107,8 @@ def run_pair(
         Coupling of the master.
     overrides : mapping, optional
         ``"unit.variable"`` -> start value, for both runs.
+    check : callable, optional
+        Called with the loop before either run (raises to refuse it).
 
     Returns
     -------
@@ -117,28 +120,15 @@ def run_pair(
         Steps, wall times, max |difference| of du/dtau and dphi/dtau over the common
         communication points, the co-simulation's failure if any; what the run asks of the
         actuator and the note that says so (``actuator``, ``assumes``: :func:`actuator_note`).
+    model : LoopModel
+        The loop both ran (:func:`~.closed_loop.loop_model_of`).
 
     Raises
     ------
     ValueError
-        Missing FMUs, bad start values, or an ``H`` that is not a multiple of the engine step
-        or does not divide ``tau_end``.
+        Missing FMUs or package, bad start values, or an ``H`` that is not a multiple of the
+        engine step or does not divide ``tau_end``.
     """
-    cos, mono, summary, _ = _pair(fmus_dir, experiment, H, scheme, extrapolation, overrides)
-    return cos, mono, summary
-
-
-def _pair(
-    fmus_dir: str | os.PathLike[str],
-    experiment: Experiment,
-    H: float,
-    scheme: str,
-    extrapolation: str,
-    overrides: Overrides | None,
-    check: Callable[[LoopModel], None] | None = None,
-) -> tuple[CosimResult, SimulationResult, dict[str, Any], LoopModel]:
-    """:func:`run_pair`, and the loop both runs ran; ``check`` is called with it before
-    them."""
     tau_end = experiment.tau_end
     with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
         model = loop_model_of(master)
@@ -318,7 +308,7 @@ def write_fig5(
         Paths ``png`` and ``csv``, :func:`run_pair`'s summary, max |dphi/dtau| over the last
         10 time units of both runs, min d and the axial stick entries of the co-simulation.
     """
-    cos, mono, summary = run_pair(
+    cos, mono, summary, _ = run_pair(
         fmus_dir, experiment, H, scheme=scheme, extrapolation=extrapolation, overrides=overrides
     )
     tau_end = experiment.tau_end
@@ -383,9 +373,10 @@ def write_fig6(
         if not 0 < law.t_on < tau_end:
             raise ValueError(f"t_on must lie inside (0, tau_end = {tau_end!r}), got {law.t_on!r}")
 
-    cos, mono, summary, model = _pair(
-        fmus_dir, experiment, H, scheme, extrapolation, overrides, switched_on_inside
-    )
+    cos, mono, summary, model = run_pair(
+        fmus_dir, experiment, H, scheme=scheme, extrapolation=extrapolation, overrides=overrides,
+        check=switched_on_inside,
+    )  # fmt: skip
     law = model.control
     assert isinstance(law, AffineFeedback)
     t_on = law.t_on

@@ -308,7 +308,7 @@ def write_loop_package(
             for name in paths
         )
         ssds.append((e, comps))
-    system = _system_name(variant)
+    system = variant.system
     (first, first_comps), rest = ssds[0], ssds[1:]
     return write_ssp(
         target,
@@ -334,11 +334,6 @@ def write_loop_package(
         documentation={"index.html": package_documentation(variant)},
         source_date_epoch=source_date_epoch,
     )
-
-
-def _system_name(variant: LoopVariant) -> str:
-    base = "DrillStringTopDrive" if variant.controller == "topdrive" else "DrillStringClosedLoop"
-    return base + variant.units.suffix
 
 
 def _loop_description(variant: LoopVariant) -> str:
@@ -413,7 +408,7 @@ def package_documentation(variant: LoopVariant) -> str:
     first = experiments[0]
     other = experiments[1].name
     _, stop, step = loop_default_experiment(variant, first.experiment)
-    system = _system_name(variant)
+    system = variant.system
     time = _TIME_NOTE[units.name].format(
         si_package=esc(system + SI_UNITS.suffix), t_star=REFERENCE_RIG.t_star
     )

@@ -25,7 +25,7 @@ import pytest
 from drillstring.apps.cli import main as cli_main
 from drillstring.apps.crosscheck import crosscheck_main
 from drillstring.model.experiments import FIG5
-from drillstring.orchestration.closed_loop import read_loop_model
+from drillstring.orchestration.closed_loop import closed_loop_master, loop_model_of, read_loop_model
 from drillstring.orchestration.crosscheck import (
     CROSSCHECK,
     adaptive_vs_fixed,
@@ -41,9 +41,6 @@ pytestmark = pytest.mark.fmu
 LIB_T = 2.0
 LIB_STEPS_NS = (4_000_000, 2_000_000)
 LIB_STARTS = {"controller": {"t_on": 0.5}}  # switch-on (with the FMU's latch) inside the run
-CONNECTIONS = [f"plant.{n} -> controller.{n}" for n in tl.FEEDBACK] + [
-    "controller.R_minus_R0 -> plant.R_minus_R0"
-]
 COLUMNS = ["plant." + n for n in tl.RECORD_PLANT] + ["controller.R_minus_R0"]
 #: the largest errors occur in the first time unit (initial transient)
 CC = dataclasses.replace(CROSSCHECK, tau_end=5.0)
@@ -57,21 +54,16 @@ CC = dataclasses.replace(CROSSCHECK, tau_end=5.0)
 @pytest.fixture(scope="module")
 def lib_runs(built):
     """Per H: libcosim rows, master simple/ns, master default, monolithic (law continuous)."""
-    units = [
-        Unit("plant", built.plant.fmu),
-        Unit("controller", built.controller.fmu, LIB_STARTS["controller"]),
-    ]
     dt = min(LIB_STEPS_NS) / 1e9
-    # the twin of the FMUs as built (their own start values) with the same t_on
-    model = read_loop_model(built.out, None, {"controller.t_on": LIB_STARTS["controller"]["t_on"]})
-    mono = run_monolithic(model, LIB_T, dt_out=dt)
     out = {}
+    # the FMUs as built (their own start values) with the same t_on as libcosim's
+    t_on = {"controller.t_on": LIB_STARTS["controller"]["t_on"]}
+    record = ["plant.u", "plant.du", "plant.d", "plant.g", "plant.tau_n"]
     with (
-        Master(
-            units, CONNECTIONS, record=["plant.u", "plant.du", "plant.d", "plant.g", "plant.tau_n"]
-        ) as m,
+        closed_loop_master(built.out, None, overrides=t_on, record=record) as m,
         tl.kept_sys_path(),
     ):
+        mono = run_monolithic(loop_model_of(m), LIB_T, dt_out=dt)  # its twin
         for h_ns in LIB_STEPS_NS:
             H, n = h_ns / 1e9, round(LIB_T * 1e9 / h_ns)
             lib = tl.run_libcosim(built, h_ns, n, LIB_STARTS)
@@ -144,8 +136,7 @@ def test_exchange_semantics_match_hand_written_recurrence(small_fmus, exchange):
 
 
 def test_exchange_and_grid_arguments_are_validated(built):
-    units = [Unit("plant", built.plant.fmu), Unit("controller", built.controller.fmu)]
-    with Master(units, CONNECTIONS) as m:
+    with closed_loop_master(built.out, None) as m:
         with pytest.raises(ValueError, match="exchange must be"):
             m.run(1.0, 0.1, exchange="fast")
         with pytest.raises(ValueError, match="grid must be"):

@@ -21,7 +21,7 @@ from typing import Any
 
 from drillstring.apps.export import build_fmus_into
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFileError, read_gains
-from drillstring.orchestration.closed_loop import fmu_paths
+from drillstring.orchestration.closed_loop import loop_package
 from drillstring.orchestration.crosscheck import (
     CROSSCHECK,
     DEFAULT_CONTROL,
@@ -131,7 +131,7 @@ def crosscheck_main(argv: Sequence[str] | None = None) -> int:
         if args.adaptive_atol > 0:
             control = replace(DEFAULT_CONTROL, atol=args.adaptive_atol)
         if args.fmus is not None:
-            fmu_paths(args.fmus)
+            loop_package(args.fmus)
         else:
             read_gains(gains_path)
     except (ValueError, GainsFileError, OSError) as exc:

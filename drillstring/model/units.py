@@ -570,18 +570,8 @@ class Scales:
     twist0: float = 0.0
 
     def factor(self, dimension: str) -> float:
-        """The factor from scaled values of ``dimension`` to this system's (:func:`si_scale`).
-
-        Parameters
-        ----------
-        dimension : str
-            A key of :data:`DIMENSIONS`.
-
-        Returns
-        -------
-        float
-            ``C**torque * t_star**time * L_star**length``.
-        """
+        """The factor ``C**torque * t_star**time * L_star**length`` from scaled values of
+        ``dimension`` (a key of :data:`DIMENSIONS`) to this system's (:func:`si_scale`)."""
         return si_scale(dimension, self.C, self.t_star, self.L_star)
 
     # ------------------------------------------------------------------ time and torque
@@ -787,10 +777,9 @@ class SIScaling(Scales):
 class UnitSystem:
     """A unit system of the FMUs, the SSP packages and the loop: what each asks of it.
 
-    Two exist, :data:`SCALED_UNITS` (the paper's scaled quantities, whose conversions are the
-    identity) and :data:`SI_UNITS` (SI units and seconds on a rig, :class:`SIScaling`). Code that
-    serves both takes the system and asks it (:meth:`scales`, :meth:`factor`,
-    :meth:`declared_unit`, :meth:`parameter_set`) instead of branching on its name.
+    :data:`SCALED_UNITS` (the paper's scaled quantities, whose conversions are the identity) or
+    :data:`SI_UNITS` (SI units and seconds on a rig, :class:`SIScaling`). Code that serves both
+    asks the system instead of branching on its name.
 
     Attributes
     ----------
@@ -799,7 +788,7 @@ class UnitSystem:
     suffix : str
         Of the FMUs', packages' and systems' names (``DrillStringPlant`` + suffix).
     physical : bool
-        Values are a physical rig's (then the rig's scales convert them) or scaled.
+        Whether values are a physical rig's (converted by the rig's scales) or scaled.
     quantities : str
         The system in words, for descriptions (``"SI units and seconds"``).
     time_unit : str
@@ -817,58 +806,24 @@ class UnitSystem:
     time_note: str
 
     def scales(self, rig: PhysicalParams = REFERENCE_RIG) -> Scales:
-        """The scales of this system on ``rig``.
-
-        Parameters
-        ----------
-        rig : PhysicalParams
-            The physical rig (default: the reference rig, whose values the SI FMUs start
-            from).
-
-        Returns
-        -------
-        Scales
-            :class:`SIScaling` of ``rig`` in SI, :data:`IDENTITY` in the scaled system.
-        """
+        """The system's scales on ``rig`` (default: the reference rig, the SI FMUs' start
+        values): ``SIScaling(rig)`` in SI, :data:`IDENTITY` in the scaled system."""
         return SIScaling(rig) if self.physical else IDENTITY
 
     def factor(self, dimension: str) -> float:
-        """The factor from scaled values of ``dimension`` to this system's on the reference rig.
-
-        Parameters
-        ----------
-        dimension : str
-            A key of :data:`DIMENSIONS`.
-
-        Returns
-        -------
-        float
-            1 in the scaled system.
-        """
+        """The factor from scaled values of ``dimension`` (a key of :data:`DIMENSIONS`) to the
+        system's on the reference rig (1 in the scaled system)."""
         return self.scales().factor(dimension)
 
     def declared_unit(self, unit: str, display: str | None) -> dict[str, str]:
-        """The unit attributes a variable of SI ``unit`` declares in this system.
-
-        Parameters
-        ----------
-        unit : str
-            The variable's SI unit (a key of :data:`UNITS`).
-        display : str or None
-            Its display unit.
-
-        Returns
-        -------
-        dict
-            ``unit`` and ``display_unit`` (if any) in SI; none in the scaled system, whose
-            numbers are all of unit "1".
-        """
+        """The attributes ``unit`` and ``display_unit`` (if not None) a variable of SI ``unit``
+        declares in the system: none in the scaled system, whose numbers are of unit "1"."""
         if not self.physical:
             return {}
         return {"unit": unit} | ({"display_unit": display} if display is not None else {})
 
     def parameter_set(self, values: Mapping[str, Any]) -> tuple[ScaledParams, Scales]:
-        """The scaled parameter set that a plant's parameter values in this system give, and
+        """The scaled parameter set (15)-(16) of a plant's parameter values in the system, and
         the scales of their rig.
 
         Parameters
@@ -881,8 +836,7 @@ class UnitSystem:
         Returns
         -------
         (ScaledParams, Scales)
-            The set (15)-(16) and the rig's :class:`SIScaling`, or the set and
-            :data:`IDENTITY`.
+            The set and the rig's :class:`SIScaling`, or the set and :data:`IDENTITY`.
 
         Raises
         ------
@@ -891,8 +845,9 @@ class UnitSystem:
             set is invalid.
         """
         if self.physical:
-            rig = PhysicalParams(**{f.name: values[f.name] for f in fields(PhysicalParams)})
-            scaling = SIScaling(rig)
+            scaling = SIScaling(
+                PhysicalParams(**{f.name: values[f.name] for f in fields(PhysicalParams)})
+            )
             return scaling.scaled, scaling
         scaled = {f.name: values[f.name] for f in fields(ScaledParams) if f.init}
         return ScaledParams(**scaled), IDENTITY
