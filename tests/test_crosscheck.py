@@ -17,6 +17,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
+import shutil
 
 import fmu_testlib as tl
 import numpy as np
@@ -270,7 +271,9 @@ def test_cli_rejects_bad_steps(built, tmp_path, capsys, extra, message):
     assert message in capsys.readouterr().err
 
 
-def test_cli_names_missing_fmus(built, tmp_path, capsys):
+def test_cli_names_the_missing_package(built, tmp_path, capsys):
+    shutil.copy(built.plant.fmu, tmp_path)  # FMUs without the loop's package do not run
+    shutil.copy(built.controller.fmu, tmp_path)
     argv = ["crosscheck", "--fmus", str(tmp_path), "--out", str(tmp_path)]
     assert cli_main(argv) == 2  # through the dispatch table of the drillstring command
-    assert "DrillStringPlant.fmu" in capsys.readouterr().err
+    assert "no DrillStringClosedLoop.ssp" in capsys.readouterr().err

@@ -4,8 +4,9 @@ Runs :func:`~drillstring.orchestration.crosscheck.run_crosscheck` for a list of 
 (and, unless ``--adaptive-atol 0``,
 :func:`~drillstring.orchestration.crosscheck.adaptive_vs_fixed`), writes ``crosscheck.csv``
 and ``crosscheck.png`` into ``--out`` and prints the table and the fitted convergence orders.
-The FMUs come from ``--fmus``, or are built from ``--gains`` into a temporary folder; their own
-gains and parameter set are what both runs use.
+The FMUs and the loop's SSP package come from ``--fmus`` (``build_fmus.py``'s output), or are
+built from ``--gains`` into a temporary folder; their own gains and parameter set are what both
+runs use.
 """
 
 from __future__ import annotations
@@ -58,7 +59,8 @@ def _parser() -> argparse.ArgumentParser:
         "--fmus",
         type=Path,
         default=None,
-        help="folder with prebuilt FMUs (default: build into a temporary folder)",
+        help="folder with prebuilt FMUs and packages, build_fmus.py's output (default: build "
+        "into a temporary folder)",
     )
     ap.add_argument("--out", type=Path, default=Path("out/crosscheck"), help="output folder")
     ap.add_argument(
