@@ -33,23 +33,20 @@ from drillstring.apps.controllers import (
 )
 from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import run_sweep
-from drillstring.apps.sweep.spec import (
-    FEED_FOR_WOB,
-    MAP_CONTROLLERS,
-    SweepSpecError,
-    spec_from_dict,
-)
+from drillstring.apps.sweep.spec import FEED_FOR_WOB, SweepSpecError, spec_from_dict
 from drillstring.apps.sweep.studies import (
     OPEN_LOOP,
     axial_design,
     evaluate_point,
     linear_boundary,
-    point_controllers,
+    lineup_at,
+    point_gains,
 )
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import design_constrained
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.lineup import (
+    MAP_CONTROLLERS,
     RIG_CONTROLLERS,
     SENSING,
     TIMED_CONTROLLERS,
@@ -126,6 +123,14 @@ def _spec(paper, constrained, *, tau_end=20.0, sweep=None, **options):
     )
 
 
+def _lineup(spec, params, scales):
+    """The study's controllers at a point (its gains, drive and tuning), not run."""
+    d = axial_design(params)
+    model = averaged_model(params, d.A, d.taubar_crit)
+    paper, constrained, names, _ = point_gains(model, spec.options)
+    return lineup_at(params, model, paper, constrained, spec.options, scales, names)
+
+
 def _rows(path):
     with open(path, newline="") as fh:
         return list(csv.DictReader(fh))
@@ -141,7 +146,7 @@ def serial_map(paper_gains, constrained_gains, tmp_path_factory):
 @pytest.mark.slow  # a local Dask cluster of worker processes
 def test_controller_map_on_dask_equals_the_serial_run(serial_map, tmp_path):
     spec, serial = serial_map
-    assert spec.options["controllers"] == MAP_CONTROLLERS
+    assert spec.options.controllers == MAP_CONTROLLERS
     report = run_sweep(spec, tmp_path, workers=2, progress=False)
     assert report.complete and serial.complete and report.n_failed == 0
     a, b = _rows(serial.results), _rows(report.results)
@@ -224,17 +229,15 @@ def test_the_map_window_holds_five_periods_of_the_slowest_stick_slip(paper_gains
     point; a shorter window is refused naming its value, and the trend test's two windows fit
     after the switch-on."""
     spec = controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"])
-    window, tau_end = spec.options["window"], spec.tau_end
-    assert window == COMPARISON_WINDOW and 2.0 * window <= tau_end - spec.options["t_on"]
+    window, tau_end = spec.options.window, spec.tau_end
+    assert window == COMPARISON_WINDOW and 2.0 * window <= tau_end - spec.options.t_on
     rig = REFERENCE_RIG
     points = {"slow corner": {"rpm": 30.0, "W0_kN": wob_range(rig)[1]},
               "reference": {"rpm": RPM0, "W0_kN": W0_KN}}  # fmt: skip
     periods = {}
     for label, values in points.items():
         p = spec.params_at(values)
-        d = axial_design(p)
-        model = averaged_model(p, d.A, d.taubar_crit)
-        pi = point_controllers(p, model, spec.options, spec.physical_at(values))[0]["stiff-pi"]
+        pi = _lineup(spec, p, spec.physical_at(values))["stiff-pi"]
         r = simulate_sampled(
             p, pi, tau_end, 1e-3, initial={"dphi": -0.5 * p.omega0},
             options=EngineOptions(torsional_stick=True),
@@ -434,8 +437,8 @@ def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
         ({"top_drive": "tds-12"}, "options.top_drive = 'tds-12': top drive 'tds-12'"),
         ({"top_drive": "-3R0"}, "options.top_drive = '-3r0'"),
         ({"gains_constrained": None}, "options.controllers has lmi-constrained, lmi-telemetry: "),
-        ({"impedance": "wave"}, "options.impedance must be one of lumped, pipe, got 'wave'"),
-        ({"soft_speed": "stiff"}, "options.soft_speed must be one of two-mass, impedance"),
+        ({"impedance": "wave"}, "options.impedance must be one of 'lumped', 'pipe', got 'wave'"),
+        ({"soft_speed": "stiff"}, "options.soft_speed must be one of 'two-mass', 'impedance'"),
         ({"z_matching": -0.5}, "options.z_matching must be >= 0, got -0.5"),
         ({"min_periods": -1}, "options.min_periods must be >= 0, got -1"),
     ],
@@ -468,7 +471,7 @@ def test_a_subset_of_controllers_leaves_the_others_empty(
     paper_gains, constrained_gains, serial_map, tmp_path
 ):
     spec = _spec(paper_gains, constrained_gains, controllers=["soft-speed", "stiff-pi"])
-    assert spec.options["controllers"] == ("stiff-pi", "soft-speed")
+    assert spec.options.controllers == ("stiff-pi", "soft-speed")
     report = run_sweep(spec, tmp_path, serial=True, progress=False, plots=False)
     full = _rows(serial_map[1].results)
     for row, ref in zip(_rows(report.results), full, strict=True):
@@ -575,7 +578,9 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
     assert rows["lmi"]["peak_torque_over_R0"] == pytest.approx(
         rows["lmi-unlimited"]["peak_torque_over_R0"], rel=1e-2
     )
-    with pytest.raises(ValueError, match="2 window = 4.0 reaches back before the switch-on"):
+    with pytest.raises(
+        ValueError, match=r"options.t_on = 6.0 must lie in \[0, tau_end - 2 window\] = \[0, 4.0\]"
+    ):
         write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
                                     tau_end=8.0, window=2.0, min_periods=0.0,
                                     log=None)  # fmt: skip
@@ -593,13 +598,11 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
     choices = {"impedance": "pipe", "soft_speed": "impedance", "z_matching": 0.25}
     spec = _spec(paper_gains, constrained_gains, **choices)
     p = spec.point_params(3)
-    d = axial_design(p)
-    model = averaged_model(p, d.A, d.taubar_crit)
-    laws = point_controllers(p, model, spec.options, spec.point_scales(3))[0]
+    laws = _lineup(spec, p, spec.point_scales(3))
     assert laws["soft-speed"].law.kp == pytest.approx(Zp, abs=2e-4)
     assert laws["z-torque"].law.z_gain == pytest.approx(0.25 / Zp, rel=1e-3)
     rig = spec.point_scales(3)
-    default = point_controllers(p, model, _spec(paper_gains, constrained_gains).options, rig)[0]
+    default = _lineup(_spec(paper_gains, constrained_gains), p, rig)
     assert default["soft-speed"].law.kp == pytest.approx(2.0 * math.sqrt(5.0), rel=1e-12)
     # a scaled base of no known rig has no pipe
     base = {"kind": "scaled", **REFERENCE.replace(psi=300.0).to_dict()}
@@ -607,7 +610,7 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
             "sweep": [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]}  # fmt: skip
     options = {"gains": str(paper_gains[1]), "controllers": ["soft-speed"], "window": 5.0,
                "min_periods": 0.0, "top_drive": "50R0"}  # fmt: skip
-    assert spec_from_dict({**data, "options": options}).options["impedance"] == "lumped"
+    assert spec_from_dict({**data, "options": options}).options.tuning.impedance == "lumped"
     with pytest.raises(SweepSpecError, match="options.impedance = 'pipe' needs the rig's drill"):
         spec_from_dict({**data, "options": {**options, "impedance": "pipe"}})
     # nor a point whose string (C) is of no known rig
