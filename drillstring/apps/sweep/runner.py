@@ -59,7 +59,7 @@ from drillstring.apps.sweep.metrics import (
     controller_column,
     si_factor,
 )
-from drillstring.apps.sweep.plots import Overlay, metric_figure, panel_figure
+from drillstring.apps.sweep.plots import Overlay, sweep_figure
 from drillstring.apps.sweep.spec import (
     AXIS_LABELS,
     MAX_POINTS,
@@ -672,10 +672,10 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
         raw = [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
         kind = kinds[metric]
         values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
-        fig = metric_figure(
+        fig = sweep_figure(
             metric,
             kind,
-            values,
+            {"": values},
             spec.axes,
             reference,
             f"{title_base}: {metric}",
@@ -815,10 +815,10 @@ def _controller_plots(
     for metric in spec.metrics:
         if metric == "best":
             values = _column(spec, rows, "best")
-            fig = metric_figure(
+            fig = sweep_figure(
                 "best",
                 "str",
-                values,
+                {"": values},
                 spec.axes,
                 reference,
                 f"{title_base}: best controller (of the runs neither stopped nor stalled, the "
@@ -847,7 +847,7 @@ def _controller_plots(
                 panels[c] = values
             if metric in SETTLED_ONLY:
                 label += " (steady runs only)"
-            fig = panel_figure(
+            fig = sweep_figure(
                 label,
                 kind,
                 panels,
@@ -882,7 +882,8 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
     -------
     argparse.ArgumentParser
         ``spec`` and the options ``--out`` (required), ``--scheduler``, ``--workers``,
-        ``--resume``, ``--retry-failed``, ``--no-plots``, ``--no-progress``.
+        ``--base-dir``, ``--resume``, ``--retry-failed``, ``--no-plots``, ``--no-progress``,
+        ``--max-points``.
     """
     ap = argparse.ArgumentParser(
         prog=prog,
@@ -902,6 +903,13 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
         default=None,
         help="worker processes of the LocalCluster (default: CPU count); 0 runs serially in "
         "this process without Dask",
+    )
+    ap.add_argument(
+        "--base-dir",
+        type=Path,
+        default=None,
+        help="folder the spec's relative file names (base set, gains files) are taken from "
+        "(default: the spec's folder)",
     )
     ap.add_argument("--resume", action="store_true", help="skip the points already in the output")
     ap.add_argument(
@@ -952,7 +960,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         print(f"{prog}: --max-points must be >= 1, got {args.max_points}", file=sys.stderr)
         return 2
     try:
-        spec = load_spec(args.spec, max_points=args.max_points)
+        spec = load_spec(args.spec, max_points=args.max_points, base_dir=args.base_dir)
         report = run_sweep(
             spec,
             args.out,

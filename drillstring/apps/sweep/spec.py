@@ -801,13 +801,21 @@ def _check_points(spec: SweepSpec) -> None:
             raise SweepSpecError(f"sweep point {index} ({values}) is invalid: {exc}") from None
 
 
-def load_spec(path: str | os.PathLike[str], *, max_points: int = MAX_POINTS) -> SweepSpec:
+def load_spec(
+    path: str | os.PathLike[str],
+    *,
+    max_points: int = MAX_POINTS,
+    base_dir: str | os.PathLike[str] | None = None,
+) -> SweepSpec:
     """Read and validate a sweep file (.toml or .json, chosen by suffix).
 
     Parameters
     ----------
     path : path
-        The file; relative names in it are taken from its folder.
+        The file.
+    base_dir : path, optional
+        The folder relative names in it (base set, gains files) are taken from (default: the
+        file's).
     max_points : int
         The largest grid accepted (default :data:`MAX_POINTS`).
 
@@ -835,5 +843,8 @@ def load_spec(path: str | os.PathLike[str], *, max_points: int = MAX_POINTS) -> 
     if not isinstance(data, dict):
         raise SweepSpecError(f"sweep spec {str(path)!r}: top level must be a table/object")
     return spec_from_dict(
-        data, source=f"sweep spec {str(path)!r}", base_dir=path.parent, max_points=max_points
+        data,
+        source=f"sweep spec {str(path)!r}",
+        base_dir=path.parent if base_dir is None else base_dir,
+        max_points=max_points,
     )
