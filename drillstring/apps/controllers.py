@@ -404,12 +404,13 @@ def write_controller_comparison(
     model = averaged_model(params, g.A, g.taubar_crit)
     paper = lmi_gain(model, g, feedforward="file")
     cgain = None if gc is None else lmi_gain(model, gc, feedforward="file")
-    names = [n for n in RIG_CONTROLLERS if cgain is not None or n not in CONSTRAINED_CONTROLLERS]
+    rig_names = [n for n in RIG_CONTROLLERS if gc is not None or n not in CONSTRAINED_CONTROLLERS]
     # the timing of a real drive: the rows of TIMED_CONTROLLERS whose controller runs here
-    names += [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in names]
+    timed = [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in rig_names]
+    names = (*rig_names, *timed)
     options = ControllerOptions(
-        controllers=tuple(names), top_drive=top_drive, h=experiment.h, Ts=Ts,
-        t_on=t_on, latch=experiment.latch, window=window, min_periods=min_periods, tuning=tuning,
+        controllers=tuple(rig_names), top_drive=top_drive, h=experiment.h, Ts=Ts, t_on=t_on,
+        latch=experiment.latch, window=window, min_periods=min_periods, tuning=tuning,
     )  # fmt: skip
     tau_end = options.check_run(tau_end)
     drive = map_top_drive(options.top_drive, params, rig)
@@ -417,7 +418,7 @@ def write_controller_comparison(
     start: dict[str, Any] = {"initial": experiment.initial(), "string": string}
     evaluated = {
         b: evaluate_controllers(params, model, paper, cgain, replace(options, braking=b),
-                                tau_end=tau_end, scales=rig, **start)
+                                tau_end=tau_end, scales=rig, names=names, **start)
         for b in brakings
     }  # fmt: skip
     engine = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)

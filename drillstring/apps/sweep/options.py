@@ -22,7 +22,6 @@ from drillstring.controller.lineup import (
     FEEDFORWARD,
     MAP_CONTROLLERS,
     RIG_CONTROLLERS,
-    TIMED_CONTROLLERS,
     Tuning,
 )
 from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES
@@ -66,8 +65,8 @@ def _choice(choices: tuple[str, ...]) -> Callable[[str, Any], str]:
 
 
 def _controllers(name: str, value: Any) -> tuple[str, ...]:
-    """A non-empty list of distinct names of the rig lineup, in its order."""
-    known = (*RIG_CONTROLLERS, *TIMED_CONTROLLERS)
+    """A non-empty list of distinct names of RIG_CONTROLLERS, in its order."""
+    known = RIG_CONTROLLERS
     if not isinstance(value, list | tuple) or not value:
         raise ValueError(f"{name} must be a non-empty list of names, got {value!r}")
     for k, item in enumerate(value):
@@ -170,8 +169,9 @@ class ControllerOptions:
     """How the controller lineup is evaluated at a point (the controllers study, the Fig. 6-like
     comparison).
 
-    ``controllers``: which of :data:`~drillstring.controller.lineup.RIG_CONTROLLERS` (and of the
-    rows of :data:`~drillstring.controller.lineup.TIMED_CONTROLLERS`) run, in that order;
+    ``controllers``: which of :data:`~drillstring.controller.lineup.RIG_CONTROLLERS` run (in
+    that order; :func:`~drillstring.apps.sweep.studies.evaluate_controllers` also takes the rows
+    of :data:`~drillstring.controller.lineup.TIMED_CONTROLLERS` by name);
     ``top_drive``: the drive of every controller (a spec of
     :func:`~drillstring.model.topdrive.top_drive_from_spec`, or "none") and its ``braking``
     ("four-quadrant", or "none": the torque range [0, R_max]); ``elements``: the drill pipe's

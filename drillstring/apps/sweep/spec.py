@@ -383,9 +383,7 @@ class SweepSpec:
         direct = {k: v for k, v in values.items() if k not in PHYSICAL_DERIVED}
         rig = self.base.replace(**direct) if direct else self.base
         if "rpm" in values:
-            rpm = values["rpm"]
-            if not (math.isfinite(rpm) and rpm > 0.0):
-                raise ParameterError(f"rpm = {rpm!r} must be a finite number > 0")
+            rpm = check_real("rpm", values["rpm"], lower=0.0, error=ParameterError)
             rig = rig.replace(Omega0=rpm * RPM)
         if "W0_kN" in values:
             rig = rig.replace(V0=rig.hook_speed_for_weight(1e3 * values["W0_kN"]))

@@ -19,7 +19,8 @@ in this process.
   input-constrained LMI law), every one under the same top drive, on the full model with
   torsional stick from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity metrics of
   :mod:`drillstring.analysis.severity` over the late window, the linearised closed loop's
-  spectral abscissa, and the best controller.
+  spectral abscissa, and the best controller. Its runs are :func:`evaluate_controllers`, which
+  also runs the Fig. 6-like comparison (:mod:`drillstring.apps.controllers`).
 
 A and taubar_crit of (22) depend on (gammabar, etabar^2) only; :func:`axial_design` computes them
 once per distinct pair (the sweep runs it as a separate task that the point tasks depend on).
@@ -28,6 +29,7 @@ once per distinct pair (the sweep runs it as a separate task that the point task
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -62,6 +64,7 @@ from drillstring.model.sampled import SampledResult, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.tables import Scales
 from drillstring.model.topdrive import TopDrive, top_drive_from_spec
+from drillstring.validation import check_int
 
 __all__ = [
     "OPEN_LOOP",
@@ -78,9 +81,9 @@ __all__ = [
     "evaluate_point",
     "linear_abscissa",
     "linear_boundary",
+    "lineup_at",
     "map_top_drive",
     "open_loop_metrics",
-    "lineup_at",
     "point_gains",
     "point_string",
     "rightmost_nonzero_root",
@@ -550,7 +553,7 @@ def evaluate_controllers(
     opts: ControllerOptions,
     *,
     tau_end: float,
-    initial: InitialState | dict[str, float],
+    initial: InitialState | Mapping[str, float],
     scales: Scales | None,
     string: StringParams | None = None,
     names: tuple[str, ...] | None = None,
@@ -673,8 +676,7 @@ def linear_boundary(
         raise ValueError("the linearised boundary is drawn for a 2-D controllers sweep")
     if refine is None:
         refine = 4 if spec.options.elements == 1 else 1
-    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
-        raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
+    refine = check_int("refine", refine, lower=1)
     design.check()
     opts = spec.options
     if names is None:
