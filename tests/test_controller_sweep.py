@@ -9,6 +9,7 @@ polynomial; resume works like in the other studies; the options are validated.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 
@@ -584,6 +585,10 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
         write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
                                     tau_end=8.0, window=2.0, min_periods=0.0,
                                     log=None)  # fmt: skip
+    # the controllers are evaluated with the torsional-stick model on, as at a map's points
+    no_stick = dataclasses.replace(SHORT_FIG6, torsional_stick=False)
+    with pytest.raises(ValueError, match="'fig6-short' has the torsional-stick model off"):
+        write_controller_comparison(tmp_path, paper_gains[0], experiment=no_stick, log=None)
 
 
 @pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast

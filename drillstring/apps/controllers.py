@@ -139,7 +139,7 @@ class Comparison:
 
     ``rows`` are the rows of ``comparison.csv`` (:data:`COMPARISON_COLUMNS`), ``laws`` each
     controller's parameters (scaled and, with a rig, SI), ``files`` the written paths, ``runs``
-    the simulation results by row name.
+    the simulation results by row name, ``options`` how the controllers ran (with braking).
     """
 
     rows: list[dict[str, Any]]
@@ -147,10 +147,7 @@ class Comparison:
     files: dict[str, Path] = field(default_factory=dict)
     runs: dict[str, SimulationResult] = field(default_factory=dict, repr=False)
     experiment: str = FIG6.name
-    Ts: float = DEFAULT_TS
-    window: float = COMPARISON_WINDOW
-    top_drive: str = "tds-11sa"
-    tuning: Tuning = field(default_factory=Tuning)
+    options: ControllerOptions = field(default_factory=ControllerOptions)
     elements: int = 1
 
 
@@ -336,7 +333,8 @@ def write_controller_comparison(
     ``experiment.t_on`` with the torsional-stick model on; then each digital controller of
     :func:`~drillstring.controller.lineup.rig_lineup` (the industrial laws, the paper-style LMI
     design of ``gains``, the constrained design of ``constrained`` with exact, mud-pulse and
-    observer sensing) acts with sample period ``Ts`` under the top drive ``top_drive``; and, as
+    observer sensing) acts with sample period ``Ts`` under the top drive ``top_drive``
+    (:func:`~drillstring.apps.sweep.studies.evaluate_controllers`, as at a map's points); and, as
     the paper's set-up, its LMI law continuously without a drive (:data:`LMI_UNLIMITED`). The
     metrics are taken over the last ``window`` of the run, the effort from the switch-on on.
 
@@ -388,9 +386,16 @@ def write_controller_comparison(
     Raises
     ------
     ValueError
-        A bad value (named), a window shorter than ``min_periods`` periods of the slowest
-        stick-slip or than the trend test needs after the switch-on, no rig for the gains.
+        A bad value (named; the checks of :class:`~drillstring.apps.sweep.options.
+        ControllerOptions`), a window shorter than ``min_periods`` periods of the slowest
+        stick-slip or than the trend test needs after the switch-on, no rig for the gains, an
+        experiment without the torsional-stick model.
     """
+    if not experiment.torsional_stick:
+        raise ValueError(
+            f"experiment {experiment.name!r} has the torsional-stick model off: the controllers "
+            "are evaluated with it on (evaluate_controllers)"
+        )
     g = _gains(gains)
     gc = None if constrained is None else _gains(constrained)
     t_on = experiment.t_on
@@ -516,10 +521,7 @@ def write_controller_comparison(
         files=files,
         runs=runs,
         experiment=experiment.name,
-        Ts=options.Ts,
-        window=options.window,
-        top_drive=top_drive,
-        tuning=tuning,
+        options=options,
         elements=elements,
     )
 
