@@ -319,7 +319,8 @@ def options_from_table(cls: type, table: Mapping[str, Any]) -> StudyOptions:
 
 def options_table(options: StudyOptions) -> dict[str, Any]:
     """The options as the spec's ``[options]`` table (the inverse of
-    :func:`options_from_table`): JSON-able, the tuning as :data:`TUNING_KEYS`.
+    :func:`options_from_table`), JSON-able, the tuning as :data:`TUNING_KEYS`; what ``spec.json``
+    holds and ``--resume`` compares.
 
     Parameters
     ----------
@@ -329,7 +330,9 @@ def options_table(options: StudyOptions) -> dict[str, Any]:
     Returns
     -------
     dict
-        Every option by name.
+        Every option by name; with a gains file read also ``gains_F``, ``gains_K0`` and
+        ``gains_params_sha256`` (with a constrained one ``gains_constrained_F``, ...), so that
+        a changed file does not pass as the same spec.
     """
     out: dict[str, Any] = {}
     for f in fields(options):
@@ -338,4 +341,12 @@ def options_table(options: StudyOptions) -> dict[str, Any]:
             out.update({k: value.values()[k] for k in TUNING_KEYS})
         elif not f.metadata.get("loaded"):
             out[f.name] = list(value) if isinstance(value, tuple) else value
+    for prefix, gains in (
+        ("gains", getattr(options, "gains_file", None)),
+        ("gains_constrained", getattr(options, "constrained_file", None)),
+    ):
+        if gains is not None:
+            out[f"{prefix}_F"] = list(gains.F)
+            out[f"{prefix}_K0"] = gains.K0
+            out[f"{prefix}_params_sha256"] = gains.params_sha256
     return out

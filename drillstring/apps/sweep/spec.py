@@ -97,7 +97,6 @@ __all__ = [
     "SweepSpec",
     "SweepSpecError",
     "load_spec",
-    "options_dict",
     "spec_from_dict",
 ]
 
@@ -141,34 +140,6 @@ AXIS_KEYS = ("param", "start", "stop", "num", "scale")
 
 class SweepSpecError(ValueError):
     """An invalid sweep description: unknown or missing key, bad value, unreadable file."""
-
-
-def options_dict(options: StudyOptions) -> dict[str, Any]:
-    """The options as a JSON-able dict (compared on ``--resume``).
-
-    Parameters
-    ----------
-    options : StudyOptions
-        A study's options (:mod:`drillstring.apps.sweep.options`).
-
-    Returns
-    -------
-    dict
-        Every option by name (:func:`~drillstring.apps.sweep.options.options_table`); with a
-        gains file also ``gains_F``, ``gains_K0`` and ``gains_params_sha256`` (with a
-        constrained one ``gains_constrained_F``, ...), so that a changed file does not pass as
-        the same spec.
-    """
-    out = options_table(options)
-    for prefix, gains in (
-        ("gains", getattr(options, "gains_file", None)),
-        ("gains_constrained", getattr(options, "constrained_file", None)),
-    ):
-        if gains is not None:
-            out[f"{prefix}_F"] = list(gains.F)
-            out[f"{prefix}_K0"] = gains.K0
-            out[f"{prefix}_params_sha256"] = gains.params_sha256
-    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -478,7 +449,8 @@ class SweepSpec:
         -------
         dict
             ``study``, ``base`` (``kind`` and every field), ``base_label``, ``sweep`` (the
-            axes), ``tau_end``, ``options`` (:func:`options_dict`), ``metrics``.
+            axes), ``tau_end``, ``options`` (:func:`~drillstring.apps.sweep.options.
+            options_table`), ``metrics``.
         """
         kind = "physical" if isinstance(self.base, PhysicalParams) else "scaled"
         return {
@@ -487,7 +459,7 @@ class SweepSpec:
             "base_label": self.base_label,
             "sweep": [a.to_dict() for a in self.axes],
             "tau_end": self.tau_end,
-            "options": options_dict(self.options),
+            "options": options_table(self.options),
             "metrics": list(self.metrics),
             **({"feed": self.feed} if self.study in FULL_MODEL_STUDIES else {}),
         }
