@@ -12,6 +12,7 @@ import csv
 import dataclasses
 import json
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -404,6 +405,16 @@ def test_the_overlaid_boundary_is_where_the_eigenvalues_cross(paper_gains, const
             assert z[i, jj] == pytest.approx(ref, abs=1e-9)
         crossings += 1
     assert crossings == 2
+
+
+def test_the_study_options_pickle_for_the_workers(serial_map):
+    """The spec a Dask worker receives: its typed options, the tuning as one object and the
+    gains files read, as the submitting process has them."""
+    spec, _ = serial_map
+    back = pickle.loads(pickle.dumps(spec))
+    assert back.options == spec.options and back.options.tuning == spec.options.tuning
+    assert back.options.gains_file.F == spec.options.gains_file.F
+    assert back.options.constrained_file.F == spec.options.constrained_file.F
 
 
 def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
