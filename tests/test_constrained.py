@@ -38,7 +38,7 @@ from drillstring.controller.gains import GainsFileError, read_gains, write_gains
 from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
-from drillstring.model.digital.layout import BLOCK, section
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6
 from drillstring.model.laws import SampledAffine, SpeedPI
@@ -213,8 +213,10 @@ def test_observer_estimates_the_bit_speed_from_surface_signals_on_its_model():
     for k in range(6000):
         phi, dphi, x3, dtheta = x
         theta = phi - x3 - MODEL.K0
-        s, rho = section(run.block, "sensing"), run.block[BLOCK.rho]
-        phi_s, dphi_s, _ = sensed(s, rho, k * Ts, phi, dphi, theta, dtheta, theta - phi)
+        b, rho = run.block, run.block[BLOCK.rho]
+        phi_s, dphi_s, _ = sensed(
+            b, BLOCK.sensing, rho, k * Ts, phi, dphi, theta, dtheta, theta - phi
+        )
         errors.append((phi_s - phi, dphi_s - dphi))
         r = run.step(k * Ts, phi, dphi, theta, dtheta, Ts)
         x = obs.Ad @ x + obs.Bd * (r + MODEL.K0)

@@ -19,7 +19,7 @@ import pytest
 
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
-from drillstring.model.digital.layout import BLOCK, section
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.laws import (
     FEED_FORWARD_PARAMS,
     LAW_SLOTS,
@@ -245,7 +245,7 @@ def test_string_torque_from_the_motor_is_the_twist_of_equation_13():
     for k in range(30):
         r = run.step(k * Ts, -w, 0.0, 0.0, dtheta, Ts)  # the twist theta - phi = w
         dtheta += Ts * (r - w) / POINT.rho  # (13) over the sample
-        estimate = string_torque(section(run.block, "sensing"), POINT.rho, w, dtheta)
+        estimate = string_torque(run.block, BLOCK.sensing, POINT.rho, w, dtheta)
         assert estimate == pytest.approx(w, rel=1e-10)
 
 

@@ -11,7 +11,7 @@ import pytest
 from drillstring.model import native
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
-from drillstring.model.digital.layout import BLOCK, SECTIONS, section, slot_names, state_offsets
+from drillstring.model.digital.layout import BLOCK, SECTIONS, slot_names, state_offsets
 from drillstring.model.laws import (
     AFFINE_PARAMS,
     AFFINE_STATE,
@@ -170,9 +170,7 @@ def test_the_state_and_the_names_of_the_block():
                      *(f"timing.{n}" for n in TIMING_SLOTS.STATE)}  # fmt: skip
     assert "sensing.frames" in state and "timing.pending" in state and "law.p" not in state
     b = _controllers()[0].block(POINT)
-    assert section(b, "timing")[TIMING_SLOTS.period] == 0.02
-    with pytest.raises(KeyError, match="no part 'drive'"):
-        section(b, "drive")
+    assert b[BLOCK.timing + TIMING_SLOTS.period] == 0.02
 
 
 def test_block_layout_is_its_table():

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from drillstring.model.digital.controller import DigitalController, Running
-from drillstring.model.digital.layout import BLOCK, section
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.laws import ZTorque
 from drillstring.model.params import REFERENCE
 from drillstring.model.pipe import rig_string, torsional_chain
@@ -32,7 +32,7 @@ def _replay(controller, r, rho=None):
     for k in range(len(r.tau) - 1):
         m = (r.phi[k], r.dphi[k], r.theta[k], r.dtheta[k])
         top = r.top_torque_minus_R0[k]
-        sensed.append(string_torque(section(block, "sensing"), block[BLOCK.rho], top, r.dtheta[k]))
+        sensed.append(string_torque(block, BLOCK.sensing, block[BLOCK.rho], top, r.dtheta[k]))
         applied.append(run.step(k * TS, *m, TS, top=top))
     return np.array(applied), np.array(sensed)
 

@@ -264,12 +264,14 @@ class Law:
         """A validated copy with some parameters changed (names of the table)."""
         return type(self).from_values({**self.values(), **changes})
 
-    def pack(self, w: np.ndarray) -> None:
-        """Write the law into its section ``w`` of the controller's block (:data:`LAW_SLOTS`):
-        its kind and its parameters (the switch-on time ``t_on`` is the controller's entry)."""
-        w[LAW_SLOTS.kind] = self.KIND
-        w[LAW_SLOTS.p : LAW_SLOTS.p + _N_P] = 0.0
-        w[LAW_SLOTS.p + FEED_FORWARD_PARAMS.R_ff] = self.R_ff
+    def pack(self, b: np.ndarray, at: int) -> None:
+        """Write the law into the controller's block ``b``, whose law section
+        (:data:`LAW_SLOTS`) is at ``at``: its kind and its parameters (the switch-on time
+        ``t_on`` is the controller's own entry)."""
+        p = at + LAW_SLOTS.p
+        b[at + LAW_SLOTS.kind] = self.KIND
+        b[p : p + _N_P] = 0.0
+        b[p + FEED_FORWARD_PARAMS.R_ff] = self.R_ff
 
 
 def _tracking(kp: float, ki: float, tracking_time: float) -> float:
@@ -328,9 +330,9 @@ class SpeedPI(Law):
     def __post_init__(self) -> None:
         self._check_fields()
 
-    def pack(self, w: np.ndarray) -> None:
+    def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI without torque feedback (``z_gain = 0``, filters at rest)."""
-        _pack_pi(w, self, 0.0, 0.0, 0.0)
+        _pack_pi(b, at, self, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -396,21 +398,23 @@ class ZTorque(Law):
     def __post_init__(self) -> None:
         self._check_fields()
 
-    def pack(self, w: np.ndarray) -> None:
+    def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI with its torque feedback."""
-        _pack_pi(w, self, self.z_gain, self.omega_hp, self.omega_lp)
+        _pack_pi(b, at, self, self.z_gain, self.omega_hp, self.omega_lp)
 
 
-def _pack_pi(w: np.ndarray, law: SpeedPI | ZTorque, z_gain: float, w_hp: float, w_lp: float):
-    Law.pack(law, w)
-    p = LAW_SLOTS.p
-    w[p + PI_PARAMS.kp] = law.kp
-    w[p + PI_PARAMS.ki] = law.ki
-    w[p + PI_PARAMS.z_gain] = z_gain
-    w[p + PI_PARAMS.omega_hp] = w_hp
-    w[p + PI_PARAMS.omega_lp] = w_lp
-    w[p + PI_PARAMS.anti_windup] = ANTI_WINDUP.index(law.anti_windup)
-    w[p + PI_PARAMS.tracking_time] = _tracking(law.kp, law.ki, law.tracking_time)
+def _pack_pi(
+    b: np.ndarray, at: int, law: SpeedPI | ZTorque, z_gain: float, w_hp: float, w_lp: float
+) -> None:
+    Law.pack(law, b, at)
+    p = at + LAW_SLOTS.p
+    b[p + PI_PARAMS.kp] = law.kp
+    b[p + PI_PARAMS.ki] = law.ki
+    b[p + PI_PARAMS.z_gain] = z_gain
+    b[p + PI_PARAMS.omega_hp] = w_hp
+    b[p + PI_PARAMS.omega_lp] = w_lp
+    b[p + PI_PARAMS.anti_windup] = ANTI_WINDUP.index(law.anti_windup)
+    b[p + PI_PARAMS.tracking_time] = _tracking(law.kp, law.ki, law.tracking_time)
 
 
 # --------------------------------------------------------------------------------------------
@@ -541,16 +545,16 @@ class SampledAffine(Law):
             torque_gain=values.get("torque_gain", 0.0),
         )
 
-    def pack(self, w: np.ndarray) -> None:
+    def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled affine law: F, K0, R_ff, latch and saturation codes."""
-        Law.pack(self, w)
+        Law.pack(self, b, at)
         f = self.feedback
-        p = LAW_SLOTS.p
-        w[p + AFFINE_PARAMS.F : p + AFFINE_PARAMS.F + len(_GAIN)] = f.F
-        w[p + AFFINE_PARAMS.K0] = f.K0
-        w[p + AFFINE_PARAMS.latch] = f.latch_code
-        w[p + AFFINE_PARAMS.on_saturation] = SATURATION.index(self.on_saturation)
-        w[p + AFFINE_PARAMS.torque_gain] = self.torque_gain
+        p = at + LAW_SLOTS.p
+        b[p + AFFINE_PARAMS.F : p + AFFINE_PARAMS.F + len(_GAIN)] = f.F
+        b[p + AFFINE_PARAMS.K0] = f.K0
+        b[p + AFFINE_PARAMS.latch] = f.latch_code
+        b[p + AFFINE_PARAMS.on_saturation] = SATURATION.index(self.on_saturation)
+        b[p + AFFINE_PARAMS.torque_gain] = self.torque_gain
 
 
 @dataclass(frozen=True)
@@ -601,7 +605,7 @@ LAW_SLOTS = block_layout("LawSlots", (("kind", 1), ("p", _N_P), ("x", _N_X)), st
 
 
 # --------------------------------------------------------------------------------------------
-# the laws, compiled: on the law's section ``w`` of the block (LAW_SLOTS)
+# the laws, compiled: on the block ``b`` whose law section (LAW_SLOTS) is at ``at``
 # --------------------------------------------------------------------------------------------
 
 inline = jit_for(__name__, inline=True)
@@ -615,74 +619,74 @@ def preset(kp: float, ki: float, e: float) -> float:
 
 
 @inline
-def feed_forward(w):
+def feed_forward(b, at):
     """The law's feed-forward R_ff (31), what acts before its switch-on."""
-    return w[LAW_SLOTS.p + FEED_FORWARD_PARAMS.R_ff]
+    return b[at + LAW_SLOTS.p + FEED_FORWARD_PARAMS.R_ff]
 
 
 @inline
-def law_state(w):
+def law_state(b, at):
     """The law's state as it is stored in its section (``x``)."""
-    x = LAW_SLOTS.x
-    return (w[x], w[x + 1], w[x + 2], w[x + 3])
+    x = at + LAW_SLOTS.x
+    return (b[x], b[x + 1], b[x + 2], b[x + 3])
 
 
 @inline
-def law_keep(w, x):
+def law_keep(b, at, x):
     """Store the law's state ``x`` in its section."""
     for i in range(_N_X):
-        w[LAW_SLOTS.x + i] = x[i]
+        b[at + LAW_SLOTS.x + i] = x[i]
 
 
 @inline
-def law_start(w, theta, dtheta, torque, phi, dphi):
+def law_start(b, at, theta, dtheta, torque, phi, dphi):
     """The law's state at switch-on from the measurements there (bumpless for each law).
 
     PI: the integral preset for a continuous torque (``ki*I = -kp*e`` with ``e = -dtheta``),
     the high-pass at rest on the current torque, the low-pass at 0. Affine: the references of
     the latch mode (``docs/model.md``, "Bumpless switch-on").
     """
-    kind = int(w[LAW_SLOTS.kind])
-    p = LAW_SLOTS.p
+    kind = int(b[at + LAW_SLOTS.kind])
+    p = at + LAW_SLOTS.p
     if kind == LAW_PI:
-        return (preset(w[p + PI_PARAMS.kp], w[p + PI_PARAMS.ki], -dtheta), torque, 0.0, 0.0)
+        return (preset(b[p + PI_PARAMS.kp], b[p + PI_PARAMS.ki], -dtheta), torque, 0.0, 0.0)
     if kind == LAW_AFFINE:
         phi_ref, twist_ref = switch_on_references(
-            int(w[p + AFFINE_PARAMS.latch]), phi, theta, w[p + AFFINE_PARAMS.K0]
+            int(b[p + AFFINE_PARAMS.latch]), phi, theta, b[p + AFFINE_PARAMS.K0]
         )
         return (phi_ref, twist_ref, 0.0, 0.0)
     return (0.0, 0.0, 0.0, 0.0)
 
 
 @inline
-def _gain(w):
-    f = LAW_SLOTS.p + AFFINE_PARAMS.F
-    return (w[f], w[f + 1], w[f + 2], w[f + 3])
+def _gain(b, at):
+    f = at + LAW_SLOTS.p + AFFINE_PARAMS.F
+    return (b[f], b[f + 1], b[f + 2], b[f + 3])
 
 
 @inline
-def law_output(w, x, theta, dtheta, torque, phi, dphi):
+def law_output(b, at, x, theta, dtheta, torque, phi, dphi):
     """R - R0 the law commands for the state ``x`` and the measurements (pure).
 
     PI: ``R_ff + kp*e + ki*I``, ``e = -dtheta - z_gain*y``; affine: (29)-(31) by
     :func:`~drillstring.model.control.feedback_torque`, plus ``g*(torque + K0)``; none: R_ff.
     """
-    kind = int(w[LAW_SLOTS.kind])
-    p = LAW_SLOTS.p
-    R_ff = w[p + FEED_FORWARD_PARAMS.R_ff]
+    kind = int(b[at + LAW_SLOTS.kind])
+    p = at + LAW_SLOTS.p
+    R_ff = b[p + FEED_FORWARD_PARAMS.R_ff]
     if kind == LAW_PI:
-        e = -dtheta - w[p + PI_PARAMS.z_gain] * x[PI_STATE.y]
-        return R_ff + w[p + PI_PARAMS.kp] * e + w[p + PI_PARAMS.ki] * x[PI_STATE.integral]
+        e = -dtheta - b[p + PI_PARAMS.z_gain] * x[PI_STATE.y]
+        return R_ff + b[p + PI_PARAMS.kp] * e + b[p + PI_PARAMS.ki] * x[PI_STATE.integral]
     if kind == LAW_AFFINE:
         phi_ref = x[AFFINE_STATE.phi_ref]
         if x[AFFINE_STATE.hold] != 0.0:
             phi_ref = phi - x[AFFINE_STATE.x1]
-        K0 = w[p + AFFINE_PARAMS.K0]
+        K0 = b[p + AFFINE_PARAMS.K0]
         r = feedback_torque(
-            0.0, phi, dphi, theta, dtheta, _gain(w), K0, R_ff, 0.0, phi_ref,
+            0.0, phi, dphi, theta, dtheta, _gain(b, at), K0, R_ff, 0.0, phi_ref,
             x[AFFINE_STATE.twist_ref],
         )  # fmt: skip
-        g = w[p + AFFINE_PARAMS.torque_gain]
+        g = b[p + AFFINE_PARAMS.torque_gain]
         if g != 0.0:  # the string torque's deviation from steady drilling (-K0), fed back
             r = r + g * (torque + K0)
         return r
@@ -690,7 +694,7 @@ def law_output(w, x, theta, dtheta, torque, phi, dphi):
 
 
 @inline
-def law_update(w, x, theta, dtheta, torque, phi, dphi, Ts, r_cmd, r_lim):
+def law_update(b, at, x, theta, dtheta, torque, phi, dphi, Ts, r_cmd, r_lim):
     """The state one sample period ``Ts`` later, the measurements held over it.
 
     ``r_cmd`` is what the law commanded at the start of the period and ``r_lim`` what the top
@@ -700,17 +704,17 @@ def law_update(w, x, theta, dtheta, torque, phi, dphi, Ts, r_cmd, r_lim):
     only when the error drives the command back into range), both filters discretised exactly
     for the torque held over the sample.
     """
-    kind = int(w[LAW_SLOTS.kind])
-    p = LAW_SLOTS.p
+    kind = int(b[at + LAW_SLOTS.kind])
+    p = at + LAW_SLOTS.p
     if kind == LAW_PI:
-        ki = w[p + PI_PARAMS.ki]
+        ki = b[p + PI_PARAMS.ki]
         integral, z, y = x[PI_STATE.integral], x[PI_STATE.z], x[PI_STATE.y]
-        e = -dtheta - w[p + PI_PARAMS.z_gain] * y
-        aw = int(w[p + PI_PARAMS.anti_windup])
+        e = -dtheta - b[p + PI_PARAMS.z_gain] * y
+        aw = int(b[p + PI_PARAMS.anti_windup])
         if r_lim == r_cmd or ki <= 0.0:
             integral = integral + Ts * e
         elif aw == AW_BACK:
-            integral = integral + Ts * (e + (r_lim - r_cmd) / (ki * w[p + PI_PARAMS.tracking_time]))
+            integral = integral + Ts * (e + (r_lim - r_cmd) / (ki * b[p + PI_PARAMS.tracking_time]))
         elif aw == AW_COND:
             # integrate only when the error drives the command back into the range
             if (r_cmd > r_lim and e < 0.0) or (r_cmd < r_lim and e > 0.0):
@@ -718,11 +722,11 @@ def law_update(w, x, theta, dtheta, torque, phi, dphi, Ts, r_cmd, r_lim):
         else:
             integral = integral + Ts * e
         hp = torque - z
-        a_hp = -math.expm1(-w[p + PI_PARAMS.omega_hp] * Ts)
-        a_lp = -math.expm1(-w[p + PI_PARAMS.omega_lp] * Ts)
+        a_hp = -math.expm1(-b[p + PI_PARAMS.omega_hp] * Ts)
+        a_lp = -math.expm1(-b[p + PI_PARAMS.omega_lp] * Ts)
         return (integral, z + a_hp * (torque - z), y + a_lp * (hp - y), 0.0)
     if kind == LAW_AFFINE:
-        if int(w[p + AFFINE_PARAMS.on_saturation]) != SAT_FREEZE:
+        if int(b[p + AFFINE_PARAMS.on_saturation]) != SAT_FREEZE:
             return x
         phi_ref, twist_ref = x[AFFINE_STATE.phi_ref], x[AFFINE_STATE.twist_ref]
         x1, hold = x[AFFINE_STATE.x1], x[AFFINE_STATE.hold]

@@ -229,21 +229,21 @@ class Sensing:
             scaled["seed"] = values["seed"]
         return cls(**scaled)
 
-    def pack(self, s: np.ndarray) -> None:
-        """Write the settings (and the observer's numbers) into the sensing's section ``s`` of
-        the controller's block (:data:`SENSING_SLOTS`): its parameters, the state at rest."""
+    def pack(self, b: np.ndarray, at: int) -> None:
+        """Write the settings (and the observer's numbers) into the controller's block ``b``,
+        whose sensing section (:data:`SENSING_SLOTS`) is at ``at``; the state at rest."""
         S = SENSING_SLOTS
-        s[:] = 0.0
+        b[at : at + S.size] = 0.0
         for p in self.PARAMETERS:
             value = getattr(self, p.name)
-            s[getattr(S, p.name)] = p.choices.index(value) if p.choices else value
+            b[at + getattr(S, p.name)] = p.choices.index(value) if p.choices else value
         o = self.observer
         if o is not None:
-            s[S.Ts] = o.Ts
-            s[S.K0] = o.K0
-            s[S.Ad : S.Ad + o.Ad.size] = o.Ad.ravel()
-            s[S.Bd : S.Bd + o.Bd.size] = o.Bd
-            s[S.M : S.M + o.M.size] = o.M.ravel()
+            b[at + S.Ts] = o.Ts
+            b[at + S.K0] = o.K0
+            for name in ("Ad", "Bd", "M"):
+                a = getattr(o, name)
+                b[at + getattr(S, name) : at + getattr(S, name) + a.size] = a.ravel()
 
 
 #: The observer's numbers in the sensing's section: its sample period and K0, then Ad (row-major),
@@ -267,7 +267,7 @@ SENSING_SLOTS = block_layout(
 
 
 # --------------------------------------------------------------------------------------------
-# the sensing, compiled: on its section ``s`` of the block (SENSING_SLOTS)
+# the sensing, compiled: on the block ``b`` whose sensing section (SENSING_SLOTS) is at ``at``
 # --------------------------------------------------------------------------------------------
 
 inline = jit_for(__name__, inline=True)
@@ -301,107 +301,107 @@ def gaussian(seed, k, channel):
 
 
 @inline
-def string_torque(s, rho, top, dtheta):
+def string_torque(b, at, rho, top, dtheta):
     """The string torque at the top less R0 as the controller knows it; ``top`` is its true value
     (theta - phi on the one-mode string), ``rho`` the table node's inertia."""
     S = SENSING_SLOTS
-    if int(s[S.torque]) != TORQUE_MOTOR:
+    if int(b[at + S.torque]) != TORQUE_MOTOR:
         return top
-    if s[S.prev] == 0.0 or not s[S.prev_dt] > 0.0:
+    if b[at + S.prev] == 0.0 or not b[at + S.prev_dt] > 0.0:
         return 0.0
-    return s[S.prev_r] - rho * (dtheta - s[S.prev_dtheta]) / s[S.prev_dt]
+    return b[at + S.prev_r] - rho * (dtheta - b[at + S.prev_dtheta]) / b[at + S.prev_dt]
 
 
 @inline
-def _due(s, tau):
+def _due(b, at, tau):
     """True when a telemetry frame is taken at the sample ``tau``."""
-    nxt = s[SENSING_SLOTS.next]
+    nxt = b[at + SENSING_SLOTS.next]
     return tau >= nxt - 1e-9 * max(1.0, abs(nxt))
 
 
 @inline
-def _frame(s, k, phi, dphi):
-    seed = int(s[SENSING_SLOTS.seed])
+def _frame(b, at, k, phi, dphi):
+    seed = int(b[at + SENSING_SLOTS.seed])
     return (
-        phi + s[SENSING_SLOTS.noise_phi] * gaussian(seed, k, 0),
-        dphi + s[SENSING_SLOTS.noise_dphi] * gaussian(seed, k, 1),
+        phi + b[at + SENSING_SLOTS.noise_phi] * gaussian(seed, k, 0),
+        dphi + b[at + SENSING_SLOTS.noise_dphi] * gaussian(seed, k, 1),
     )
 
 
 @inline
-def _observer_view(s, theta, dtheta, torque):
+def _observer_view(b, at, theta, dtheta, torque):
     """The observer's filtered estimate x_k|k = x_k|k-1 + M (y - C x_k|k-1)."""
-    x = SENSING_SLOTS.xhat
-    K0 = s[SENSING_SLOTS.K0]
+    x = at + SENSING_SLOTS.xhat
+    K0 = b[at + SENSING_SLOTS.K0]
     x3 = -torque - K0
-    if s[SENSING_SLOTS.observing] == 0.0:  # first sample: the state the measurements give
+    if b[at + SENSING_SLOTS.observing] == 0.0:  # first sample: the state the measurements give
         return (theta - torque, dtheta, x3, dtheta)
-    p0, p1, p2, p3 = s[x], s[x + 1], s[x + 2], s[x + 3]
+    p0, p1, p2, p3 = b[x], b[x + 1], b[x + 2], b[x + 3]
     e0 = dtheta - p3
     e1 = x3 - p2
-    m = SENSING_SLOTS.M
+    m = at + SENSING_SLOTS.M
     return (
-        p0 + s[m] * e0 + s[m + 1] * e1,
-        p1 + s[m + 2] * e0 + s[m + 3] * e1,
-        p2 + s[m + 4] * e0 + s[m + 5] * e1,
-        p3 + s[m + 6] * e0 + s[m + 7] * e1,
+        p0 + b[m] * e0 + b[m + 1] * e1,
+        p1 + b[m + 2] * e0 + b[m + 3] * e1,
+        p2 + b[m + 4] * e0 + b[m + 5] * e1,
+        p3 + b[m + 6] * e0 + b[m + 7] * e1,
     )
 
 
 @inline
-def sensed(s, rho, tau, phi, dphi, theta, dtheta, top):
+def sensed(b, at, rho, tau, phi, dphi, theta, dtheta, top):
     """(phi, dphi, torque) as the controller knows them at the sample ``tau`` (pure); ``top`` is
     the true string torque at the top less R0, ``rho`` the table node's inertia."""
     S = SENSING_SLOTS
-    torque = string_torque(s, rho, top, dtheta)
-    mode = int(s[S.downhole])
+    torque = string_torque(b, at, rho, top, dtheta)
+    mode = int(b[at + S.downhole])
     if mode == SENSE_TELEMETRY:
-        k = int(s[S.taken])
-        if _due(s, tau) and s[S.latency] <= 0.0:
-            p, dp = _frame(s, k, phi, dphi)
+        k = int(b[at + S.taken])
+        if _due(b, at, tau) and b[at + S.latency] <= 0.0:
+            p, dp = _frame(b, at, k, phi, dphi)
             return p, dp, torque
         # frames arrive in the order they were taken: the newest that has arrived
         now = tau + 1e-9 * max(1.0, abs(tau))
         for j in range(k - 1, max(-1, k - 1 - N_FRAMES), -1):
-            f = S.frames + (j % N_FRAMES) * FRAME.size
-            if s[f + FRAME.arrival] <= now:
-                return s[f + FRAME.phi], s[f + FRAME.dphi], torque
+            f = at + S.frames + (j % N_FRAMES) * FRAME.size
+            if b[f + FRAME.arrival] <= now:
+                return b[f + FRAME.phi], b[f + FRAME.dphi], torque
         return 0.0, 0.0, torque
     if mode == SENSE_OBSERVER:
-        xh = _observer_view(s, theta, dtheta, torque)
+        xh = _observer_view(b, at, theta, dtheta, torque)
         return xh[0], xh[1], torque
     return phi, dphi, torque
 
 
 @inline
-def sense_commit(s, rho, tau, phi, dphi, theta, dtheta, top, r_app, Ts):
+def sense_commit(b, at, rho, tau, phi, dphi, theta, dtheta, top, r_app, Ts):
     """Commit the sample ``tau`` (period ``Ts``): take a due telemetry frame, propagate the
     observer with the applied torque ``r_app``, keep what the torque estimate needs."""
     S = SENSING_SLOTS
-    mode = int(s[S.downhole])
-    torque = string_torque(s, rho, top, dtheta)
-    if mode == SENSE_TELEMETRY and _due(s, tau):
-        k = int(s[S.taken])
-        p, dp = _frame(s, k, phi, dphi)
-        f = S.frames + (k % N_FRAMES) * FRAME.size
-        s[f + FRAME.arrival] = tau + s[S.latency]
-        s[f + FRAME.phi] = p
-        s[f + FRAME.dphi] = dp
-        s[S.taken] = k + 1
-        s[S.next] = (k + 1) * s[S.period]
+    mode = int(b[at + S.downhole])
+    torque = string_torque(b, at, rho, top, dtheta)
+    if mode == SENSE_TELEMETRY and _due(b, at, tau):
+        k = int(b[at + S.taken])
+        p, dp = _frame(b, at, k, phi, dphi)
+        f = at + S.frames + (k % N_FRAMES) * FRAME.size
+        b[f + FRAME.arrival] = tau + b[at + S.latency]
+        b[f + FRAME.phi] = p
+        b[f + FRAME.dphi] = dp
+        b[at + S.taken] = k + 1
+        b[at + S.next] = (k + 1) * b[at + S.period]
     elif mode == SENSE_OBSERVER:
-        xf = _observer_view(s, theta, dtheta, torque)
-        u = r_app + s[S.K0]
-        a = S.Ad
-        bd = S.Bd
+        xf = _observer_view(b, at, theta, dtheta, torque)
+        u = r_app + b[at + S.K0]
+        a = at + S.Ad
+        bd = at + S.Bd
         for i in range(4):
             row = a + 4 * i
-            s[S.xhat + i] = (
-                s[row] * xf[0] + s[row + 1] * xf[1] + s[row + 2] * xf[2] + s[row + 3] * xf[3]
-                + s[bd + i] * u
+            b[at + S.xhat + i] = (
+                b[row] * xf[0] + b[row + 1] * xf[1] + b[row + 2] * xf[2] + b[row + 3] * xf[3]
+                + b[bd + i] * u
             )  # fmt: skip
-        s[S.observing] = 1.0
-    s[S.prev] = 1.0
-    s[S.prev_dt] = Ts
-    s[S.prev_dtheta] = dtheta
-    s[S.prev_r] = r_app
+        b[at + S.observing] = 1.0
+    b[at + S.prev] = 1.0
+    b[at + S.prev_dt] = Ts
+    b[at + S.prev_dtheta] = dtheta
+    b[at + S.prev_r] = r_app

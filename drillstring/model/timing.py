@@ -129,12 +129,12 @@ class Timing:
         """
         return cls(**table_from_si("Timing.from_si", cls.PARAMETERS, values, scales))
 
-    def pack(self, m: np.ndarray) -> None:
-        """Write the settings into the timing's section ``m`` of the controller's block
-        (:data:`TIMING_SLOTS`), its state at rest."""
-        m[:] = 0.0
+    def pack(self, b: np.ndarray, at: int) -> None:
+        """Write the settings into the controller's block ``b``, whose timing section
+        (:data:`TIMING_SLOTS`) is at ``at``, its state at rest."""
+        b[at : at + TIMING_SLOTS.size] = 0.0
         for p in self.PARAMETERS:
-            m[getattr(TIMING_SLOTS, p.name)] = getattr(self, p.name)
+            b[at + getattr(TIMING_SLOTS, p.name)] = getattr(self, p.name)
 
 
 #: The timing's state: the time of the law's next computation, the law's command of its last
@@ -155,7 +155,7 @@ TIMING_SLOTS = block_layout(
 
 
 # --------------------------------------------------------------------------------------------
-# the timing, compiled: on its section ``m`` of the block (TIMING_SLOTS)
+# the timing, compiled: on the block ``b`` whose timing section (TIMING_SLOTS) is at ``at``
 # --------------------------------------------------------------------------------------------
 
 inline = jit_for(__name__, inline=True)
@@ -168,65 +168,66 @@ def near(t):
 
 
 @inline
-def law_due(m, tau):
+def law_due(b, at, tau):
     """True when the law computes at the sample ``tau`` (its period > 0)."""
-    nxt = m[TIMING_SLOTS.next]
+    nxt = b[at + TIMING_SLOTS.next]
     return tau >= nxt - near(nxt)
 
 
 @inline
-def held_command(m, r_ff):
+def held_command(b, at, r_ff):
     """The law's command held from its last computation (``r_ff`` before the first)."""
-    if m[TIMING_SLOTS.has_law] != 0.0:
-        return m[TIMING_SLOTS.law]
+    if b[at + TIMING_SLOTS.has_law] != 0.0:
+        return b[at + TIMING_SLOTS.law]
     return r_ff
 
 
 @inline
-def at_drive(m, tau, r_law, r_ff):
+def at_drive(b, at, tau, r_law, r_ff):
     """The command at the drive at ``tau`` when the law's command is ``r_law``: ``r_law``
     without latency, else the newest command that has arrived (``r_ff`` before the first)."""
     T = TIMING_SLOTS
-    if m[T.latency] <= 0.0:
+    if b[at + T.latency] <= 0.0:
         return r_law
-    r_cmd = m[T.cmd] if m[T.has_cmd] != 0.0 else r_ff
+    r_cmd = b[at + T.cmd] if b[at + T.has_cmd] != 0.0 else r_ff
     now = tau + near(tau)
-    for i in range(int(m[T.n_pending])):
-        at = T.pending + 2 * i
-        if m[at] <= now:
-            r_cmd = m[at + 1]
+    for i in range(int(b[at + T.n_pending])):
+        entry = at + T.pending + 2 * i
+        if b[entry] <= now:
+            r_cmd = b[entry + 1]
     return r_cmd
 
 
 @inline
-def timing_commit(m, tau, due, r_law):
+def timing_commit(b, at, tau, due, r_law):
     """The timing's state after the sample ``tau``: the arrived commands taken off the queue,
     the law's new command (``due``: computed at ``tau``) held and put on it, the law's next
     computation."""
     T = TIMING_SLOTS
-    period = m[T.period]
-    latency = m[T.latency]
+    q = at + T.pending  # the queue
+    period = b[at + T.period]
+    latency = b[at + T.latency]
     if latency > 0.0:
         now = tau + near(tau)
-        n = int(m[T.n_pending])
+        n = int(b[at + T.n_pending])
         k = 0
-        while k < n and m[T.pending + 2 * k] <= now:
-            m[T.cmd] = m[T.pending + 2 * k + 1]
-            m[T.has_cmd] = 1.0
+        while k < n and b[q + 2 * k] <= now:
+            b[at + T.cmd] = b[q + 2 * k + 1]
+            b[at + T.has_cmd] = 1.0
             k += 1
         for i in range(n - k):
-            m[T.pending + 2 * i] = m[T.pending + 2 * (i + k)]
-            m[T.pending + 2 * i + 1] = m[T.pending + 2 * (i + k) + 1]
-        m[T.n_pending] = n - k
+            b[q + 2 * i] = b[q + 2 * (i + k)]
+            b[q + 2 * i + 1] = b[q + 2 * (i + k) + 1]
+        b[at + T.n_pending] = n - k
     if due:
-        m[T.law] = r_law
-        m[T.has_law] = 1.0
-        m[T.next] = (math.floor(tau / period + 1e-9) + 1.0) * period
+        b[at + T.law] = r_law
+        b[at + T.has_law] = 1.0
+        b[at + T.next] = (math.floor(tau / period + 1e-9) + 1.0) * period
         if latency > 0.0:
-            n = int(m[T.n_pending])
-            m[T.pending + 2 * n] = tau + latency
-            m[T.pending + 2 * n + 1] = r_law
-            m[T.n_pending] = n + 1
+            n = int(b[at + T.n_pending])
+            b[q + 2 * n] = tau + latency
+            b[q + 2 * n + 1] = r_law
+            b[at + T.n_pending] = n + 1
         else:
-            m[T.cmd] = r_law
-            m[T.has_cmd] = 1.0
+            b[at + T.cmd] = r_law
+            b[at + T.has_cmd] = 1.0

@@ -168,15 +168,15 @@ class TopDrive:
         """
         return cls(**table_from_si("TopDrive.from_si", cls.PARAMETERS, values, scales))
 
-    def pack(self, d: np.ndarray) -> None:
-        """Write the limits into the top drive's section ``d`` of the controller's block
-        (:data:`TOP_DRIVE_SLOTS`) and switch the model on."""
-        d[TOP_DRIVE_SLOTS.on] = 1.0
+    def pack(self, b: np.ndarray, at: int) -> None:
+        """Write the limits into the controller's block ``b``, whose top-drive section
+        (:data:`TOP_DRIVE_SLOTS`) is at ``at``, and switch the model on."""
+        b[at + TOP_DRIVE_SLOTS.on] = 1.0
         for p in self.PARAMETERS:
             if not p.choices:
-                d[getattr(TOP_DRIVE_SLOTS, p.name)] = getattr(self, p.name)
+                b[at + getattr(TOP_DRIVE_SLOTS, p.name)] = getattr(self, p.name)
         # 1: four-quadrant, 0: no torque against the rotation
-        d[TOP_DRIVE_SLOTS.braking] = 1.0 if self.braking == "four-quadrant" else 0.0
+        b[at + TOP_DRIVE_SLOTS.braking] = 1.0 if self.braking == "four-quadrant" else 0.0
 
 
 #: The top drive's section of the controller's block: its switch (0: no top-drive model, the
@@ -322,14 +322,14 @@ def top_drive_from_spec(spec: str, R0: float, scales: Scales | None = None) -> T
 
 
 # --------------------------------------------------------------------------------------------
-# the top drive, compiled: on its section ``d`` of the block (TOP_DRIVE_SLOTS)
+# the top drive, compiled: on the block ``b`` whose top-drive section (TOP_DRIVE_SLOTS) is at ``at``
 # --------------------------------------------------------------------------------------------
 
 inline = jit_for(__name__, inline=True)
 
 
 @inline
-def envelope(d, omega):
+def envelope(b, at, omega):
     """(lo, hi): the absolute torques R/C the top drive can deliver at the table speed ``omega``.
 
     The torque range; the power limit ``|R*omega| <= P_max``; without braking no torque against
@@ -337,22 +337,22 @@ def envelope(d, omega):
     that drives the table further out of its speed range (``R <= 0`` at or above ``omega_max``,
     ``R >= 0`` at or below ``omega_min``). Where these exclude each other the upper bound wins.
     """
-    lo = d[TOP_DRIVE_SLOTS.R_min]
-    hi = d[TOP_DRIVE_SLOTS.R_max]
-    p_max = d[TOP_DRIVE_SLOTS.P_max]
+    lo = b[at + TOP_DRIVE_SLOTS.R_min]
+    hi = b[at + TOP_DRIVE_SLOTS.R_max]
+    p_max = b[at + TOP_DRIVE_SLOTS.P_max]
     w = abs(omega)
     if p_max < math.inf and w > 0.0:
         limit = p_max / w
         hi = min(hi, limit)
         lo = max(lo, -limit)
-    if d[TOP_DRIVE_SLOTS.braking] == 0.0:
+    if b[at + TOP_DRIVE_SLOTS.braking] == 0.0:
         if omega > 0.0:
             lo = max(lo, 0.0)
         elif omega < 0.0:
             hi = min(hi, 0.0)
-    if omega >= d[TOP_DRIVE_SLOTS.omega_max]:
+    if omega >= b[at + TOP_DRIVE_SLOTS.omega_max]:
         hi = min(hi, 0.0)
-    if omega <= d[TOP_DRIVE_SLOTS.omega_min]:
+    if omega <= b[at + TOP_DRIVE_SLOTS.omega_min]:
         lo = max(lo, 0.0)
     if lo > hi:
         lo = hi
@@ -360,24 +360,24 @@ def envelope(d, omega):
 
 
 @inline
-def actuate(d, omega0, R0, r_cmd, dtheta):
+def actuate(b, at, omega0, R0, r_cmd, dtheta):
     """(r_lim, r_app, R): the limited command and the applied torque R - R0 for the command
     ``r_cmd`` = R - R0 at the table speed ``omega0 + dtheta`` (``omega0``, ``R0``: the
     operating point), and the applied absolute torque R/C (pure: the drive's state is committed
     by :func:`drive_commit`)."""
-    if d[TOP_DRIVE_SLOTS.on] == 0.0:
+    if b[at + TOP_DRIVE_SLOTS.on] == 0.0:
         return r_cmd, r_cmd, R0 + r_cmd
-    lo, hi = envelope(d, omega0 + dtheta)
+    lo, hi = envelope(b, at, omega0 + dtheta)
     R_cmd = R0 + r_cmd
     R = min(max(R_cmd, lo), hi)
-    if d[TOP_DRIVE_SLOTS.init] != 0.0:
-        R_prev = d[TOP_DRIVE_SLOTS.R]
-        dt = d[TOP_DRIVE_SLOTS.dt]
-        rate = d[TOP_DRIVE_SLOTS.rate]
+    if b[at + TOP_DRIVE_SLOTS.init] != 0.0:
+        R_prev = b[at + TOP_DRIVE_SLOTS.R]
+        dt = b[at + TOP_DRIVE_SLOTS.dt]
+        rate = b[at + TOP_DRIVE_SLOTS.rate]
         if rate < math.inf:
             R = min(max(R, R_prev - rate * dt), R_prev + rate * dt)
         R_lim = R
-        T = d[TOP_DRIVE_SLOTS.lag]
+        T = b[at + TOP_DRIVE_SLOTS.lag]
         if T > 0.0:
             R = R_prev - math.expm1(-dt / T) * (R - R_prev)
             R = min(max(R, lo), hi)
@@ -389,11 +389,11 @@ def actuate(d, omega0, R0, r_cmd, dtheta):
 
 
 @inline
-def drive_commit(d, tau, R, Ts):
+def drive_commit(b, at, tau, R, Ts):
     """Commit the sample ``tau`` (period ``Ts``) at which the drive applied the absolute torque
     ``R`` (nothing without a top-drive model)."""
-    if d[TOP_DRIVE_SLOTS.on] != 0.0:
-        d[TOP_DRIVE_SLOTS.R] = R
-        d[TOP_DRIVE_SLOTS.t] = tau
-        d[TOP_DRIVE_SLOTS.dt] = Ts
-        d[TOP_DRIVE_SLOTS.init] = 1.0
+    if b[at + TOP_DRIVE_SLOTS.on] != 0.0:
+        b[at + TOP_DRIVE_SLOTS.R] = R
+        b[at + TOP_DRIVE_SLOTS.t] = tau
+        b[at + TOP_DRIVE_SLOTS.dt] = Ts
+        b[at + TOP_DRIVE_SLOTS.init] = 1.0

@@ -25,8 +25,8 @@ unit system (``si``: the SI connectors converted with the rig scales of the bloc
 
 Each part's compiled code runs on its section of the block (:mod:`drillstring.model.laws`,
 :mod:`drillstring.model.topdrive`, :mod:`drillstring.model.sensing`,
-:mod:`drillstring.model.timing`); the functions here take the sections and the controller's own
-entries (:data:`~drillstring.model.digital.layout.BLOCK`).
+:mod:`drillstring.model.timing`); each takes the block and the offset of the part's section
+in it (:data:`~drillstring.model.digital.layout.BLOCK`).
 """
 
 from __future__ import annotations
@@ -34,7 +34,6 @@ from __future__ import annotations
 from drillstring.model.digital.layout import BLOCK
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.laws import (
-    LAW_SLOTS,
     feed_forward,
     law_keep,
     law_output,
@@ -42,34 +41,14 @@ from drillstring.model.laws import (
     law_state,
     law_update,
 )
-from drillstring.model.sensing import SENSING_SLOTS, sense_commit, sensed
+from drillstring.model.sensing import sense_commit, sensed
 from drillstring.model.timing import TIMING_SLOTS, at_drive, held_command, law_due, timing_commit
-from drillstring.model.topdrive import TOP_DRIVE_SLOTS, actuate, drive_commit
+from drillstring.model.topdrive import actuate, drive_commit
 
 jit = jit_for(__name__)
 inline = jit_for(__name__, inline=True)
 
 __all__ = ["commit", "fmu_output", "fmu_step", "sample"]
-
-
-@inline
-def _law(b):
-    return b[BLOCK.law : BLOCK.law + LAW_SLOTS.size]
-
-
-@inline
-def _drive(b):
-    return b[BLOCK.top_drive : BLOCK.top_drive + TOP_DRIVE_SLOTS.size]
-
-
-@inline
-def _sensing(b):
-    return b[BLOCK.sensing : BLOCK.sensing + SENSING_SLOTS.size]
-
-
-@inline
-def _timing(b):
-    return b[BLOCK.timing : BLOCK.timing + TIMING_SLOTS.size]
 
 
 @inline
@@ -81,47 +60,47 @@ def _started(b, tau):
 @inline
 def _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
     """The law's command R - R0 at ``tau`` (the feed-forward alone before it has started)."""
-    w = _law(b)
+    w = BLOCK.law
     if _started(b, tau):
         if b[BLOCK.active] != 0.0:
-            x = law_state(w)
+            x = law_state(b, w)
         else:
-            x = law_start(w, theta, dtheta, torque_s, phi_s, dphi_s)
-        return law_output(w, x, theta, dtheta, torque_s, phi_s, dphi_s)
-    return feed_forward(w)
+            x = law_start(b, w, theta, dtheta, torque_s, phi_s, dphi_s)
+        return law_output(b, w, x, theta, dtheta, torque_s, phi_s, dphi_s)
+    return feed_forward(b, w)
 
 
 @inline
 def _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
     """With the controller's own period: (due, r_law, r_cmd), whether the law computes at
     ``tau``, its command (computed now or held), and the command at the drive."""
-    m = _timing(b)
-    r_ff = feed_forward(_law(b))
-    due = law_due(m, tau)
+    m = BLOCK.timing
+    r_ff = feed_forward(b, BLOCK.law)
+    due = law_due(b, m, tau)
     if due:
         r_law = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
     else:
-        r_law = held_command(m, r_ff)
-    return due, r_law, at_drive(m, tau, r_law, r_ff)
+        r_law = held_command(b, m, r_ff)
+    return due, r_law, at_drive(b, m, tau, r_law, r_ff)
 
 
 @inline
 def _sample(b, tau, phi, dphi, theta, dtheta, top):
     """:func:`sample`'s numbers and (due, r_law, r_law_lim): whether the law computes at
     ``tau`` and its command before and after the drive's limits (the anti-windup's)."""
-    phi_s, dphi_s, torque_s = sensed(_sensing(b), b[BLOCK.rho], tau, phi, dphi, theta, dtheta,
-                                     top)  # fmt: skip
-    d = _drive(b)
+    phi_s, dphi_s, torque_s = sensed(b, BLOCK.sensing, b[BLOCK.rho], tau, phi, dphi, theta,
+                                     dtheta, top)  # fmt: skip
+    d = BLOCK.top_drive
     omega0, R0 = b[BLOCK.omega0], b[BLOCK.R0]
-    if _timing(b)[TIMING_SLOTS.period] <= 0.0:
+    if b[BLOCK.timing + TIMING_SLOTS.period] <= 0.0:
         r_cmd = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
-        r_lim, r_app, R = actuate(d, omega0, R0, r_cmd, dtheta)
+        r_lim, r_app, R = actuate(b, d, omega0, R0, r_cmd, dtheta)
         return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, True, r_cmd, r_lim
     due, r_law, r_cmd = _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
-    r_lim, r_app, R = actuate(d, omega0, R0, r_cmd, dtheta)
+    r_lim, r_app, R = actuate(b, d, omega0, R0, r_cmd, dtheta)
     r_law_lim = r_lim
     if r_law != r_cmd:  # on its way: the limits the drive would put on it now
-        r_law_lim = actuate(d, omega0, R0, r_law, dtheta)[0]
+        r_law_lim = actuate(b, d, omega0, R0, r_law, dtheta)[0]
     return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim
 
 
@@ -148,22 +127,21 @@ def commit(b, tau, phi, dphi, theta, dtheta, top, Ts):
     """
     out = _sample(b, tau, phi, dphi, theta, dtheta, top)
     r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim = out
-    w = _law(b)
-    m = _timing(b)
-    period = m[TIMING_SLOTS.period]
+    w = BLOCK.law
+    period = b[BLOCK.timing + TIMING_SLOTS.period]
     if due and _started(b, tau):
         if b[BLOCK.active] != 0.0:
-            x = law_state(w)
+            x = law_state(b, w)
         else:
-            x = law_start(w, theta, dtheta, torque_s, phi_s, dphi_s)
+            x = law_start(b, w, theta, dtheta, torque_s, phi_s, dphi_s)
         dt = Ts if period <= 0.0 else period
-        x = law_update(w, x, theta, dtheta, torque_s, phi_s, dphi_s, dt, r_law, r_law_lim)
-        law_keep(w, x)
+        x = law_update(b, w, x, theta, dtheta, torque_s, phi_s, dphi_s, dt, r_law, r_law_lim)
+        law_keep(b, w, x)
         b[BLOCK.active] = 1.0
     if period > 0.0:
-        timing_commit(m, tau, due, r_law)
-    drive_commit(_drive(b), tau, R, Ts)
-    sense_commit(_sensing(b), b[BLOCK.rho], tau, phi, dphi, theta, dtheta, top, r_app, Ts)
+        timing_commit(b, BLOCK.timing, tau, due, r_law)
+    drive_commit(b, BLOCK.top_drive, tau, R, Ts)
+    sense_commit(b, BLOCK.sensing, b[BLOCK.rho], tau, phi, dphi, theta, dtheta, top, r_app, Ts)
     b[BLOCK.r_cmd] = r_cmd
     b[BLOCK.r_app] = r_app
     saturated = r_lim != r_cmd

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drillstring.model.digital.block import commit, sample
-from drillstring.model.digital.layout import BLOCK, section, slot_names, state_offsets
+from drillstring.model.digital.layout import BLOCK, slot_names, state_offsets
 from drillstring.model.laws import AFFINE_STATE, LAW_SLOTS, Law
 from drillstring.model.params import ScaledParams
 from drillstring.model.sensing import SENSING_SLOTS, Sensing
@@ -125,11 +125,11 @@ class DigitalController:
         b[BLOCK.omega0] = point.omega0
         b[BLOCK.R0] = point.R0
         b[BLOCK.rho] = point.rho
-        self.law.pack(section(b, "law"))
+        self.law.pack(b, BLOCK.law)
         if self.top_drive is not None:
-            self.top_drive.pack(section(b, "top_drive"))
-        self.sensing.pack(section(b, "sensing"))
-        self.timing.pack(section(b, "timing"))
+            self.top_drive.pack(b, BLOCK.top_drive)
+        self.sensing.pack(b, BLOCK.sensing)
+        self.timing.pack(b, BLOCK.timing)
         return b
 
     def start(self, point: OperatingPoint | ScaledParams) -> Running:

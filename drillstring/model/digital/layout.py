@@ -11,11 +11,12 @@ has its section, laid out where the part is declared, from its ``PARAMETERS`` ta
 state: the law (:data:`~drillstring.model.laws.LAW_SLOTS`), the top drive
 (:data:`~drillstring.model.topdrive.TOP_DRIVE_SLOTS`), the sensing
 (:data:`~drillstring.model.sensing.SENSING_SLOTS`) and the controller's own timing
-(:data:`~drillstring.model.timing.TIMING_SLOTS`); each part's compiled code works on its section
-(:func:`section`). The compiled functions of :mod:`drillstring.model.digital.block` read and
-write the block, and so do the controller FMUs (on their Python path and natively in the front
-layer: the block is the FMU's io block) and the compiled sampled loop
-(:mod:`drillstring.model.digital.loop`). So every host runs the same code on the same numbers.
+(:data:`~drillstring.model.timing.TIMING_SLOTS`); each part's code takes the block and the offset
+of its section in it (``BLOCK.law``, ``BLOCK.sensing``, ...). The compiled functions of
+:mod:`drillstring.model.digital.block` read and write the block, and so do the controller FMUs
+(on their Python path and natively in the front layer: the block is the FMU's io block) and the
+compiled sampled loop (:mod:`drillstring.model.digital.loop`). So every host runs the same code
+on the same numbers.
 
 The block starts with the four entries every FMU io block has (the front layer reads them:
 :mod:`drillstring.model.native`). Everything is in the paper's scaled units (time tau, torques in
@@ -35,7 +36,7 @@ from drillstring.model.tables import block_layout
 from drillstring.model.timing import TIMING_SLOTS
 from drillstring.model.topdrive import TOP_DRIVE_SLOTS
 
-__all__ = ["BLOCK", "SECTIONS", "section", "slot_names", "state_offsets"]
+__all__ = ["BLOCK", "SECTIONS", "slot_names", "state_offsets"]
 
 #: The parts' sections of the block, by their entry in :data:`BLOCK`.
 SECTIONS: dict[str, Any] = {
@@ -86,20 +87,6 @@ BLOCK = block_layout(
     ),
     state=("active", "r_cmd", "r_app", "saturated", "n_sat", "n_samples"),
 )
-
-
-def section(b: np.ndarray, name: str) -> np.ndarray:
-    """The section of the part ``name`` (a key of :data:`SECTIONS`) of the block ``b``, a view.
-
-    Raises
-    ------
-    KeyError
-        ``name`` is not a part of the block.
-    """
-    if name not in SECTIONS:
-        raise KeyError(f"the controller block has no part {name!r} (parts: {', '.join(SECTIONS)})")
-    at = getattr(BLOCK, name)
-    return b[at : at + SECTIONS[name].size]
 
 
 def _entries(layout: Any) -> list[tuple[str, int, int]]:
