@@ -255,16 +255,7 @@ static int scalars(Component *c, const char *fn, size_t nvr, size_t nValues)
 }
 
 /* Float64, Int32 and String: the same C types as FMI 2.0's Real, Integer and String. */
-#define SAME_TYPE(Name, CType, T)                                                                  \
-    EXPORT fmi3Status fmi3Get##Name(fmi3Instance instance, const fmi3ValueReference vr[],         \
-                                    size_t nvr, CType values[], size_t nValues)                    \
-    {                                                                                              \
-        Component *c = ds_component(instance);                                                     \
-        if (!ds_begin(c, "fmi3Get" #Name, MASK_Get)) return fmi3Error;                             \
-        if (!scalars(c, "fmi3Get" #Name, nvr, nValues)) return fmi3Error;                          \
-        if (!ds_check_vrs(c, "fmi3Get" #Name, vr, nvr, values, T, 0)) return fmi3Error;            \
-        return status3(ds_get(c, vr, nvr, (void *)values, T));                                     \
-    }                                                                                              \
+#define SAME_TYPE_SET(Name, CType, T)                                                              \
     EXPORT fmi3Status fmi3Set##Name(fmi3Instance instance, const fmi3ValueReference vr[],         \
                                     size_t nvr, const CType values[], size_t nValues)              \
     {                                                                                              \
@@ -274,9 +265,45 @@ static int scalars(Component *c, const char *fn, size_t nvr, size_t nValues)
         if (!ds_check_vrs(c, "fmi3Set" #Name, vr, nvr, values, T, 1)) return fmi3Error;            \
         return status3(ds_set(c, vr, nvr, (const void *)values, T));                               \
     }
-SAME_TYPE(Float64, fmi3Float64, 'R')
-SAME_TYPE(Int32, fmi3Int32, 'I')
-SAME_TYPE(String, fmi3String, 'S')
+#define SAME_TYPE_GET(Name, CType, T)                                                              \
+    EXPORT fmi3Status fmi3Get##Name(fmi3Instance instance, const fmi3ValueReference vr[],         \
+                                    size_t nvr, CType values[], size_t nValues)                    \
+    {                                                                                              \
+        Component *c = ds_component(instance);                                                     \
+        if (!ds_begin(c, "fmi3Get" #Name, MASK_Get)) return fmi3Error;                             \
+        if (!scalars(c, "fmi3Get" #Name, nvr, nValues)) return fmi3Error;                          \
+        if (!ds_check_vrs(c, "fmi3Get" #Name, vr, nvr, values, T, 0)) return fmi3Error;            \
+        return status3(ds_get(c, vr, nvr, (void *)values, T));                                     \
+    }
+SAME_TYPE_SET(Float64, fmi3Float64, 'R')
+SAME_TYPE_SET(Int32, fmi3Int32, 'I')
+SAME_TYPE_SET(String, fmi3String, 'S')
+SAME_TYPE_GET(Int32, fmi3Int32, 'I')
+SAME_TYPE_GET(String, fmi3String, 'S')
+
+/* Float64 values: the slave's, and the independent variable time (the instance's time: where
+   the last step ended, or the start time), which only this layer knows. */
+EXPORT fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                 fmi3Float64 values[], size_t nValues)
+{
+    Component *c = ds_component(instance);
+    const char *fn = "fmi3GetFloat64";
+    if (!ds_begin(c, fn, MASK_Get) || !scalars(c, fn, nvr, nValues)) return fmi3Error;
+    if (!ds_check_vrs(c, fn, vr, nvr, values, 'R', 0)) return fmi3Error;
+    size_t times = 0;
+    for (size_t i = 0; i < nvr; ++i) times += DS_VARIABLES[vr[i]].causality == DS_INDEPENDENT;
+    if (times == 0) return status3(ds_get(c, vr, nvr, values, 'R'));
+    fmi2Status worst = fmi2OK;
+    for (size_t i = 0; i < nvr && worst <= fmi2Warning; ++i) {
+        if (DS_VARIABLES[vr[i]].causality == DS_INDEPENDENT) {
+            values[i] = c->last_time;
+        } else {
+            const fmi2Status s = ds_get(c, &vr[i], 1, &values[i], 'R');
+            if (s > worst) worst = s;
+        }
+    }
+    return status3(worst);
+}
 
 /* A buffer of nvr FMI 2.0 integers (Booleans, enumerations), or NULL (logged). */
 static fmi2Integer *integers(Component *c, const char *fn, size_t nvr)

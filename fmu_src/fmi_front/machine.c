@@ -120,6 +120,12 @@ int ds_check_vrs(Component *c, const char *fn, const fmi2ValueReference vr[], si
             return 0;
         }
         if (!set) continue;
+        if (v->causality == DS_INDEPENDENT) {
+            ds_logf(c, fmi2Error, "%s: variable %s (value reference %u) is the independent "
+                    "variable (the FMU's time, which the steps advance) and cannot be set; "
+                    "nothing done", fn, v->name, vr[i]);
+            return 0;
+        }
         if (v->causality == DS_OUTPUT) {
             ds_logf(c, fmi2Error, "%s: variable %s (value reference %u) is an output (computed by "
                     "the FMU) and cannot be set; nothing done", fn, v->name, vr[i]);

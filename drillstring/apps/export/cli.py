@@ -15,6 +15,9 @@ from drillstring.validation import check_out_folder
 
 __all__ = ["export_main"]
 
+#: The values of ``--fmi``: the FMI versions built.
+_FMI_CHOICES = {"2": (2,), "3": (3,), "both": (2, 3)}
+
 
 def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus") -> int:
     """Command line entry point of the build.
@@ -30,7 +33,8 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
     -------
     int
         The exit status: 0 built, 1 build or validation error, 2 bad input (a ``--gains`` file
-        that does not exist without ``--design``, an ``--out`` that is a file).
+        that does not exist without ``--design``, an ``--out`` that is a file, ``--fmi 3`` or
+        ``both`` with ``--self-contained``).
     """
     ap = argparse.ArgumentParser(
         prog=prog,
@@ -54,9 +58,17 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
         "--self-contained",
         action="store_true",
         help="bundle the Python runtime and the compiled kernel into every FMU (about 100 MB "
-        "each): they run on a Linux x86-64 machine without Python (docs/fmus.md)",
+        "each): they run on a Linux x86-64 machine without Python (docs/fmus.md); FMI 2.0 only",
+    )
+    ap.add_argument(
+        "--fmi",
+        choices=sorted(_FMI_CHOICES),
+        default=None,
+        help="the FMI versions built: 2 (the FMI 2.0 FMUs and SSP packages), 3 (the FMI 3.0 "
+        "twins, X3.fmu) or both (default; 2 with --self-contained)",
     )
     args = ap.parse_args(argv)
+    fmi = _FMI_CHOICES[args.fmi or ("2" if args.self_contained else "both")]
     try:
         check_out_folder("--out", args.out)
         if args.gains is not None and not args.design and not args.gains.is_file():
@@ -64,11 +76,16 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
                 f"--gains {str(args.gains)!r}: no such file (give --design to design the "
                 "controller into it, or drillstring design --out DIR to write DIR/gains.json)"
             )
+        if args.self_contained and fmi != (2,):
+            raise ValueError(
+                f"--fmi {args.fmi} with --self-contained: the self-contained FMUs are FMI 2.0 "
+                "FMUs only (give --fmi 2, or leave --fmi out)"
+            )
     except ValueError as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
     try:
-        built = build_fmus(args.out, args.gains, self_contained=args.self_contained)
+        built = build_fmus(args.out, args.gains, self_contained=args.self_contained, fmi=fmi)
     except BuildError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
