@@ -701,3 +701,16 @@ def test_ecos_api_fmi3_closed_loop_equals_fmi2(built):
     assert r2.shape == r3.shape == (3000, len(tl.RECORD_PLANT) + 2)
     assert np.array_equal(r2, r3)
     assert np.ptp(r2[:, -1]) > 0.1  # the feedback acted
+
+
+def test_docs_carry_the_fmi3_rows():
+    """docs/fmus.md's table of the FMI 3.0 rows names every row of :data:`ROWS` with its status
+    and the start of its message."""
+    text = (tl.ROOT / "docs" / "fmus.md").read_text(encoding="utf-8")
+    status = {ERROR: "fmi3Error"}
+    for row, (state, _, code, pattern) in ROWS.items():
+        (line,) = [x for x in text.splitlines() if x.startswith(f"| {row} |")]
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[1] == state and cells[3] == status[code], line
+        first = re.match(r"\^(fmi3\w+):", pattern)
+        assert first is not None and cells[4].startswith(f"{first.group(1)}:"), line
