@@ -223,10 +223,11 @@ def build_only(
     gains: str | os.PathLike[str],
     source_date_epoch: int | None = None,
     fmi: tuple[int, ...] = (2,),
+    self_contained: bool = False,
 ) -> dict[str, Path]:
     """:func:`drillstring.apps.export.build.build_fmus` with only the FMUs ``models`` built (the
     others and the SSP packages left out) in the FMI versions ``fmi`` (the FMI 3.0 twin of ``X``
-    is ``X3``), in this process; returns {model identifier: path}.
+    is ``X3``), self-contained or not, in this process; returns {model identifier: path}.
 
     The build proper is ``build_fmus``'s own: the gains file read (or designed when missing),
     ``SOURCE_DATE_EPOCH`` from the environment unless ``source_date_epoch`` is given, each FMU's
@@ -242,7 +243,7 @@ def build_only(
 
     builder.build_fmu, builder.build_packages = only, lambda *args, **kwargs: {}
     try:
-        built = builder.build_fmus(out, gains, source_date_epoch, fmi=fmi)
+        built = builder.build_fmus(out, gains, source_date_epoch, self_contained, fmi)
     finally:
         builder.build_fmu, builder.build_packages = real_fmu, real_packages
     name = {2: lambda m: m, 3: fmi3_model_identifier}

@@ -30,6 +30,7 @@ from xml.etree import ElementTree as ET
 
 import fmpy
 import fmu_testlib as tl
+import isolation
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
@@ -714,3 +715,96 @@ def test_docs_carry_the_fmi3_rows():
         assert cells[1] == state and cells[3] == status[code], line
         first = re.match(r"\^(fmi3\w+):", pattern)
         assert first is not None and cells[4].startswith(f"{first.group(1)}:"), line
+
+
+# ------------------------------------------------------------------------------------------------
+# a C host: FMI 3.0 without Python in the host, normal and self-contained
+# ------------------------------------------------------------------------------------------------
+
+#: The plant's outputs the C host records, and the number of its steps of 0.01.
+HOST3_OUTPUTS = ("phi", "dphi", "theta", "dtheta", "u", "du")
+HOST3_STEPS = 200
+
+
+def _host3(fmu: Path, work: Path, env: dict[str, str], wrap=None) -> tuple[Any, np.ndarray]:
+    """``tests/c_host/host3.c`` on the unpacked twin ``fmu`` (a folder whose name needs no
+    quoting in a URI is not needed: FMI 3.0 passes a native path), in ``env``."""
+    work.mkdir(parents=True, exist_ok=True)
+    exe = tl.compile_c_program(tl.ROOT / "tests" / "c_host" / "host3.c", work, "-std=c11", "-ldl")
+    folder = tl.unpack(fmu, work / "drill ü#%[x] 100%20")
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    csv = work / "host3.csv"
+    cmd = [str(exe), str(folder), md.coSimulation.modelIdentifier, md.guid, "10000000"]
+    cmd += [str(HOST3_STEPS), str(csv), *(str(vr[n]) for n in HOST3_OUTPUTS)]
+    proc = tl.run_clean(wrap(cmd) if wrap else cmd, env, work)
+    rows = np.loadtxt(csv, delimiter=",", ndmin=2) if csv.exists() else np.empty((0, 0))
+    return proc, rows
+
+
+def _fmi2_reference(built: tl.Built, tmp: Path) -> np.ndarray:
+    """The FMI 2.0 plant in fmpy on the C host's grid and columns."""
+    plant = Twin(built.plant.fmu, tmp / "reference", 2, "reference")
+    try:
+        plant.start()
+        plant.fmu.exitInitializationMode()
+        rows = []
+        for k in range(HOST3_STEPS):
+            t, h = tl.grid(k, 10_000_000)
+            plant.step(t, h)
+            rows.append([t + h, *plant.get(*HOST3_OUTPUTS)])
+        return np.array(rows)
+    finally:
+        plant.free()
+
+
+def test_c_host_runs_the_fmi3_plant_in_a_clean_environment(built, tmp_path, clean_home):
+    """No Python in the host process, no libpython preloaded: the twin starts Python itself
+    (the kernel compiled in clean_home) and gives the FMI 2.0 plant's numbers bit for bit."""
+    proc, rows = _host3(twin(built, tl.PLANT), tmp_path / "host3", tl.clean_env(clean_home))
+    assert proc.returncode == 0, proc.stderr
+    assert rows.shape == (HOST3_STEPS, len(HOST3_OUTPUTS) + 1)
+    assert np.array_equal(rows, _fmi2_reference(built, tmp_path))
+
+
+_SELF_CONTAINED3 = (
+    "import sys; from pathlib import Path; "
+    "from drillstring.apps.export.self_contained import self_contained_fmus; "
+    "self_contained_fmus({sys.argv[1]: Path(sys.argv[2])}, Path(sys.argv[3]), "
+    "warmup=[Path(sys.argv[4])])"
+)
+
+
+@pytest.mark.slow
+def test_self_contained_fmi3_plant_runs_where_no_python_is(built, tmp_path):
+    """The twin made self-contained (its kernel compiled by the FMI 2.0 plant's warm-up) runs in
+    the C host in isolation (``tests/isolation.py``: no Python installation, no checkout, no
+    cache) with bogus overrides of the Python it would use: the FMI 2.0 plant's numbers."""
+    model = f"{tl.PLANT}3"
+    out = tmp_path / "sc"
+    proc = subprocess.run(
+        [sys.executable, "-c", _SELF_CONTAINED3, model, str(twin(built, tl.PLANT)), str(out)]
+        + [str(built.plant.fmu)],
+        capture_output=True, text=True, cwd=tmp_path, timeout=1800,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    fmu = out / f"{model}.fmu"
+    with zipfile.ZipFile(fmu) as z:
+        assert b"self-contained 1" in z.read("resources/drillstring_fmu_python.cfg")
+    work = tmp_path / "isolated"
+    home = work / "home"
+    home.mkdir(parents=True)
+    env = tl.clean_env(
+        home,
+        DRILLSTRING_FMU_LIBPYTHON="/nonexistent/libpython3.11.so",
+        DRILLSTRING_FMU_PYTHONHOME="/nonexistent",
+        DRILLSTRING_FMU_SITE_PACKAGES="/nonexistent",
+    )
+    hidden = [*isolation.python_installations(), isolation.ROOT, *isolation.user_caches(home)]
+
+    def wrap(cmd: list[str]) -> list[str]:
+        return isolation.isolated(cmd, work, hidden, [])
+
+    proc, rows = _host3(fmu, work, env, wrap)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert np.array_equal(rows, _fmi2_reference(built, tmp_path))

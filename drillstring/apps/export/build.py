@@ -209,7 +209,15 @@ def build_fmu(
         (docs / "index.html").write_text(text, encoding="utf-8")
         raw = pythonfmu_build(script, work / "raw", docs)
         written = _postprocess(
-            raw, out_dir, spec, cls, starts, record, source_date_epoch, work, tuple(sorted(fmi))
+            raw,
+            out_dir,
+            spec,
+            cls,
+            starts,
+            record,
+            source_date_epoch,
+            work,
+            tuple(sorted(set(fmi))),
         )
     for dest in written.values():
         validate(dest)
@@ -232,15 +240,12 @@ def build_fmus(
     ``gains_path`` defaults to ``drillstring.controller.gains.DEFAULT_GAINS_PATH``;
     ``source_date_epoch`` defaults to the environment variable ``SOURCE_DATE_EPOCH``;
     ``self_contained``: every FMU carries its Python
-    (:mod:`drillstring.apps.export.self_contained`), and so do the SSP packages made of them (FMI
-    2.0 only).
+    (:mod:`drillstring.apps.export.self_contained`), and so do the SSP packages made of them.
     """
     out = Path(out_dir)
     fmi = tuple(sorted(set(fmi)))
     if not fmi or set(fmi) - set(FMI_VERSIONS):
         raise BuildError(f"FMI versions {fmi!r}: choose from {FMI_VERSIONS}")
-    if self_contained and fmi != (2,):
-        raise BuildError("the self-contained FMUs are FMI 2.0 FMUs only: build them with fmi=(2,)")
     gains_file = Path(gains_path) if gains_path is not None else DEFAULT_GAINS_PATH
     if not gains_file.is_file():
         synthesize_gains(gains_file)
@@ -265,10 +270,13 @@ def build_fmus(
     )
     if self_contained:
         with tempfile.TemporaryDirectory(prefix="build_fmus_normal_") as tmp:
-            normal = {}
-            for spec, config in jobs:
-                normal.update(build_fmu(spec, Path(tmp), config, source_date_epoch))
-            built = self_contained_fmus(normal, out, source_date_epoch)
+            normal: dict[str, Path] = {}
+            for spec, config in jobs:  # the FMI 2.0 FMUs always: they compile the kernel
+                normal.update(build_fmu(spec, Path(tmp), config, source_date_epoch, (2, *fmi)))
+            fmi2 = {spec.model for spec, _ in jobs}
+            wanted = {m: p for m, p in normal.items() if (2 if m in fmi2 else 3) in fmi}
+            warmup = [path for m, path in normal.items() if m in fmi2]
+            built = self_contained_fmus(wanted, out, source_date_epoch, warmup)
     else:
         built = {}
         for spec, config in jobs:

@@ -33,8 +33,7 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
     -------
     int
         The exit status: 0 built, 1 build or validation error, 2 bad input (a ``--gains`` file
-        that does not exist without ``--design``, an ``--out`` that is a file, ``--fmi 3`` or
-        ``both`` with ``--self-contained``).
+        that does not exist without ``--design``, an ``--out`` that is a file).
     """
     ap = argparse.ArgumentParser(
         prog=prog,
@@ -58,14 +57,14 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
         "--self-contained",
         action="store_true",
         help="bundle the Python runtime and the compiled kernel into every FMU (about 100 MB "
-        "each): they run on a Linux x86-64 machine without Python (docs/fmus.md); FMI 2.0 only",
+        "each): they run on a Linux x86-64 machine without Python (docs/fmus.md)",
     )
     ap.add_argument(
         "--fmi",
         choices=sorted(_FMI_CHOICES),
         default=None,
         help="the FMI versions built: 2 (the FMI 2.0 FMUs and SSP packages), 3 (the FMI 3.0 "
-        "twins, X3.fmu) or both (default; 2 with --self-contained)",
+        "twins, X3.fmu) or both (default; 2 with --self-contained, whose FMUs are 100 MB each)",
     )
     args = ap.parse_args(argv)
     fmi = _FMI_CHOICES[args.fmi or ("2" if args.self_contained else "both")]
@@ -75,11 +74,6 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
             raise ValueError(
                 f"--gains {str(args.gains)!r}: no such file (give --design to design the "
                 "controller into it, or drillstring design --out DIR to write DIR/gains.json)"
-            )
-        if args.self_contained and fmi != (2,):
-            raise ValueError(
-                f"--fmi {args.fmi} with --self-contained: the self-contained FMUs are FMI 2.0 "
-                "FMUs only (give --fmi 2, or leave --fmi out)"
             )
     except ValueError as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
