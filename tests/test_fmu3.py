@@ -534,6 +534,21 @@ ROWS = {
         ERROR,
         r"^fmi3EnterEventMode: not provided \(hasEventMode is false\)$",
     ),
+    "start-time-not-zero": (
+        "instantiated",
+        lambda r, vr: r.enter(1.0),
+        ERROR,
+        r"^fmi3EnterInitializationMode: start time must be 0\.0",
+    ),
+    "step-past-stop-time": (
+        "instantiated",
+        lambda r, vr: max(
+            r.enter(0.0, 0.05), r.call("ExitInitializationMode"), r.step(0.0, 0.06)[0]
+        ),
+        ERROR,
+        r"^fmi3DoStep: the step \[0\.0, 0\.06\] ends after the stop time 0\.05 defined in "
+        r"fmi3EnterInitializationMode; nothing was computed$",
+    ),
     "stop-time-before-start": (
         "instantiated",
         lambda r, vr: r.enter(1.0, 0.5),
