@@ -38,6 +38,9 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 from lxml import etree
 
+from drillstring.apps.export import cli as export_cli
+from drillstring.apps.export.build import build_fmus
+from drillstring.apps.export.specs import BuildError
 from drillstring.model.experiments import FIG5
 
 pytestmark = pytest.mark.fmu
@@ -823,3 +826,43 @@ def test_self_contained_fmi3_plant_runs_where_no_python_is(built, tmp_path):
     proc, rows = _host3(fmu, work, env, wrap)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert np.array_equal(rows, _fmi2_reference(built, tmp_path))
+
+
+# ------------------------------------------------------------------------------------------------
+# the command line
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("argv", "versions", "self_contained"),
+    [
+        ([], (2, 3), False),
+        (["--fmi", "both"], (2, 3), False),
+        (["--fmi", "2"], (2,), False),
+        (["--fmi", "3"], (3,), False),
+        (["--self-contained"], (2,), True),
+        (["--self-contained", "--fmi", "3"], (3,), True),
+    ],
+)
+def test_build_command_passes_the_fmi_versions(
+    monkeypatch, tmp_path, argv, versions, self_contained
+):
+    seen: dict[str, Any] = {}
+
+    def build(out: Any, gains: Any, *, self_contained: bool, fmi: tuple[int, ...]) -> dict:
+        seen.update(self_contained=self_contained, fmi=fmi)
+        return {}
+
+    monkeypatch.setattr(export_cli, "build_fmus", build)
+    assert export_cli.export_main(["--out", str(tmp_path / "out"), *argv]) == 0
+    assert seen == {"self_contained": self_contained, "fmi": versions}
+
+
+def test_build_refuses_unknown_fmi_versions(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        export_cli.export_main(["--out", str(tmp_path / "out"), "--fmi", "4"])
+    assert exc.value.code == 2 and "invalid choice: '4'" in capsys.readouterr().err
+    for bad in ((), (1,), (2, 4)):
+        with pytest.raises(BuildError, match=r"FMI versions .*: choose from \(2, 3\)"):
+            build_fmus(tmp_path / "none", tmp_path / "no-gains.json", fmi=bad)
+    assert not (tmp_path / "none").exists()
