@@ -1,8 +1,9 @@
 """The FMI 3.0 twins of the FMUs (``X3.fmu`` beside ``X.fmu`` in the session build).
 
-* their model descriptions: valid against the FMI 3.0 schema that fmpy ships, and the same
-  variables (names, value references, causality, variability, start, min, max, units) as the FMI
-  2.0 ones, plus the independent variable ``time``;
+* their model descriptions: the same variables (names, value references, causality,
+  variability, start, min, max, units) as the FMI 2.0 ones, plus the independent variable
+  ``time`` (the schema of FMI 3.0, fmpy's rules and ``fmutool -check`` run on every FMU of the
+  build, the twins included, in ``tests/test_fmu_checkers.py``);
 * the same numbers: the FMI 3.0 plant equals the FMI 2.0 plant bit for bit on the open loop of
   Fig. 5 (fmpy's ``simulate_fmu`` and its low-level ``fmpy.fmi3`` API), and the closed loop of
   FMI 3.0 plant and controller equals that of the FMI 2.0 pair;
@@ -36,7 +37,6 @@ import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
-from lxml import etree
 
 from drillstring.apps.export import cli as export_cli
 from drillstring.apps.export.build import build_fmus
@@ -55,7 +55,6 @@ MODELS = (
     tl.TOPDRIVE,
     tl.TOPDRIVE_SI,
 )
-SCHEMA = Path(fmpy.__file__).parent / "schema" / "fmi3" / "fmi3ModelDescription.xsd"
 #: FMI 2.0 type element -> FMI 3.0 type element.
 FMI3_TYPE = {
     "Real": "Float64",
@@ -82,15 +81,10 @@ def _root(fmu: Path) -> ET.Element:
 
 
 @pytest.mark.parametrize("model", MODELS)
-def test_fmi3_model_description_is_valid_and_declares_the_fmi2_variables(built, model):
+def test_fmi3_model_description_declares_the_fmi2_variables(built, model):
     fmu3 = twin(built, model)
     with zipfile.ZipFile(fmu3) as z:
-        xml = z.read("modelDescription.xml")
         names = set(z.namelist())
-    schema = etree.XMLSchema(etree.parse(str(SCHEMA)))
-    doc = etree.fromstring(xml)
-    assert schema.validate(doc), [str(e) for e in schema.error_log]
-    assert fmpy.validation.validate_fmu(str(fmu3)) == []
     assert f"binaries/x86_64-linux/{model}3.so" in names
     assert f"binaries/x86_64-linux/{model}3_pythonfmu.so" in names
 
