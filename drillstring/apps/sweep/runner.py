@@ -80,11 +80,12 @@ from drillstring.apps.sweep.studies import (
 from drillstring.apps.sweep.tables import write_tables
 from drillstring.controller.lineup import RIG_CONTROLLERS, sensing_note
 from drillstring.fileio import save_figure, write_csv, write_json
+from drillstring.model import laws as model_laws
+from drillstring.model import sensing as model_sensing
+from drillstring.model import timing as model_timing
+from drillstring.model import topdrive as model_topdrive
 from drillstring.model.digital import block as digital_block
-from drillstring.model.digital import drive as digital_drive
-from drillstring.model.digital import lawcore as digital_lawcore
 from drillstring.model.digital import loop as digital_loop
-from drillstring.model.digital import sense as digital_sense
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.laws import SpeedPI
 from drillstring.model.params import REFERENCE, PhysicalParams
@@ -314,7 +315,9 @@ def kernel_warmup() -> dict[str, Any]:
         controller = DigitalController(law, drive, Sensing(torque="motor"))
         simulate_sampled(REFERENCE, controller, 0.01, 1e-3, dt_out=0.01)
         hits = misses = 0
-        for module in (digital_loop, digital_block, digital_drive, digital_lawcore, digital_sense):
+        compiled = (digital_loop, digital_block, model_laws, model_topdrive, model_sensing,
+                    model_timing)  # fmt: skip
+        for module in compiled:
             for obj in vars(module).values():
                 stats = getattr(obj, "stats", None)
                 if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
