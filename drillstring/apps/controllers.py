@@ -104,9 +104,6 @@ COMPARISON_COLUMNS = (
     "t_reached_s",
     "tau_reached_scaled",
 )
-#: The drive's braking in the ``braking`` column: with braking (four-quadrant), without (the
-#: torque range [0, R_max]: no torque against the rotation), none for the rows without a drive.
-BRAKING_ROWS = ("four-quadrant", "none")
 #: The suffix of a run's name (:attr:`Comparison.runs`) under the drive without braking.
 NO_BRAKING = " (no braking)"
 #: Elements of the converged string, the default of ``drillstring controllers compare|map``
