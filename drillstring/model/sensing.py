@@ -45,10 +45,10 @@ from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
     Scales,
+    Tabled,
     block_layout,
     parameter_slots,
     table_from_si,
-    table_to_si,
 )
 from drillstring.validation import check_choice, check_int, check_real
 
@@ -122,7 +122,7 @@ class Observer:
 
 
 @dataclass(frozen=True)
-class Sensing:
+class Sensing(Tabled):
     """How the controller's measurements are made.
 
     Parameters
@@ -195,25 +195,6 @@ class Sensing:
             )
         if self.downhole == "observer" and not isinstance(self.observer, Observer):
             raise ValueError("Sensing.downhole = 'observer' needs an Observer (observer=...)")
-
-    def values(self) -> dict[str, Any]:
-        """The settings by name (scaled; the observer excluded)."""
-        return {p.name: getattr(self, p.name) for p in self.PARAMETERS}
-
-    def to_si(self, scales: Scales) -> dict[str, Any]:
-        """The settings in SI units (s, rad, rad/s), each scaled by its dimension.
-
-        Parameters
-        ----------
-        scales : PhysicalParams or any object with ``C`` and ``t_star``
-            The rig's scales.
-
-        Returns
-        -------
-        dict
-            Name -> SI value.
-        """
-        return table_to_si(self.PARAMETERS, self.values(), scales)
 
     @classmethod
     def from_si(cls, scales: Scales, values: dict[str, Any]) -> Sensing:
