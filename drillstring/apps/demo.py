@@ -420,16 +420,6 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
 
     Runs :func:`run_demo` with ``--design``, ``--fmus``, ``--out`` and ``--H``, then prints
     the summary.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     ap = argparse.ArgumentParser(prog="drillstring demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out"))

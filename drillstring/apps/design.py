@@ -352,16 +352,6 @@ def design_main(argv: Sequence[str] | None = None) -> int:
 
     Designs the controller for ``--params``, prints the design (:func:`print_design`) and
     writes it into ``--out`` (:func:`~drillstring.controller.design.write_design`).
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     args = build_parser().parse_args(argv)
     if args.check is not None:
