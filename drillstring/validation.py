@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 __all__ = [
-    "is_finite_real",
     "check_int",
     "check_real",
     "check_choice",
@@ -29,24 +28,6 @@ __all__ = [
 ]
 
 E = TypeVar("E", bound=ValueError)
-
-
-def is_finite_real(value: Any) -> bool:
-    """True for a finite real number (``bool`` and strings excluded).
-
-    Parameters
-    ----------
-    value : object
-        Anything.
-
-    Returns
-    -------
-    bool
-        Whether ``value`` is a :class:`numbers.Real` other than ``bool`` with a finite value.
-    """
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
-    return math.isfinite(float(value))
 
 
 def check_real(
