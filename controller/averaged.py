@@ -30,12 +30,11 @@ __all__ = [
     "AveragedModel",
     "averaged_model",
     "averaged_rhs",
-    "closed_loop_roots",
     "default_delay_sweep",
+    "balanced",
     "delay_roots",
     "linearised_ode_matrix",
     "ode_poles",
-    "open_loop_roots",
     "spectral_abscissa_sweep",
 ]
 
@@ -225,7 +224,7 @@ def _closed_loop_A0(model: AveragedModel, F: ArrayLike | None) -> NDArray[np.flo
     return model.A0 + model.B @ Fv[None, :]
 
 
-def _balanced(
+def balanced(
     A0: NDArray[np.float64], A1: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Diagonal similarity ``D^-1 (.) D`` (powers of two, exact) balancing ``|A0| + |A1|``.
@@ -276,51 +275,9 @@ def delay_roots(
     tau = model.tau_n0 if tau is None else check_real("tau", tau)
     if tau <= 0.0:
         raise ValueError(f"delay tau must be > 0, got {tau!r}")
-    Ab, A1b = _balanced(_closed_loop_A0(model, F), model.A1)
+    Ab, A1b = balanced(_closed_loop_A0(model, F), model.A1)
     roots = np.asarray(dde_roots(Ab, delayed=[(tau, A1b)]))
     return roots[:n_roots]
-
-
-def open_loop_roots(model: AveragedModel, n_roots: int = N_ROOTS_DEFAULT) -> NDArray[np.complex128]:
-    """Rightmost roots of the open-loop delay system (29) at ``tau_n0`` (R_fb = 0).
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    n_roots : int
-        Return at most this many roots.
-
-    Returns
-    -------
-    ndarray of complex
-        The roots, by real part descending (see :func:`delay_roots`).
-    """
-    return delay_roots(model, None, None, n_roots)
-
-
-def closed_loop_roots(
-    model: AveragedModel, F: ArrayLike, tau: float | None = None, n_roots: int = N_ROOTS_DEFAULT
-) -> NDArray[np.complex128]:
-    """Rightmost roots of (29) with ``R_fb = F x`` at delay ``tau`` (default ``tau_n0``).
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    F : array_like
-        Gain, 4 entries.
-    tau : float, optional
-        Constant delay > 0; ``None`` is ``tau_n0``.
-    n_roots : int
-        Return at most this many roots.
-
-    Returns
-    -------
-    ndarray of complex
-        The roots, by real part descending (see :func:`delay_roots`).
-    """
-    return delay_roots(model, F, tau, n_roots)
 
 
 def spectral_abscissa_sweep(

@@ -45,8 +45,8 @@ from numpy.typing import ArrayLike, NDArray
 from drillstring.controller.averaged import (
     AveragedModel,
     averaged_model,
-    closed_loop_roots,
     default_delay_sweep,
+    delay_roots,
     spectral_abscissa_sweep,
 )
 from drillstring.controller.gains import PAPER_F, GainsFile
@@ -447,7 +447,7 @@ def check_certificate(
     lmi_max = float(np.linalg.eigvalsh(M)[-1])
     taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
     if _sweep is None:
-        nominal = float(closed_loop_roots(model, Fv, None, 1)[0].real)
+        nominal = float(delay_roots(model, Fv, None, 1)[0].real)
         sweep = spectral_abscissa_sweep(model, Fv, taus_arr)
     else:
         nominal, sweep = _sweep
@@ -498,7 +498,7 @@ def _attempt(
     if gain > gain_max:
         note = f"||F|| = {gain:.3g} > gain_max = {gain_max:.3g}"
         return AlphaAttempt(alpha, sol.solver, sol.status, gain, None, False, note), sol
-    abscissa = float(closed_loop_roots(model, sol.F, None, 1)[0].real)
+    abscissa = float(delay_roots(model, sol.F, None, 1)[0].real)
     if not abscissa < 0.0:
         note, ok = "closed loop not stable at tau_n0", False
     else:
@@ -725,7 +725,7 @@ def evaluate_gain(
     Fv = _as_gain(F)
     model = averaged_model(params, A, taubar_crit)
     taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
-    roots = closed_loop_roots(model, Fv, None, n_roots)
+    roots = delay_roots(model, Fv, None, n_roots)
     sweep = spectral_abscissa_sweep(model, Fv, taus_arr)
     Abar = model.A0 + model.B @ Fv[None, :]
     tried: list[tuple[float, str, str]] = []

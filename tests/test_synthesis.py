@@ -10,7 +10,7 @@ import pytest
 from test_averaged import A_REF, TAUBAR_CRIT_REF, rhp_zero_count
 
 from drillstring.apps.design import design_main
-from drillstring.controller.averaged import averaged_model, closed_loop_roots
+from drillstring.controller.averaged import averaged_model, delay_roots
 from drillstring.controller.gains import (
     PAPER_F,
     GainsFileError,
@@ -164,10 +164,10 @@ def test_gains_file_round_trip_and_hash(result, tmp_path):
         read_gains(path)
 
 
-def test_closed_loop_roots_reject_bad_gain():
+def test_delay_roots_reject_bad_gain():
     m = averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF)
     with pytest.raises(ValueError, match="F must be 4 finite"):
-        closed_loop_roots(m, [1.0, 2.0, float("nan"), 0.0])
+        delay_roots(m, [1.0, 2.0, float("nan"), 0.0])
 
 
 def test_design_command_writes_certified_gains(tmp_path, capsys):

@@ -48,8 +48,8 @@ from drillstring.apps.sweep.spec import Axis, SweepSpec
 from drillstring.controller.averaged import (
     AveragedModel,
     averaged_model,
+    delay_roots,
     linearised_ode_matrix,
-    open_loop_roots,
 )
 from drillstring.controller.lineup import CONSTRAINED_CONTROLLERS, LmiGain, lmi_gain, rig_lineup
 from drillstring.controller.string_spectrum import string_abscissa
@@ -183,7 +183,7 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
     Parameters
     ----------
     roots : ndarray of complex
-        Characteristic roots (e.g. :func:`~drillstring.controller.averaged.open_loop_roots`).
+        Characteristic roots (e.g. :func:`~drillstring.controller.averaged.delay_roots`).
     tol : float
         Modulus below which the smallest root counts as s = 0.
 
@@ -263,7 +263,7 @@ def open_loop_metrics(
     """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    root = rightmost_nonzero_root(open_loop_roots(model))
+    root = rightmost_nonzero_root(delay_roots(model))
     res = _run(params, tau_end, float(model.R_ff), opts)
     out = {
         "A": design.A,
