@@ -66,7 +66,6 @@ __all__ = [
     "SynthesisInfeasible",
     "SynthesisResult",
     "check_certificate",
-    "design",
     "evaluate_gain",
     "lmi32",
     "razumikhin_certificate",
@@ -611,27 +610,6 @@ def _infeasible_message(attempts: Sequence[AlphaAttempt], gain_max: float, margi
     if solved:
         lines.append(f"smallest ||F|| among solved alphas: {min(solved):.4g}; raise gain_max?")
     return "\n".join(lines)
-
-
-def design(params: ScaledParams, A: float, taubar_crit: float, **kwargs: object) -> SynthesisResult:
-    """Build the averaged model (29)-(31) and run :func:`synthesize` on it.
-
-    Parameters
-    ----------
-    params : ScaledParams
-        The parameter set.
-    A, taubar_crit : float
-        The axial quantities of (22), as for
-        :func:`~drillstring.controller.averaged.averaged_model`.
-    **kwargs
-        Passed to :func:`synthesize`.
-
-    Returns
-    -------
-    SynthesisResult
-        As :func:`synthesize`.
-    """
-    return synthesize(averaged_model(params, A, taubar_crit), **kwargs)  # type: ignore[arg-type]
 
 
 def to_gains_file(result: SynthesisResult, params: ScaledParams) -> GainsFile:

@@ -85,7 +85,6 @@ __all__ = [
     "map_top_drive",
     "open_loop_metrics",
     "point_gains",
-    "point_string",
     "rightmost_nonzero_root",
 ]
 
@@ -362,12 +361,6 @@ def map_top_drive(
     if braking == "none":
         drive = replace(drive, R_min=max(0.0, drive.R_min), braking="none")
     return drive
-
-
-def point_string(scales: Scales | None, elements: int) -> StringParams | None:
-    """The drill pipe of a point as ``elements`` elements (None for one: the paper's model):
-    :func:`~drillstring.model.pipe.string_of_rig` of the point's rig."""
-    return string_of_rig(scales, elements)
 
 
 def _abscissa(M: np.ndarray) -> float:
@@ -694,7 +687,7 @@ def linear_boundary(
             params = spec.params_at(values)
             scales = spec.physical_at(values) if physical else spec.point_scales(0)
             model = averaged_model(params, design.A, design.taubar_crit)
-            string = point_string(scales, opts.elements)
+            string = string_of_rig(scales, opts.elements)
             out[OPEN_LOOP][i, j] = linear_abscissa(model, None, string)
             paper, constrained, wanted, _ = point_gains(model, opts, names, roots=False)
             controllers = lineup_at(params, model, paper, constrained, opts, scales, wanted)
@@ -763,7 +756,7 @@ def controllers_metrics(
     model = averaged_model(params, design.A, design.taubar_crit)
     names = tuple(opts.controllers)
     paper, constrained, wanted, error = point_gains(model, opts)
-    string = point_string(scales, opts.elements)
+    string = string_of_rig(scales, opts.elements)
     runs = evaluate_controllers(
         params, model, paper, constrained, opts, tau_end=tau_end,
         initial={"dphi": opts.dphi0_rel * params.omega0}, scales=scales, string=string,
