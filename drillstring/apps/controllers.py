@@ -509,7 +509,7 @@ def write_controller_comparison(
         "rows": rows,
         "laws": laws_out,
     }
-    files["json"] = write_json(out / "comparison.json", _jsonable(summary))
+    files["json"] = write_json(out / "comparison.json", summary)
     if log is not None:
         log(format_comparison(rows))
     return Comparison(
@@ -528,18 +528,6 @@ def _rating_kNm(drive: Any, rig: PhysicalParams) -> tuple[float, float] | None:
     if drive is None or not (math.isfinite(drive.R_min) and math.isfinite(drive.R_max)):
         return None
     return drive.R_min * rig.C / 1e3, drive.R_max * rig.C / 1e3
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, np.generic):
-        return _jsonable(obj.item())
-    return obj
 
 
 # --------------------------------------------------------------------------------------------

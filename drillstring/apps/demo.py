@@ -51,7 +51,7 @@ from drillstring.apps.cosim import run_si_demo, si_demo_lines
 from drillstring.apps.modes import modes_main
 from drillstring.controller.design import CONSTRAINED_FILE, FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
-from drillstring.fileio import replace_dir, write_json
+from drillstring.fileio import json_types, replace_dir, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.params import known_rig
 from drillstring.model.pipe import string_of_rig
@@ -105,7 +105,7 @@ class DemoSummary:
             The fields (:func:`dataclasses.asdict`) with paths as strings, numpy scalars as
             Python numbers, tuples as lists and keys as strings, ready for :func:`json.dumps`.
         """
-        return _jsonable(asdict(self))
+        return json_types(asdict(self))
 
 
 def run_demo(
@@ -323,18 +323,6 @@ def _design_numbers(gains: GainsFile) -> dict[str, Any]:
 
 def _paths(paths: Mapping[str, Path]) -> dict[str, str]:
     return {k: str(v) for k, v in paths.items()}
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "item"):
-        return obj.item()
-    return obj
 
 
 def print_summary(summary: DemoSummary) -> None:
