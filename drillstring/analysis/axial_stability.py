@@ -272,10 +272,8 @@ def crossing_delays(gammabar: float, etabar2: float, taubar_max: float) -> tuple
 
     Parameters
     ----------
-    gammabar : float
-        Damping gammabar >= 0.
-    etabar2 : float
-        Stiffness etabar^2 > 0.
+    gammabar, etabar2 : float
+        As for :func:`crossing_frequencies`.
     taubar_max : float
         Largest delay listed, > 0.
 
@@ -316,10 +314,8 @@ def critical_delay(gammabar: float, etabar2: float) -> float:
 
     Parameters
     ----------
-    gammabar : float
-        Damping gammabar >= 0.
-    etabar2 : float
-        Stiffness etabar^2 > 0.
+    gammabar, etabar2 : float
+        As for :func:`crossing_frequencies`.
 
     Returns
     -------
@@ -423,10 +419,8 @@ def stability_intervals(
 
     Parameters
     ----------
-    gammabar : float
-        Damping gammabar >= 0.
-    etabar2 : float
-        Stiffness etabar^2 > 0.
+    gammabar, etabar2 : float
+        As for :func:`crossing_frequencies`.
     taubar_max : float
         End of the delay range, > 0.
 

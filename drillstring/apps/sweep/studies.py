@@ -283,12 +283,8 @@ def closed_loop_metrics(
 
     Parameters
     ----------
-    params : ScaledParams
-        The point's parameter set.
-    design : DesignInputs
-        Its axial design inputs.
-    tau_end : float
-        Run length (scaled).
+    params, design, tau_end
+        As for :func:`open_loop_metrics`.
     opts : ClosedLoopOptions
         Options of the closed-loop study (``gains``, ``feedforward``, ``gain_max``, ``h``,
         ``dphi0``, ``dt_out``, ``window``, ``tol``).
@@ -505,18 +501,9 @@ def lineup_at(
 
     Parameters
     ----------
-    params : ScaledParams
-        The point.
-    model : AveragedModel
-        Its averaged model.
-    paper, constrained : LmiGain
-        The two LMI designs (``constrained`` None: its laws cannot be asked for).
-    opts : ControllerOptions
-        How the controllers run.
-    scales : PhysicalParams or None
-        The point's rig, for a drive rated in SI units and the telemetry's seconds.
-    names : tuple of str, optional
-        The controllers.
+    params, model, paper, constrained, opts, scales, names
+        As for :func:`evaluate_controllers` (``constrained`` None: its laws cannot be asked
+        for).
 
     Returns
     -------
@@ -727,16 +714,12 @@ def controllers_metrics(
 
     Parameters
     ----------
-    params : ScaledParams
-        The point's parameter set.
-    design : DesignInputs
-        Its axial design inputs.
-    tau_end : float
-        Run length (scaled), a multiple of ``Ts``.
+    params, design, tau_end
+        As for :func:`open_loop_metrics` (``tau_end`` a multiple of ``Ts``).
     opts : ControllerOptions
         Options of the controllers study.
     scales : PhysicalParams, optional
-        The point's rig, for a top drive rated in SI units and the telemetry's seconds.
+        As for :func:`evaluate_controllers`.
 
     Returns
     -------
