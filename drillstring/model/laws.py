@@ -38,7 +38,6 @@ form.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -184,12 +183,6 @@ class Law(Tabled):
     R_ff: float
     t_on: float
 
-    def _check_fields(self) -> None:
-        where = type(self).__name__
-        for p in self.PARAMETERS:
-            if p.name in {f.name for f in dataclasses.fields(self)}:  # type: ignore[arg-type]
-                object.__setattr__(self, p.name, p.check(where, getattr(self, p.name)))
-
     def replace(self: LawT, **changes: Any) -> LawT:
         """A validated copy with some parameters changed (names of the table)."""
         return type(self).from_values({**self.values(), **changes})
@@ -258,7 +251,7 @@ class SpeedPI(Law):
                                                       *_WINDUP)  # fmt: skip
 
     def __post_init__(self) -> None:
-        self._check_fields()
+        self._check_table()
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI without torque feedback (``z_gain = 0``, filters at rest)."""
@@ -326,7 +319,7 @@ class ZTorque(Law):
     )  # fmt: skip
 
     def __post_init__(self) -> None:
-        self._check_fields()
+        self._check_table()
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI with its torque feedback."""
@@ -498,7 +491,7 @@ class FeedForward(Law):
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (_FEED_FORWARD, _SWITCH_ON)
 
     def __post_init__(self) -> None:
-        self._check_fields()
+        self._check_table()
 
 
 # --------------------------------------------------------------------------------------------

@@ -50,7 +50,7 @@ from drillstring.model.tables import (
     parameter_slots,
     table_from_si,
 )
-from drillstring.validation import check_choice, check_int, check_real
+from drillstring.validation import check_int, check_real
 
 __all__ = [
     "DOWNHOLE",
@@ -179,11 +179,7 @@ class Sensing(Tabled):
     )
 
     def __post_init__(self) -> None:
-        check_choice("Sensing.downhole", self.downhole, DOWNHOLE)
-        check_choice("Sensing.torque", self.torque, TORQUE)
-        for p in self.PARAMETERS:
-            if not p.choices and p.name != "seed":
-                object.__setattr__(self, p.name, p.check("Sensing", getattr(self, p.name)))
+        self._check_table(skip=("seed",))
         seed = check_int("Sensing.seed", self.seed, lower=0, integral_floats=True)
         if seed >= 2**32:
             raise ValueError(f"Sensing.seed must be below 2**32, got {self.seed!r}")

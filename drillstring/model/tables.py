@@ -19,7 +19,7 @@ import collections
 import numbers
 import re
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, ClassVar, Protocol, Self
 
 from drillstring.model.units import DIMENSIONS, si_scale
@@ -173,6 +173,15 @@ class Tabled:
     table's rows): its values by name and their SI form (``docs/controllers.md``, "SI form")."""
 
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = ()
+
+    def _check_table(self, skip: Collection[str] = ()) -> None:
+        """Check and store each field that is a row of the table (but ``skip``), the message
+        naming the class, the parameter and the value (:meth:`Parameter.check`)."""
+        names = {f.name for f in fields(self)}  # type: ignore[arg-type]
+        for p in self.PARAMETERS:
+            if p.name in names and p.name not in skip:
+                value = p.check(type(self).__name__, getattr(self, p.name))
+                object.__setattr__(self, p.name, value)
 
     def values(self) -> dict[str, Any]:
         """The parameters by name, scaled (the table's order)."""

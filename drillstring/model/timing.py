@@ -90,8 +90,7 @@ class Timing(Tabled):
     )
 
     def __post_init__(self) -> None:
-        for p in self.PARAMETERS:
-            object.__setattr__(self, p.name, p.check("Timing", getattr(self, p.name)))
+        self._check_table()
         if self.latency > 0.0 and self.period == 0.0:
             raise ValueError(
                 f"Timing.latency = {self.latency!r} needs the controller's own period "
