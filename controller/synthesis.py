@@ -49,14 +49,13 @@ from drillstring.controller.averaged import (
     delay_roots,
     spectral_abscissa_sweep,
 )
-from drillstring.controller.gains import PAPER_F, GainsFile
+from drillstring.controller.gains import GainsFile
 from drillstring.model.params import ScaledParams
 
 __all__ = [
     "ALPHA_GRID",
     "GAIN_MAX",
     "LMI_MARGIN",
-    "PAPER_F",
     "REFINE_POINTS",
     "SOLVERS",
     "AlphaAttempt",
@@ -665,7 +664,8 @@ def evaluate_gain(
     taus: Sequence[float] | NDArray[np.float64] | None = None,
     n_roots: int = 8,
 ) -> GainEvaluation:
-    """Evaluate a gain ``F`` (e.g. :data:`PAPER_F`) on the averaged model at ``params``.
+    """Evaluate a gain ``F`` (e.g. the paper's, :data:`~drillstring.controller.gains.PAPER_F`)
+    on the averaged model at ``params``.
 
     Closed-loop roots at ``tau_n0``, the spectral abscissa over the delay sweep, and whether a
     Razumikhin certificate (32) exists for this ``F`` with some ``P`` and an ``alpha`` of the
