@@ -663,7 +663,6 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
     list of Path
         The PNG files, in the order of ``spec.metrics``.
     """
-    header = columns(spec)
     kinds = dict(METRICS[spec.study])
     reference = spec.reference_values()
     title_base = f"{spec.study} sweep, base {Path(spec.base_label).name}"
@@ -671,8 +670,7 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
         return _controller_plots(spec, rows, out_dir, title_base)
     paths = []
     for metric in spec.metrics:
-        col = header.index(metric)
-        raw = [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
+        raw = _column(spec, rows, metric)
         kind = kinds[metric]
         values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
         fig = sweep_figure(
