@@ -283,38 +283,14 @@ def delay_roots(
 def spectral_abscissa_sweep(
     model: AveragedModel, F: ArrayLike | None, taus: Sequence[float] | NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """Spectral abscissa (largest real part of the roots) for each constant delay in ``taus``.
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    F : array_like or None
-        Gain of R_fb = F x; ``None`` is the open loop.
-    taus : sequence of float
-        Constant delays, each > 0.
-
-    Returns
-    -------
-    ndarray
-        One abscissa per delay.
+    """Spectral abscissa (largest real part of the roots, :func:`delay_roots`) of the gain ``F``
+    (``None``: the open loop) at each constant delay of ``taus`` (each > 0), one per delay.
     """
     return np.array([float(delay_roots(model, F, t, 1)[0].real) for t in taus])
 
 
 def default_delay_sweep(model: AveragedModel, n: int = 25) -> NDArray[np.float64]:
-    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` (first point ``5*tau_n0/n``).
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model (its tau_n0 is used).
-    n : int
-        Number of delays.
-
-    Returns
-    -------
-    ndarray
-        The delays, increasing.
+    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` of ``model`` (first point
+    ``5*tau_n0/n``), increasing.
     """
     return np.linspace(5.0 * model.tau_n0 / n, 5.0 * model.tau_n0, n)

@@ -178,19 +178,8 @@ def axial_roots(gammabar: float, etabar2: float, taubar_n: float, **kwargs: Any)
 def axial_spectral_abscissa(
     gammabar: float, etabar2: float, taubar_n: float, **kwargs: Any
 ) -> float:
-    """max Re s over the roots of (21): < 0 iff the axial equilibrium is asymptotically stable.
-
-    Parameters
-    ----------
-    gammabar, etabar2, taubar_n : float
-        As for :func:`axial_system`.
-    **kwargs
-        Passed to :func:`~drillstring.analysis.spectrum.dde_roots`.
-
-    Returns
-    -------
-    float
-        The spectral abscissa.
+    """max Re s over the roots of (21): < 0 iff the axial equilibrium is asymptotically stable
+    (arguments as :func:`axial_roots`).
     """
     return float(axial_roots(gammabar, etabar2, taubar_n, **kwargs).real.max())
 
