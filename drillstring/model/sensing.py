@@ -37,18 +37,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
-    Scales,
     Tabled,
     block_layout,
     parameter_slots,
-    table_from_si,
 )
 from drillstring.validation import check_int, check_real
 
@@ -191,20 +189,6 @@ class Sensing(Tabled):
             )
         if self.downhole == "observer" and not isinstance(self.observer, Observer):
             raise ValueError("Sensing.downhole = 'observer' needs an Observer (observer=...)")
-
-    @classmethod
-    def from_si(cls, scales: Scales, values: dict[str, Any]) -> Sensing:
-        """The settings of SI values, the inverse of :meth:`to_si` (no observer).
-
-        Raises
-        ------
-        ValueError
-            An unknown name or a value :class:`Sensing` rejects.
-        """
-        scaled = table_from_si("Sensing.from_si", cls.PARAMETERS, values, scales)
-        if "seed" in values:
-            scaled["seed"] = values["seed"]
-        return cls(**scaled)
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """Write the settings (and the observer's numbers) into the controller's block ``b``,
