@@ -16,7 +16,7 @@ time scale), which come from the axial analysis.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
@@ -79,6 +79,12 @@ class AveragedModel:
     A: float
     taubar_crit: float
     rho: float
+
+    def with_rho(self, factor: float) -> AveragedModel:
+        """The model with the table's inertia ratio rho times ``factor`` (B of (30) scales as
+        1/rho): what a controller or observer that misjudges the drive's inertia assumes."""
+        rho = self.rho * factor
+        return replace(self, rho=rho, B=self.B * (self.rho / rho))
 
 
 def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> AveragedModel:
