@@ -905,10 +905,7 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
                 beside = Path(args.gains).with_name(CONSTRAINED_FILE)
                 constrained = beside if beside.is_file() else None
             g = read_gains(args.gains)
-            rig = known_rig(g.params)
-            string = None if rig is None else string_of_rig(rig, args.elements)
-            if rig is None and args.elements != 1:
-                string = StringParams(elements=check_int("elements", args.elements, lower=1))
+            string = string_of_rig(known_rig(g.params), args.elements)
             result = write_controller_comparison(
                 args.out,
                 g,
