@@ -473,29 +473,22 @@ def _crossing_curves(
     taubar = (2 pi k - theta)/w. gammabar = 0: the families are separate, parametrised by etabar^2:
     w_- = etabar, taubar = 2 pi k / w_-;  w_+ = sqrt(etabar^2 + 2), taubar = (2k - 1) pi / w_+.
     """
-    tmax = taubar_range[1]
     curves = []
+
+    def branches(w: Any, theta: Any, e2: NDArray) -> None:
+        k = 1
+        while (tau := (TWO_PI * k - theta) / w).min() <= taubar_range[1]:
+            curves.append((tau, e2))
+            k += 1
+
     if g == 0.0:
         e2 = np.linspace(max(e2_range[0], 1e-9), e2_range[1], n_param)
         for w, theta in ((np.sqrt(e2 + 2.0), math.pi), (np.sqrt(e2), 0.0)):
-            k = 1
-            while True:
-                tau = (TWO_PI * k - theta) / w
-                if tau.min() > tmax:
-                    break
-                curves.append((tau, e2))
-                k += 1
+            branches(w, theta, e2)
         return curves
     theta = np.linspace(0.0, math.pi, n_param + 2)[1:-1]
     w = np.sin(theta) / g
-    e2 = w * w - 1.0 + np.cos(theta)
-    k = 1
-    while True:
-        tau = (TWO_PI * k - theta) / w
-        if tau.min() > tmax:
-            break
-        curves.append((tau, e2))
-        k += 1
+    branches(w, theta, w * w - 1.0 + np.cos(theta))
     return curves
 
 

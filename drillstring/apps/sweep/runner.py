@@ -91,7 +91,7 @@ from drillstring.model.laws import SpeedPI
 from drillstring.model.params import REFERENCE, PhysicalParams
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.sensing import Sensing
-from drillstring.model.simulate import warm_up
+from drillstring.model.simulate import cache_counts, warm_up
 from drillstring.model.topdrive import TopDrive
 
 __all__ = [
@@ -314,15 +314,8 @@ def kernel_warmup() -> dict[str, Any]:
         drive = TopDrive(R_min=-100.0, R_max=100.0, lag=0.01)
         controller = DigitalController(law, drive, Sensing(torque="motor"))
         simulate_sampled(REFERENCE, controller, 0.01, 1e-3, dt_out=0.01)
-        hits = misses = 0
-        compiled = (digital_loop, digital_block, model_laws, model_topdrive, model_sensing,
-                    model_timing)  # fmt: skip
-        for module in compiled:
-            for obj in vars(module).values():
-                stats = getattr(obj, "stats", None)
-                if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
-                    hits += sum(stats.cache_hits.values())
-                    misses += sum(stats.cache_misses.values())
+        hits, misses = cache_counts((digital_loop, digital_block, model_laws, model_topdrive,
+                                     model_sensing, model_timing))  # fmt: skip
         info.update(
             sampled_cache_hits=hits,
             sampled_cache_misses=misses,
