@@ -40,9 +40,10 @@ from drillstring.analysis.severity import OUTCOMES, SLOWEST_PERIOD
 from drillstring.apps.controllers import controller_map_spec
 from drillstring.apps.sweep.options import MAP_WINDOW
 from drillstring.apps.sweep.runner import kernel_warmup, run_sweep
-from drillstring.apps.sweep.studies import axial_design, evaluate_point, point_string
+from drillstring.apps.sweep.studies import axial_design, evaluate_point
 from drillstring.controller.averaged import averaged_model
 from drillstring.model.engine import EngineOptions
+from drillstring.model.pipe import string_of_rig
 from drillstring.model.simulate import simulate
 
 
@@ -72,7 +73,7 @@ def point_times(spec, points, repeat):
         design = axial_design(p)
         model = averaged_model(p, design.A, design.taubar_crit)
         options = EngineOptions(h=opts.h, torsional_stick=True, on_invalid=opts.on_invalid)
-        string = point_string(spec.point_scales(index), opts.elements)
+        string = string_of_rig(spec.point_scales(index), opts.elements)
 
         def mono(p=p, model=model, options=options, string=string):
             return simulate(p, spec.tau_end, control=float(model.R_ff),

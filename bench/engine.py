@@ -85,7 +85,7 @@ from drillstring.model.kernel.state import H_ROWS, I_HEND, I_KHINT, K_NOW
 from drillstring.model.params import REFERENCE, ScaledParams
 from drillstring.model.pipe import REFERENCE_KAPPA, StringParams
 from drillstring.model.prehistory import build_prehistory, nominal_history
-from drillstring.model.simulate import simulate
+from drillstring.model.simulate import SimulationResult, simulate
 
 REPO = Path(__file__).resolve().parent.parent
 #: v0.1: the version before the speed work, compared side by side.
@@ -431,24 +431,16 @@ print(wall, r.counters["steps"], r.counters["events"])
 def plain_python(tau_end: float) -> tuple[float, bool]:
     """Print and return the plain-Python kernel's cost per step (s) and its bit-identity."""
     law = fig5_law()
-    r = simulate(
-        REFERENCE,
-        tau_end,
-        control=law,
-        initial=FIG5.initial(),
-        options=EngineOptions(h=5e-4),
-        progress=False,
-    )
+
+    def run() -> SimulationResult:
+        opts = EngineOptions(h=5e-4)
+        return simulate(REFERENCE, tau_end, control=law, initial=FIG5.initial(), options=opts,
+                        progress=False)  # fmt: skip
+
+    r = run()
     compiled = np.vstack([r.data[c] for c in r.data])
     t0 = time.perf_counter()
-    simulate(
-        REFERENCE,
-        tau_end,
-        control=law,
-        initial=FIG5.initial(),
-        options=EngineOptions(h=5e-4),
-        progress=False,
-    )
+    run()
     wall_c = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "plain.npy"

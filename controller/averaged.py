@@ -16,7 +16,7 @@ time scale), which come from the axial analysis.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
@@ -30,12 +30,11 @@ __all__ = [
     "AveragedModel",
     "averaged_model",
     "averaged_rhs",
-    "closed_loop_roots",
     "default_delay_sweep",
+    "balanced",
     "delay_roots",
     "linearised_ode_matrix",
     "ode_poles",
-    "open_loop_roots",
     "spectral_abscissa_sweep",
 ]
 
@@ -80,6 +79,12 @@ class AveragedModel:
     A: float
     taubar_crit: float
     rho: float
+
+    def with_rho(self, factor: float) -> AveragedModel:
+        """The model with the table's inertia ratio rho times ``factor`` (B of (30) scales as
+        1/rho): what a controller or observer that misjudges the drive's inertia assumes."""
+        rho = self.rho * factor
+        return replace(self, rho=rho, B=self.B * (self.rho / rho))
 
 
 def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> AveragedModel:
@@ -225,7 +230,7 @@ def _closed_loop_A0(model: AveragedModel, F: ArrayLike | None) -> NDArray[np.flo
     return model.A0 + model.B @ Fv[None, :]
 
 
-def _balanced(
+def balanced(
     A0: NDArray[np.float64], A1: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Diagonal similarity ``D^-1 (.) D`` (powers of two, exact) balancing ``|A0| + |A1|``.
@@ -276,88 +281,22 @@ def delay_roots(
     tau = model.tau_n0 if tau is None else check_real("tau", tau)
     if tau <= 0.0:
         raise ValueError(f"delay tau must be > 0, got {tau!r}")
-    Ab, A1b = _balanced(_closed_loop_A0(model, F), model.A1)
+    Ab, A1b = balanced(_closed_loop_A0(model, F), model.A1)
     roots = np.asarray(dde_roots(Ab, delayed=[(tau, A1b)]))
     return roots[:n_roots]
-
-
-def open_loop_roots(model: AveragedModel, n_roots: int = N_ROOTS_DEFAULT) -> NDArray[np.complex128]:
-    """Rightmost roots of the open-loop delay system (29) at ``tau_n0`` (R_fb = 0).
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    n_roots : int
-        Return at most this many roots.
-
-    Returns
-    -------
-    ndarray of complex
-        The roots, by real part descending (see :func:`delay_roots`).
-    """
-    return delay_roots(model, None, None, n_roots)
-
-
-def closed_loop_roots(
-    model: AveragedModel, F: ArrayLike, tau: float | None = None, n_roots: int = N_ROOTS_DEFAULT
-) -> NDArray[np.complex128]:
-    """Rightmost roots of (29) with ``R_fb = F x`` at delay ``tau`` (default ``tau_n0``).
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    F : array_like
-        Gain, 4 entries.
-    tau : float, optional
-        Constant delay > 0; ``None`` is ``tau_n0``.
-    n_roots : int
-        Return at most this many roots.
-
-    Returns
-    -------
-    ndarray of complex
-        The roots, by real part descending (see :func:`delay_roots`).
-    """
-    return delay_roots(model, F, tau, n_roots)
 
 
 def spectral_abscissa_sweep(
     model: AveragedModel, F: ArrayLike | None, taus: Sequence[float] | NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """Spectral abscissa (largest real part of the roots) for each constant delay in ``taus``.
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    F : array_like or None
-        Gain of R_fb = F x; ``None`` is the open loop.
-    taus : sequence of float
-        Constant delays, each > 0.
-
-    Returns
-    -------
-    ndarray
-        One abscissa per delay.
+    """Spectral abscissa (largest real part of the roots, :func:`delay_roots`) of the gain ``F``
+    (``None``: the open loop) at each constant delay of ``taus`` (each > 0), one per delay.
     """
     return np.array([float(delay_roots(model, F, t, 1)[0].real) for t in taus])
 
 
 def default_delay_sweep(model: AveragedModel, n: int = 25) -> NDArray[np.float64]:
-    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` (first point ``5*tau_n0/n``).
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model (its tau_n0 is used).
-    n : int
-        Number of delays.
-
-    Returns
-    -------
-    ndarray
-        The delays, increasing.
+    """``n`` equally spaced constant delays in ``(0, 5*tau_n0]`` of ``model`` (first point
+    ``5*tau_n0/n``), increasing.
     """
     return np.linspace(5.0 * model.tau_n0 / n, 5.0 * model.tau_n0, n)

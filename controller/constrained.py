@@ -54,8 +54,8 @@ from numpy.typing import ArrayLike, NDArray
 from drillstring.controller.averaged import (
     AveragedModel,
     averaged_model,
-    closed_loop_roots,
     default_delay_sweep,
+    delay_roots,
     spectral_abscissa_sweep,
 )
 from drillstring.controller.gains import GainsFile, GainsFileError
@@ -382,7 +382,7 @@ def check_constrained(
     state_max = float(max(x @ P @ x for x in X0))
     peak = float(math.sqrt(max(float(Fv @ Sm @ Fv), 0.0)))
     taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
-    nominal = float(closed_loop_roots(model, Fv, None, 1)[0].real)
+    nominal = float(delay_roots(model, Fv, None, 1)[0].real)
     sweep = np.asarray(spectral_abscissa_sweep(model, Fv, taus_arr), dtype=float)
     return ConstrainedCertificate(
         lmi_max,

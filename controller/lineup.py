@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.controller.averaged import AveragedModel, closed_loop_roots
+from drillstring.controller.averaged import AveragedModel, delay_roots
 from drillstring.controller.estimation import design_observer
 from drillstring.controller.gains import GainsFile
 from drillstring.controller.synthesis import synthesize
@@ -267,7 +267,7 @@ def lmi_gain(
             )
         F = np.asarray(gains.F, dtype=float)
         K0, R_ff = (gains.K0, gains.R_ff) if feedforward == "file" else (model.K0, model.R_ff)
-        abscissa = float(closed_loop_roots(model, F, None, 1)[0].real) if roots else math.nan
+        abscissa = float(delay_roots(model, F, None, 1)[0].real) if roots else math.nan
     gain = (float(F[0]), float(F[1]), float(F[2]), float(F[3]))
     return LmiGain(F=gain, K0=float(K0), R_ff=float(R_ff), abscissa=abscissa)
 

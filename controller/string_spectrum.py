@@ -4,7 +4,7 @@ The one-mode analysis of the laws has two forms today, both on the state
 ``x = [phi, dphi/dtau, phi - theta - K0, dtheta/dtau]`` of (29):
 
 * the delay form (28)-(30), ``x' = A0 x(tau) + A1 x(tau - tau_n0) + B R_fb``, with which the LMI
-  designs are certified (:func:`~drillstring.controller.averaged.closed_loop_roots`,
+  designs are certified (:func:`~drillstring.controller.averaged.delay_roots`,
   ``R_fb = F x``);
 * the ODE (13), (27), the delay replaced by its Taylor approximation (26), closed by any law in
   continuous time (:func:`~drillstring.controller.tuning.linear_closed_loop`: the speed PI's
@@ -54,11 +54,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from drillstring.analysis.spectrum import dde_roots
-from drillstring.controller.averaged import N_ROOTS_DEFAULT, AveragedModel
+from drillstring.controller.averaged import N_ROOTS_DEFAULT, AveragedModel, balanced
 from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
 from drillstring.model.pipe import StringParams, torsional_chain
 from drillstring.validation import check_choice, check_int, check_real
@@ -326,11 +325,7 @@ def string_roots(
             roots = roots[roots.real >= query]
     else:
         tau = model.tau_n0 if tau is None else check_real("tau", tau, lower=0.0)
-        _, (d, _) = scipy.linalg.matrix_balance(
-            np.abs(A0) + np.abs(A1), permute=False, separate=True
-        )
-        A0b = A0 / d[:, None] * d[None, :]
-        A1b = A1 / d[:, None] * d[None, :]
+        A0b, A1b = balanced(A0, A1)
         roots = np.asarray(dde_roots(A0b, [(tau, A1b)], re_min=query, reduced=True), dtype=complex)
     if near_origin:
         roots = _drop_rigid(roots, scale)

@@ -45,18 +45,17 @@ from numpy.typing import ArrayLike, NDArray
 from drillstring.controller.averaged import (
     AveragedModel,
     averaged_model,
-    closed_loop_roots,
     default_delay_sweep,
+    delay_roots,
     spectral_abscissa_sweep,
 )
-from drillstring.controller.gains import PAPER_F, GainsFile
+from drillstring.controller.gains import GainsFile
 from drillstring.model.params import ScaledParams
 
 __all__ = [
     "ALPHA_GRID",
     "GAIN_MAX",
     "LMI_MARGIN",
-    "PAPER_F",
     "REFINE_POINTS",
     "SOLVERS",
     "AlphaAttempt",
@@ -66,7 +65,6 @@ __all__ = [
     "SynthesisInfeasible",
     "SynthesisResult",
     "check_certificate",
-    "design",
     "evaluate_gain",
     "lmi32",
     "razumikhin_certificate",
@@ -447,7 +445,7 @@ def check_certificate(
     lmi_max = float(np.linalg.eigvalsh(M)[-1])
     taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
     if _sweep is None:
-        nominal = float(closed_loop_roots(model, Fv, None, 1)[0].real)
+        nominal = float(delay_roots(model, Fv, None, 1)[0].real)
         sweep = spectral_abscissa_sweep(model, Fv, taus_arr)
     else:
         nominal, sweep = _sweep
@@ -498,7 +496,7 @@ def _attempt(
     if gain > gain_max:
         note = f"||F|| = {gain:.3g} > gain_max = {gain_max:.3g}"
         return AlphaAttempt(alpha, sol.solver, sol.status, gain, None, False, note), sol
-    abscissa = float(closed_loop_roots(model, sol.F, None, 1)[0].real)
+    abscissa = float(delay_roots(model, sol.F, None, 1)[0].real)
     if not abscissa < 0.0:
         note, ok = "closed loop not stable at tau_n0", False
     else:
@@ -613,27 +611,6 @@ def _infeasible_message(attempts: Sequence[AlphaAttempt], gain_max: float, margi
     return "\n".join(lines)
 
 
-def design(params: ScaledParams, A: float, taubar_crit: float, **kwargs: object) -> SynthesisResult:
-    """Build the averaged model (29)-(31) and run :func:`synthesize` on it.
-
-    Parameters
-    ----------
-    params : ScaledParams
-        The parameter set.
-    A, taubar_crit : float
-        The axial quantities of (22), as for
-        :func:`~drillstring.controller.averaged.averaged_model`.
-    **kwargs
-        Passed to :func:`synthesize`.
-
-    Returns
-    -------
-    SynthesisResult
-        As :func:`synthesize`.
-    """
-    return synthesize(averaged_model(params, A, taubar_crit), **kwargs)  # type: ignore[arg-type]
-
-
 def to_gains_file(result: SynthesisResult, params: ScaledParams) -> GainsFile:
     """The gains-file record of a design.
 
@@ -687,7 +664,8 @@ def evaluate_gain(
     taus: Sequence[float] | NDArray[np.float64] | None = None,
     n_roots: int = 8,
 ) -> GainEvaluation:
-    """Evaluate a gain ``F`` (e.g. :data:`PAPER_F`) on the averaged model at ``params``.
+    """Evaluate a gain ``F`` (e.g. the paper's, :data:`~drillstring.controller.gains.PAPER_F`)
+    on the averaged model at ``params``.
 
     Closed-loop roots at ``tau_n0``, the spectral abscissa over the delay sweep, and whether a
     Razumikhin certificate (32) exists for this ``F`` with some ``P`` and an ``alpha`` of the
@@ -725,7 +703,7 @@ def evaluate_gain(
     Fv = _as_gain(F)
     model = averaged_model(params, A, taubar_crit)
     taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
-    roots = closed_loop_roots(model, Fv, None, n_roots)
+    roots = delay_roots(model, Fv, None, n_roots)
     sweep = spectral_abscissa_sweep(model, Fv, taus_arr)
     Abar = model.A0 + model.B @ Fv[None, :]
     tried: list[tuple[float, str, str]] = []

@@ -12,34 +12,32 @@ engine, simulation, control law), ``drillstring.analysis`` (Section III), ``dril
 (command line, demo, sweeps). ``docs/model.md`` states every reconstruction the results rest on.
 """
 
-from drillstring.model import (
-    DEFAULT_H,
-    FIG5,
-    FIG6,
-    PIPE_RIG,
-    REFERENCE,
-    REFERENCE_RIG,
-    AffineFeedback,
+from drillstring.model.control import AffineFeedback
+from drillstring.model.engine import (
     Engine,
     EngineOptions,
     EngineState,
     Event,
-    Experiment,
     InitialState,
+    Status,
+)
+from drillstring.model.experiments import DEFAULT_H, FIG5, FIG6, Experiment
+from drillstring.model.params import (
+    PIPE_RIG,
+    REFERENCE,
+    REFERENCE_RIG,
     ParameterError,
     PhysicalParams,
     ScaledParams,
-    SimulationResult,
-    Status,
-    StringParams,
     get_params,
     get_physical,
     load_params,
     params_from_spec,
     read_params,
     save_params,
-    simulate,
 )
+from drillstring.model.pipe import StringParams
+from drillstring.model.simulate import SimulationResult, simulate
 
 __all__ = [
     "DEFAULT_H",

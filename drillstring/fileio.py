@@ -14,8 +14,10 @@ import tempfile
 import threading
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import IO, Any
+
+import numpy as np
 
 
 def load_table(path: Path) -> Any:
@@ -158,18 +160,23 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     TypeError
         ``obj`` is not JSON-serialisable (nothing is written).
     """
-    data = (json.dumps(_finite(obj), indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
+    data = (json.dumps(json_types(obj), indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
     return atomic_write(path, lambda fh: fh.write(data))
 
 
-def _finite(obj: Any) -> Any:
-    """``obj`` with every float that is not finite replaced by None (dicts, lists, tuples)."""
+def json_types(obj: Any) -> Any:
+    """``obj`` in plain JSON types: keys as strings, tuples as lists, paths as strings, numpy
+    scalars as Python numbers, and every float that is not finite as None (JSON has no NaN)."""
+    if isinstance(obj, np.generic):
+        obj = obj.item()
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
+        return {str(k): json_types(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_finite(v) for v in obj]
+        return [json_types(v) for v in obj]
+    if isinstance(obj, PurePath):
+        return str(obj)
     return obj
 
 

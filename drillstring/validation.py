@@ -3,8 +3,10 @@
 Every public function of the project that takes numbers from a user (parameters, options, gains,
 file contents, FMU variables) checks them with these helpers, so a bad value always gets the same
 kind of message: the name of the value, the rule it breaks and the value itself, e.g.
-``EngineOptions.h must be > 0, got -0.001``. ``error`` selects the exception class (a
-``ValueError`` subclass of the caller's, such as ``ParameterError``).
+``EngineOptions.h must be > 0, got -0.001``. Every ``check_*`` takes ``name``, what the value
+is as the message should call it (``"EngineOptions.h"``, ``"--out"``), and ``error``, the
+exception class it raises (a ``ValueError`` subclass of the caller's, such as
+``ParameterError``); it returns the checked value.
 """
 
 from __future__ import annotations
@@ -17,7 +19,6 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 __all__ = [
-    "is_finite_real",
     "check_int",
     "check_real",
     "check_choice",
@@ -27,24 +28,6 @@ __all__ = [
 ]
 
 E = TypeVar("E", bound=ValueError)
-
-
-def is_finite_real(value: Any) -> bool:
-    """True for a finite real number (``bool`` and strings excluded).
-
-    Parameters
-    ----------
-    value : object
-        Anything.
-
-    Returns
-    -------
-    bool
-        Whether ``value`` is a :class:`numbers.Real` other than ``bool`` with a finite value.
-    """
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
-    return math.isfinite(float(value))
 
 
 def check_real(
@@ -60,19 +43,10 @@ def check_real(
 
     Parameters
     ----------
-    name : str
-        What the value is, as the message should call it (``"EngineOptions.h"``).
     value : object
         The value to check; ``bool`` and non-numbers are rejected.
     lower, upper : float, optional
         Bounds; ``strict`` makes the lower bound exclusive (the upper bound is inclusive).
-    error : type
-        Exception class raised (a ``ValueError`` subclass).
-
-    Returns
-    -------
-    float
-        The checked value.
 
     Raises
     ------
@@ -108,8 +82,6 @@ def check_int(
 
     Parameters
     ----------
-    name : str
-        What the value is, as the message should call it.
     value : object
         The value to check; ``bool`` is always rejected.
     lower : int, optional
@@ -117,13 +89,6 @@ def check_int(
     integral_floats : bool
         Also accept a real with an integral value (``4.0``), as FMI hosts and JSON writers
         deliver integers as reals.
-    error : type
-        Exception class raised (a ``ValueError`` subclass).
-
-    Returns
-    -------
-    int
-        The checked value.
 
     Raises
     ------
@@ -162,19 +127,10 @@ def check_choice(
 
     Parameters
     ----------
-    name : str
-        What the value is, as the message should call it.
     value : object
         The value to check; it must be a ``str``.
     choices : sequence of str
         The allowed values.
-    error : type
-        Exception class raised (a ``ValueError`` subclass).
-
-    Returns
-    -------
-    str
-        ``value``.
 
     Raises
     ------
@@ -196,17 +152,8 @@ def check_str(
 
     Parameters
     ----------
-    name : str
-        What the value is, as the message should call it.
     value : object
         The value to check.
-    error : type
-        Exception class raised (a ``ValueError`` subclass).
-
-    Returns
-    -------
-    str
-        ``value``.
 
     Raises
     ------
@@ -229,14 +176,10 @@ def check_table(
 
     Parameters
     ----------
-    name : str
-        What the table is, as the message should call it (``"options"``).
     value : object
         The value to check (a parsed TOML table or JSON object).
     known : sequence of str
         The keys allowed (not all need be present).
-    error : type
-        Exception class raised (a ``ValueError`` subclass).
 
     Returns
     -------
@@ -271,17 +214,8 @@ def check_out_folder(
 
     Parameters
     ----------
-    name : str
-        What the path is, as the message should call it (the option, ``"--out"``).
     path : path-like
         The output folder.
-    error : type
-        Exception class raised (a ``ValueError`` subclass).
-
-    Returns
-    -------
-    Path
-        ``path``.
 
     Raises
     ------

@@ -16,7 +16,6 @@ import tomllib
 from pathlib import Path
 
 import drillstring as ds
-import drillstring.model as model
 
 ROOT = Path(__file__).resolve().parents[1]
 #: folder -> package name (controller/ and orchestration/ are installed under drillstring)
@@ -198,8 +197,8 @@ def test_package_root_exports_exactly_its_all_each_documented():
     constants = _documented_constants()
     for name in ds.__all__:
         obj = getattr(ds, name)
-        assert obj is getattr(model, name), f"drillstring.{name} is not drillstring.model.{name}"
         if inspect.isclass(obj) or inspect.isfunction(obj):
+            assert obj.__module__.startswith("drillstring.model."), f"{name}: not the model's"
             doc = obj.__doc__ or ""
             assert doc.strip() and not doc.startswith(f"{name}("), f"{name} has no docstring"
         else:

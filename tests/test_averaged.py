@@ -11,9 +11,9 @@ from drillstring.analysis.axial_stability import critical_delay
 from drillstring.controller.averaged import (
     averaged_model,
     averaged_rhs,
+    delay_roots,
     linearised_ode_matrix,
     ode_poles,
-    open_loop_roots,
 )
 from drillstring.model.params import REFERENCE
 
@@ -107,7 +107,7 @@ def rhp_zero_count(A0, A1, tau, delta):
 def test_open_loop_unstable_delay_system_and_ode(A):
     m = averaged_model(REFERENCE, A, TAUBAR_CRIT_REF)
     assert m.c < 0  # velocity weakening, beta*A < 1
-    roots = open_loop_roots(m)
+    roots = delay_roots(m)
     assert roots[0].real > 0.0
     # the returned roots are zeros of the characteristic function written here
     for s in roots:

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from drillstring.analysis.limit_cycles import design_inputs
+from drillstring.controller.averaged import averaged_model
 from drillstring.controller.gains import PAPER_F
-from drillstring.controller.synthesis import design
+from drillstring.controller.synthesis import synthesize
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.params import REFERENCE
@@ -19,7 +20,7 @@ DPHI0 = -2.5
 @pytest.fixture(scope="module")
 def lmi_design():
     inputs = design_inputs(REFERENCE)
-    return design(REFERENCE, inputs.A, inputs.taubar_crit)
+    return synthesize(averaged_model(REFERENCE, inputs.A, inputs.taubar_crit))
 
 
 @pytest.mark.parametrize("which", ["lmi", "paper"])

@@ -63,11 +63,6 @@ def fig6_open_loop(elements: int) -> dict:
     return res.data
 
 
-def with_rho(factor: float):
-    rho = MODEL.rho * factor
-    return dataclasses.replace(MODEL, rho=rho, B=MODEL.B * (MODEL.rho / rho))
-
-
 @pytest.fixture(scope="module")
 def string_run():
     return fig6_open_loop(16)
@@ -81,7 +76,7 @@ def test_string_observer_converges_on_the_distributed_plant_with_noise_and_inert
     assert np.ptp(data["dphi"][data["tau"] >= 20.0]) > REFERENCE.omega0  # in stick-slip
     sig = noisy_surface(data, NOISE, seed=1)
     args = (sig["theta"], sig["dtheta"], sig["torque"], sig["r"])
-    model = with_rho(factor)
+    model = MODEL.with_rho(factor)
     obs = design_string_observer(model, rig_string("reference-rig", 16), TS, noise=NOISE)
     assert obs.elements == 3 and obs.size == 9
     est = obs.run(*args)

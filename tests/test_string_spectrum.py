@@ -2,7 +2,7 @@
 string_spectrum, ``drillstring string-spectrum``).
 
 * N = 1 with the paper's lumping is the one-mode analysis: the roots equal those of the existing
-  functions, computed on the one-mode state by their own code (``closed_loop_roots`` of (29)-(30)
+  functions, computed on the one-mode state by their own code (``delay_roots`` of (29)-(30)
   for the LMI laws, ``linear_closed_loop`` / ``linear_abscissa`` of (13), (27) for every law, and
   the delay form of the industrial laws assembled here from ``linear_closed_loop`` and the
   averaged model's A0, A1);
@@ -32,7 +32,7 @@ from drillstring.analysis.spectrum import (
 )
 from drillstring.apps.cli import main
 from drillstring.apps.sweep.studies import linear_abscissa
-from drillstring.controller.averaged import averaged_model, closed_loop_roots
+from drillstring.controller.averaged import averaged_model, delay_roots
 from drillstring.controller.gains import GainsFile, write_gains
 from drillstring.controller.lineup import industrial_lineup
 from drillstring.controller.string_spectrum import (
@@ -87,7 +87,7 @@ def _without_origin(roots: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("F", [PAPER_F, CONSTRAINED_F], ids=["lmi", "lmi-constrained"])
 def test_one_element_lmi_laws_are_the_certified_delay_form(F) -> None:
     mine = string_roots(MODEL, _affine(F), PAPER, n_roots=6)
-    theirs = closed_loop_roots(MODEL, np.asarray(F), None, 6)
+    theirs = delay_roots(MODEL, np.asarray(F), None, 6)
     _same_roots(mine, theirs)
     if F == CONSTRAINED_F:
         assert mine[0].real == pytest.approx(-0.540, abs=5e-4)  # the certificate's

@@ -30,7 +30,7 @@ from drillstring.apps.sweep.studies import (
     closed_loop_metrics,
     rightmost_nonzero_root,
 )
-from drillstring.controller.averaged import averaged_model, open_loop_roots
+from drillstring.controller.averaged import averaged_model, delay_roots
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.model.engine import EngineOptions
 from drillstring.model.kernel.jit import numba_available
@@ -111,7 +111,7 @@ def test_open_loop_root_is_a_characteristic_root(serial_3x3):
     det = np.linalg.det(s * np.eye(4) - m.A0 - m.A1 * np.exp(-s * m.tau_n0))
     assert abs(det) < 1e-9
     # every other nonzero root found lies to the left
-    others = open_loop_roots(m, 8)
+    others = delay_roots(m, n_roots=8)
     assert np.all(others.real[np.abs(others) > 1e-6] <= s.real + 1e-12)
 
 

@@ -10,7 +10,7 @@ import pytest
 from test_averaged import A_REF, TAUBAR_CRIT_REF, rhp_zero_count
 
 from drillstring.apps.design import design_main
-from drillstring.controller.averaged import averaged_model, closed_loop_roots
+from drillstring.controller.averaged import averaged_model, delay_roots
 from drillstring.controller.gains import (
     PAPER_F,
     GainsFileError,
@@ -23,7 +23,6 @@ from drillstring.controller.synthesis import (
     GAIN_MAX,
     LMI_MARGIN,
     SynthesisInfeasible,
-    design,
     evaluate_gain,
     synthesize,
     to_gains_file,
@@ -44,7 +43,7 @@ def block33(A0, A1, B, S, X, alpha):
 
 @pytest.fixture(scope="module")
 def result():
-    return design(REFERENCE, A_REF, TAUBAR_CRIT_REF)
+    return synthesize(averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF))
 
 
 def test_synthesis_feasible_and_certified(result):
@@ -164,10 +163,10 @@ def test_gains_file_round_trip_and_hash(result, tmp_path):
         read_gains(path)
 
 
-def test_closed_loop_roots_reject_bad_gain():
+def test_delay_roots_reject_bad_gain():
     m = averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF)
     with pytest.raises(ValueError, match="F must be 4 finite"):
-        closed_loop_roots(m, [1.0, 2.0, float("nan"), 0.0])
+        delay_roots(m, [1.0, 2.0, float("nan"), 0.0])
 
 
 def test_design_command_writes_certified_gains(tmp_path, capsys):

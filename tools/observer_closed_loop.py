@@ -15,7 +15,6 @@ four states): at each sample the estimate, the law and the drive of the digital 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 
 import numpy as np
@@ -45,8 +44,7 @@ def run(
     ``factor``: the observers' top-drive inertia over the plant's)."""
     noise = scaled_surface_noise(REFERENCE_RIG.C, REFERENCE_RIG.t_star)
     noise = {key: scale * v for key, v in noise.items()}
-    rho = MODEL.rho * factor
-    model = dataclasses.replace(MODEL, rho=rho, B=MODEL.B * (MODEL.rho / rho))
+    model = MODEL.with_rho(factor)
     law = SampledAffine(
         AffineFeedback(CONSTRAINED_F, MODEL.K0, MODEL.R_ff, FIG6.t_on, "angle"),
         on_saturation="freeze-angle",

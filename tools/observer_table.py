@@ -12,7 +12,6 @@ top drive's inertia exact or 20 % off. The errors are over tau in [20, 40].
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 from drillstring.controller.averaged import averaged_model
@@ -53,12 +52,6 @@ def fig6_run(elements: int) -> dict:
     return res.data
 
 
-def with_rho(factor: float):
-    """The averaged model with the top drive's inertia times ``factor`` (the observers' error)."""
-    rho = MODEL.rho * factor
-    return dataclasses.replace(MODEL, rho=rho, B=MODEL.B * (MODEL.rho / rho))
-
-
 def rows() -> list[tuple[str, str, dict[str, float]]]:
     """(run, observer, errors) of every row of the table."""
     noise = scaled_surface_noise(REFERENCE_RIG.C, REFERENCE_RIG.t_star)
@@ -73,7 +66,7 @@ def rows() -> list[tuple[str, str, dict[str, float]]]:
     ):
         data = runs[elements]
         sig = noisy_surface(data, noise if noisy else None, seed=1)
-        model = with_rho(factor)
+        model = MODEL.with_rho(factor)
         label = (
             f"N = {elements}, {'noise' if noisy else 'no noise'}, "
             f"inertia {'exact' if factor == 1.0 else f'{factor - 1:+.0%}'}"

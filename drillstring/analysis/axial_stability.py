@@ -178,19 +178,8 @@ def axial_roots(gammabar: float, etabar2: float, taubar_n: float, **kwargs: Any)
 def axial_spectral_abscissa(
     gammabar: float, etabar2: float, taubar_n: float, **kwargs: Any
 ) -> float:
-    """max Re s over the roots of (21): < 0 iff the axial equilibrium is asymptotically stable.
-
-    Parameters
-    ----------
-    gammabar, etabar2, taubar_n : float
-        As for :func:`axial_system`.
-    **kwargs
-        Passed to :func:`~drillstring.analysis.spectrum.dde_roots`.
-
-    Returns
-    -------
-    float
-        The spectral abscissa.
+    """max Re s over the roots of (21): < 0 iff the axial equilibrium is asymptotically stable
+    (arguments as :func:`axial_roots`).
     """
     return float(axial_roots(gammabar, etabar2, taubar_n, **kwargs).real.max())
 
@@ -272,10 +261,8 @@ def crossing_delays(gammabar: float, etabar2: float, taubar_max: float) -> tuple
 
     Parameters
     ----------
-    gammabar : float
-        Damping gammabar >= 0.
-    etabar2 : float
-        Stiffness etabar^2 > 0.
+    gammabar, etabar2 : float
+        As for :func:`crossing_frequencies`.
     taubar_max : float
         Largest delay listed, > 0.
 
@@ -316,10 +303,8 @@ def critical_delay(gammabar: float, etabar2: float) -> float:
 
     Parameters
     ----------
-    gammabar : float
-        Damping gammabar >= 0.
-    etabar2 : float
-        Stiffness etabar^2 > 0.
+    gammabar, etabar2 : float
+        As for :func:`crossing_frequencies`.
 
     Returns
     -------
@@ -423,10 +408,8 @@ def stability_intervals(
 
     Parameters
     ----------
-    gammabar : float
-        Damping gammabar >= 0.
-    etabar2 : float
-        Stiffness etabar^2 > 0.
+    gammabar, etabar2 : float
+        As for :func:`crossing_frequencies`.
     taubar_max : float
         End of the delay range, > 0.
 
@@ -490,29 +473,22 @@ def _crossing_curves(
     taubar = (2 pi k - theta)/w. gammabar = 0: the families are separate, parametrised by etabar^2:
     w_- = etabar, taubar = 2 pi k / w_-;  w_+ = sqrt(etabar^2 + 2), taubar = (2k - 1) pi / w_+.
     """
-    tmax = taubar_range[1]
     curves = []
+
+    def branches(w: Any, theta: Any, e2: NDArray) -> None:
+        k = 1
+        while (tau := (TWO_PI * k - theta) / w).min() <= taubar_range[1]:
+            curves.append((tau, e2))
+            k += 1
+
     if g == 0.0:
         e2 = np.linspace(max(e2_range[0], 1e-9), e2_range[1], n_param)
         for w, theta in ((np.sqrt(e2 + 2.0), math.pi), (np.sqrt(e2), 0.0)):
-            k = 1
-            while True:
-                tau = (TWO_PI * k - theta) / w
-                if tau.min() > tmax:
-                    break
-                curves.append((tau, e2))
-                k += 1
+            branches(w, theta, e2)
         return curves
     theta = np.linspace(0.0, math.pi, n_param + 2)[1:-1]
     w = np.sin(theta) / g
-    e2 = w * w - 1.0 + np.cos(theta)
-    k = 1
-    while True:
-        tau = (TWO_PI * k - theta) / w
-        if tau.min() > tmax:
-            break
-        curves.append((tau, e2))
-        k += 1
+    branches(w, theta, w * w - 1.0 + np.cos(theta))
     return curves
 
 

@@ -571,26 +571,8 @@ def torsional_elements_needed(
 
 
 def axial_elements_needed(mu: float, eta: float, mode: int = 2, rel_tol: float = 0.01) -> int:
-    """The smallest N whose axial chain has mode ``mode`` within ``rel_tol`` of the exact.
-
-    Parameters
-    ----------
-    mu, eta : float
-        The axial mass ratio (> 0) and stiffness parameter.
-    mode : int
-        Which mode, from 1.
-    rel_tol : float
-        The relative tolerance on the frequency.
-
-    Returns
-    -------
-    int
-        N.
-
-    Raises
-    ------
-    ValueError
-        Not reached by N = :data:`~drillstring.model.pipe.MAX_ELEMENTS`.
+    """The smallest N whose axial chain (mass ratio ``mu`` > 0, stiffness parameter ``eta``) has
+    mode ``mode`` within ``rel_tol`` of the exact; the rest as :func:`torsional_elements_needed`.
     """
     mode = check_int("mode", mode, lower=1)
     exact = axial_exact_modes(mu, eta, mode)[-1]
@@ -627,18 +609,5 @@ def to_rad_s(omega: np.ndarray | float, t_star: float) -> np.ndarray:
 
 
 def to_hz(omega: np.ndarray | float, t_star: float) -> np.ndarray:
-    """Scaled angular frequency to Hz: omega/(2*pi*t*).
-
-    Parameters
-    ----------
-    omega : array_like
-        Scaled angular frequencies.
-    t_star : float
-        The rig's t* in seconds.
-
-    Returns
-    -------
-    numpy.ndarray
-        Hz.
-    """
+    """Scaled angular frequency to Hz: omega/(2*pi*t*) (arguments as :func:`to_rad_s`)."""
     return to_rad_s(omega, t_star) / (2.0 * math.pi)

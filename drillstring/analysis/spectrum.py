@@ -142,19 +142,8 @@ class DDESystem:
         return not any(np.iscomplexobj(a) for a in (self.A0, *self.As))
 
     def radius_bound(self, re_min: float) -> float:
-        """R(re_min) = rho(|A0| + sum |A_k| exp(-re_min tau_k)), |.| entrywise, rho spectral radius.
-
-        Every root with Re s >= re_min has |s| <= R (module docstring).
-
-        Parameters
-        ----------
-        re_min : float
-            Lower bound of the real part of the roots considered.
-
-        Returns
-        -------
-        float
-            The bound R(re_min) on |s|.
+        """R(re_min) = rho(|A0| + sum |A_k| exp(-re_min tau_k)), |.| entrywise, rho spectral radius:
+        every root with Re s >= re_min has |s| <= R (module docstring).
         """
         b = np.abs(self.A0)
         for tau, a in zip(self.taus, self.As, strict=True):
@@ -162,53 +151,22 @@ class DDESystem:
         return float(np.max(np.abs(np.linalg.eigvals(b))))
 
     def delta(self, s: complex) -> NDArray:
-        """Characteristic matrix Delta(s) = s I - A0 - sum A_k exp(-s tau_k).
-
-        Parameters
-        ----------
-        s : complex
-            Point of the complex plane.
-
-        Returns
-        -------
-        ndarray
-            Complex (m, m) matrix.
-        """
+        """Characteristic matrix Delta(s) = s I - A0 - sum A_k exp(-s tau_k), complex (m, m)."""
         d = s * np.eye(self.m, dtype=complex) - self.A0
         for tau, a in zip(self.taus, self.As, strict=True):
             d = d - a * np.exp(-s * tau)
         return d
 
     def ddelta(self, s: complex) -> NDArray:
-        """Derivative Delta'(s) = I + sum tau_k A_k exp(-s tau_k).
-
-        Parameters
-        ----------
-        s : complex
-            Point of the complex plane.
-
-        Returns
-        -------
-        ndarray
-            Complex (m, m) matrix.
-        """
+        """Derivative Delta'(s) = I + sum tau_k A_k exp(-s tau_k), complex (m, m)."""
         d = np.eye(self.m, dtype=complex)
         for tau, a in zip(self.taus, self.As, strict=True):
             d = d + tau * a * np.exp(-s * tau)
         return d
 
     def scale(self, s: complex) -> float:
-        """Size of the terms of Delta(s): |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)|.
-
-        Parameters
-        ----------
-        s : complex
-            Point of the complex plane.
-
-        Returns
-        -------
-        float
-            The scale, with ||.|| the spectral norm (the denominator of :func:`root_residual`).
+        """Size of the terms of Delta(s): |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)| (||.|| the
+        spectral norm; the denominator of :func:`root_residual`).
         """
         r = abs(s) + self._n0
         for tau, nk in zip(self.taus, self._nk, strict=True):

@@ -49,16 +49,6 @@ def axial_main(argv: Sequence[str] | None = None) -> int:
     """Run the ``axial`` subcommand; exit code 0 (ok) or 2 (bad input or no limit cycle).
 
     Writes Fig. 2, Fig. 3 and/or Fig. 4 (PNG and CSV) into ``--out`` and prints the paths.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     args = build_parser().parse_args(argv)
     try:

@@ -4,8 +4,10 @@ cross-check, parameter sweeps and the demo pipeline.
 Every subcommand writes CSV/JSON/PNG files into an output folder and exits with 0 on success,
 2 on bad input (with a message naming the bad value); ``simulate`` exits with 1 when the run
 stopped early, ``cosim`` when an FMU stopped it, ``sweep`` with 1 when points failed and with 130
-when interrupted. A subcommand's module is imported when it
-runs, so that ``drillstring -h`` does not load cvxpy, dask and fmpy.
+when interrupted. Each subcommand's entry point (:data:`COMMANDS`) takes the arguments after
+the subcommand's name (``argv``, default ``sys.argv[1:]``) and returns the exit code. A
+subcommand's module is imported when it runs, so that ``drillstring -h`` does not load cvxpy,
+dask and fmpy.
 """
 
 from __future__ import annotations

@@ -104,9 +104,6 @@ COMPARISON_COLUMNS = (
     "t_reached_s",
     "tau_reached_scaled",
 )
-#: The drive's braking in the ``braking`` column: with braking (four-quadrant), without (the
-#: torque range [0, R_max]: no torque against the rotation), none for the rows without a drive.
-BRAKING_ROWS = ("four-quadrant", "none")
 #: The suffix of a run's name (:attr:`Comparison.runs`) under the drive without braking.
 NO_BRAKING = " (no braking)"
 #: Elements of the converged string, the default of ``drillstring controllers compare|map``
@@ -512,7 +509,7 @@ def write_controller_comparison(
         "rows": rows,
         "laws": laws_out,
     }
-    files["json"] = write_json(out / "comparison.json", _jsonable(summary))
+    files["json"] = write_json(out / "comparison.json", summary)
     if log is not None:
         log(format_comparison(rows))
     return Comparison(
@@ -531,18 +528,6 @@ def _rating_kNm(drive: Any, rig: PhysicalParams) -> tuple[float, float] | None:
     if drive is None or not (math.isfinite(drive.R_min) and math.isfinite(drive.R_max)):
         return None
     return drive.R_min * rig.C / 1e3, drive.R_max * rig.C / 1e3
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, np.generic):
-        return _jsonable(obj.item())
-    return obj
 
 
 # --------------------------------------------------------------------------------------------
@@ -920,10 +905,7 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
                 beside = Path(args.gains).with_name(CONSTRAINED_FILE)
                 constrained = beside if beside.is_file() else None
             g = read_gains(args.gains)
-            rig = known_rig(g.params)
-            string = None if rig is None else string_of_rig(rig, args.elements)
-            if rig is None and args.elements != 1:
-                string = StringParams(elements=check_int("elements", args.elements, lower=1))
+            string = string_of_rig(known_rig(g.params), args.elements)
             result = write_controller_comparison(
                 args.out,
                 g,

@@ -112,18 +112,7 @@ def _adaptive_line(adaptive: dict[str, Any], atol: float) -> str:
 
 
 def crosscheck_main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``drillstring crosscheck``.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Command-line arguments (default ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        Exit status: 0 on success, 2 on bad input (with a message naming the bad value).
-    """
+    """Run ``drillstring crosscheck``; exit code 0 (ok) or 2 (bad input, a message naming it)."""
     args = _parser().parse_args(argv)
     gains_path = args.gains if args.gains is not None else DEFAULT_GAINS_PATH
     try:

@@ -51,7 +51,7 @@ from drillstring.apps.cosim import run_si_demo, si_demo_lines
 from drillstring.apps.modes import modes_main
 from drillstring.controller.design import CONSTRAINED_FILE, FIT_FILE, GAINS_FILE
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
-from drillstring.fileio import replace_dir, write_json
+from drillstring.fileio import json_types, replace_dir, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.params import known_rig
 from drillstring.model.pipe import string_of_rig
@@ -105,7 +105,7 @@ class DemoSummary:
             The fields (:func:`dataclasses.asdict`) with paths as strings, numpy scalars as
             Python numbers, tuples as lists and keys as strings, ready for :func:`json.dumps`.
         """
-        return _jsonable(asdict(self))
+        return json_types(asdict(self))
 
 
 def run_demo(
@@ -325,18 +325,6 @@ def _paths(paths: Mapping[str, Path]) -> dict[str, str]:
     return {k: str(v) for k, v in paths.items()}
 
 
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "item"):
-        return obj.item()
-    return obj
-
-
 def print_summary(summary: DemoSummary) -> None:
     """Print the design, the agreement of co-simulation and monolithic solver, the checks.
 
@@ -420,16 +408,6 @@ def demo_main(argv: Sequence[str] | None = None) -> int:
 
     Runs :func:`run_demo` with ``--design``, ``--fmus``, ``--out`` and ``--H``, then prints
     the summary.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     ap = argparse.ArgumentParser(prog="drillstring demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out"))

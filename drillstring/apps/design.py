@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drillstring.controller.averaged import AveragedModel, ode_poles, open_loop_roots
+from drillstring.controller.averaged import AveragedModel, delay_roots, ode_poles
 from drillstring.controller.constrained import (
     BRAKING_TOL,
     DEFAULT_DECAY,
@@ -185,7 +185,7 @@ def _fmt_c(z: complex) -> str:
 
 
 def _print_open_loop(model: AveragedModel) -> None:
-    dde = open_loop_roots(model)
+    dde = delay_roots(model)
     ode = ode_poles(model)
     print("Open loop (R_fb = 0): rightmost roots")
     print(f"  {'delay system (29) at tau_n0':>32}   {'ODE (13),(27)':>26}")
@@ -352,16 +352,6 @@ def design_main(argv: Sequence[str] | None = None) -> int:
 
     Designs the controller for ``--params``, prints the design (:func:`print_design`) and
     writes it into ``--out`` (:func:`~drillstring.controller.design.write_design`).
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     args = build_parser().parse_args(argv)
     if args.check is not None:

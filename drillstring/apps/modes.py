@@ -261,16 +261,6 @@ def modes_main(argv: Sequence[str] | None = None) -> int:
 
     Writes ``modes.json`` and ``modes.png`` into ``--out`` (atomically) and prints the first
     modes.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     try:
         args = build_parser().parse_args(argv)

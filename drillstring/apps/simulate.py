@@ -86,16 +86,6 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     string), ``simulation.png`` and the string along its length (``string_nodes.csv``,
     ``string_elements.csv``: :meth:`SimulationResult.profiles_to_csv`) into ``--out``; a run
     that stops early is written up to the stop.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
     """
     args = build_parser().parse_args(argv)
     exp = EXPERIMENTS[args.experiment] if args.experiment else None

@@ -274,18 +274,7 @@ def _print_reflection(rows: list[dict[str, Any]]) -> None:
 
 
 def string_spectrum_main(argv: Sequence[str] | None = None) -> int:
-    """Run ``drillstring string-spectrum``; exit 0, or 2 with one line naming a bad value.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments after the subcommand (default: ``sys.argv[1:]``).
-
-    Returns
-    -------
-    int
-        The exit code.
-    """
+    """Run ``drillstring string-spectrum``; exit 0, or 2 with one line naming a bad value."""
     prog = "drillstring string-spectrum"
     try:
         args = build_parser().parse_args(argv)

@@ -39,9 +39,6 @@ from drillstring.model.prehistory import (
 )
 from drillstring.validation import check_choice, check_int, check_real
 
-#: The plain function behind the compiled coordinate change, for Python callers (no dispatch).
-_to_perturbation = getattr(to_perturbation, "py_func", to_perturbation)
-
 __all__ = [
     "Control",
     "Engine",

@@ -38,7 +38,6 @@ form.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -56,11 +55,10 @@ from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
     Scales,
+    Tabled,
     block_layout,
     check_names,
     parameter_slots,
-    table_from_si,
-    table_to_si,
 )
 from drillstring.validation import check_choice, check_real
 
@@ -174,7 +172,7 @@ _WINDUP = (
 LawT = TypeVar("LawT", bound="Law")
 
 
-class Law:
+class Law(Tabled):
     """What every law is: a frozen dataclass of the parameters of its ``PARAMETERS`` table.
 
     Subclasses define the table, their kind (the compiled law, ``KIND``) and :meth:`pack`; the
@@ -182,83 +180,8 @@ class Law:
     """
 
     KIND: ClassVar[int] = LAW_NONE
-    PARAMETERS: ClassVar[tuple[Parameter, ...]] = ()
     R_ff: float
     t_on: float
-
-    def _check_fields(self) -> None:
-        where = type(self).__name__
-        for p in self.PARAMETERS:
-            if p.name in {f.name for f in dataclasses.fields(self)}:  # type: ignore[arg-type]
-                object.__setattr__(self, p.name, p.check(where, getattr(self, p.name)))
-
-    def values(self) -> dict[str, Any]:
-        """The parameters by name, scaled (the ``PARAMETERS`` table's order)."""
-        return {p.name: getattr(self, p.name) for p in self.PARAMETERS}
-
-    @classmethod
-    def from_values(cls: type[LawT], values: Mapping[str, Any]) -> LawT:
-        """The law of scaled parameter values (:meth:`values` inverted).
-
-        Parameters
-        ----------
-        values : mapping
-            Parameter name -> value; the names of the ``PARAMETERS`` table, those with a
-            default may be left out.
-
-        Returns
-        -------
-        Law
-
-        Raises
-        ------
-        ValueError
-            An unknown name, or a value the law rejects (the message names it).
-        """
-        check_names(cls.__name__, cls.PARAMETERS, values)
-        return cls(**values)  # type: ignore[call-arg]
-
-    def to_si(self, scales: Scales) -> dict[str, Any]:
-        """The parameters in SI units: each scaled by its dimension (``docs/controllers.md``,
-        "SI form").
-
-        Parameters
-        ----------
-        scales : PhysicalParams or any object with ``C`` and ``t_star``
-            The rig's torque and time scales (eqs. (15)-(16)).
-
-        Returns
-        -------
-        dict
-            Name -> SI value (choices unchanged).
-        """
-        return table_to_si(self.PARAMETERS, self.values(), scales)
-
-    @classmethod
-    def from_si(cls: type[LawT], scales: Scales, values: Mapping[str, Any]) -> LawT:
-        """The law from SI parameter values, the inverse of :meth:`to_si`.
-
-        Parameters
-        ----------
-        scales : PhysicalParams or any object with ``C`` and ``t_star``
-            The rig's scales.
-        values : mapping
-            Name -> SI value, as :meth:`to_si` returns them (those with a default may be left
-            out).
-
-        Returns
-        -------
-        Law
-            The law in scaled units.
-
-        Raises
-        ------
-        ValueError
-            An unknown name, a value that is not a finite real number, or one the law rejects.
-        """
-        return cls.from_values(
-            table_from_si(f"{cls.__name__}.from_si", cls.PARAMETERS, values, scales)
-        )
 
     def replace(self: LawT, **changes: Any) -> LawT:
         """A validated copy with some parameters changed (names of the table)."""
@@ -328,7 +251,7 @@ class SpeedPI(Law):
                                                       *_WINDUP)  # fmt: skip
 
     def __post_init__(self) -> None:
-        self._check_fields()
+        self._check_table()
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI without torque feedback (``z_gain = 0``, filters at rest)."""
@@ -396,7 +319,7 @@ class ZTorque(Law):
     )  # fmt: skip
 
     def __post_init__(self) -> None:
-        self._check_fields()
+        self._check_table()
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI with its torque feedback."""
@@ -568,7 +491,7 @@ class FeedForward(Law):
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (_FEED_FORWARD, _SWITCH_ON)
 
     def __post_init__(self) -> None:
-        self._check_fields()
+        self._check_table()
 
 
 # --------------------------------------------------------------------------------------------

@@ -346,22 +346,13 @@ def weight_on_bit(
 
     Parameters
     ----------
-    n : int or float
-        Number of blades.
-    a : float
-        Bit radius [m].
-    zeta : float
-        Cutting-face orientation [-].
-    eps : float
-        Intrinsic specific energy [Pa].
-    l : float
-        Wearflat length [m].
-    sigma_bar : float
-        Contact stress [Pa].
+    n, a, zeta, eps, l, sigma_bar : float
+        The rig's fields of :class:`PhysicalParams` (SI units).
     d : float or ndarray
         Depth of cut [m], eq. (5).
     g : float or ndarray
-        Contact multiplier of (17): 0 full wearflat contact, 1 none, in between in axial stick.
+        Contact multiplier of (17): 0 full wearflat contact (dU/dt > 0), 1 none (dU/dt < 0),
+        in between in axial stick; W^f = n*a*l*sigma_bar*(1 - g).
 
     Returns
     -------
@@ -412,21 +403,8 @@ class PhysicalParams:
         return 2.0 * math.pi / self.n * self.V0 / self.Omega0
 
     def weight_on_bit(self, d: Any, g: Any = 0.0) -> Any:
-        """Weight on bit W^c + W^f [N] at depth of cut ``d`` [m]: eq. (4) plus eq. (7).
-
-        Parameters
-        ----------
-        d : float or ndarray
-            Depth of cut [m], eq. (5).
-        g : float or ndarray
-            Contact multiplier of (17): 0 full wearflat contact (dU/dt > 0), 1 none (dU/dt < 0),
-            in between in axial stick; W^f = n*a*l*sigma_bar*(1 - g).
-
-        Returns
-        -------
-        float or ndarray
-            W^c + W^f [N], broadcast over ``d`` and ``g`` (no input check: plain arithmetic).
-        """
+        """Weight on bit W^c + W^f [N] at depth of cut ``d`` [m] and contact multiplier ``g``:
+        :func:`weight_on_bit` of this rig (eq. (4) plus eq. (7))."""
         return weight_on_bit(self.n, self.a, self.zeta, self.eps, self.l, self.sigma_bar, d, g)
 
     def torque_on_bit(self, d: Any, g: Any = 0.0) -> Any:
@@ -436,17 +414,8 @@ class PhysicalParams:
         torque while the bit slips torsionally (in torsional stick the torque is what holds the
         bit, ``docs/model.md``, "Torsional stick").
 
-        Parameters
-        ----------
-        d : float or ndarray
-            Depth of cut [m], eq. (5).
-        g : float or ndarray
-            Contact multiplier of (17), as in :meth:`weight_on_bit`.
-
-        Returns
-        -------
-        float or ndarray
-            T^c + T^f [N m], broadcast over ``d`` and ``g`` (no input check: plain arithmetic).
+        ``d`` and ``g`` as for :func:`weight_on_bit`; broadcast, no input check (plain
+        arithmetic).
         """
         cutting = 0.5 * self.n * self.a**2 * self.eps * d
         contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)

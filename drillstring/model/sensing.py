@@ -37,20 +37,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
-    Scales,
+    Tabled,
     block_layout,
     parameter_slots,
-    table_from_si,
-    table_to_si,
 )
-from drillstring.validation import check_choice, check_int, check_real
+from drillstring.validation import check_int, check_real
 
 __all__ = [
     "DOWNHOLE",
@@ -122,7 +120,7 @@ class Observer:
 
 
 @dataclass(frozen=True)
-class Sensing:
+class Sensing(Tabled):
     """How the controller's measurements are made.
 
     Parameters
@@ -179,11 +177,7 @@ class Sensing:
     )
 
     def __post_init__(self) -> None:
-        check_choice("Sensing.downhole", self.downhole, DOWNHOLE)
-        check_choice("Sensing.torque", self.torque, TORQUE)
-        for p in self.PARAMETERS:
-            if not p.choices and p.name != "seed":
-                object.__setattr__(self, p.name, p.check("Sensing", getattr(self, p.name)))
+        self._check_table(skip=("seed",))
         seed = check_int("Sensing.seed", self.seed, lower=0, integral_floats=True)
         if seed >= 2**32:
             raise ValueError(f"Sensing.seed must be below 2**32, got {self.seed!r}")
@@ -195,39 +189,6 @@ class Sensing:
             )
         if self.downhole == "observer" and not isinstance(self.observer, Observer):
             raise ValueError("Sensing.downhole = 'observer' needs an Observer (observer=...)")
-
-    def values(self) -> dict[str, Any]:
-        """The settings by name (scaled; the observer excluded)."""
-        return {p.name: getattr(self, p.name) for p in self.PARAMETERS}
-
-    def to_si(self, scales: Scales) -> dict[str, Any]:
-        """The settings in SI units (s, rad, rad/s), each scaled by its dimension.
-
-        Parameters
-        ----------
-        scales : PhysicalParams or any object with ``C`` and ``t_star``
-            The rig's scales.
-
-        Returns
-        -------
-        dict
-            Name -> SI value.
-        """
-        return table_to_si(self.PARAMETERS, self.values(), scales)
-
-    @classmethod
-    def from_si(cls, scales: Scales, values: dict[str, Any]) -> Sensing:
-        """The settings of SI values, the inverse of :meth:`to_si` (no observer).
-
-        Raises
-        ------
-        ValueError
-            An unknown name or a value :class:`Sensing` rejects.
-        """
-        scaled = table_from_si("Sensing.from_si", cls.PARAMETERS, values, scales)
-        if "seed" in values:
-            scaled["seed"] = values["seed"]
-        return cls(**scaled)
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """Write the settings (and the observer's numbers) into the controller's block ``b``,

@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -42,7 +43,7 @@ from drillstring.model.pipe import StringParams
 from drillstring.model.prehistory import HistoryFunction
 from drillstring.validation import check_real
 
-__all__ = ["COLUMNS", "SimulationResult", "output_grid", "simulate", "warm_up"]
+__all__ = ["COLUMNS", "SimulationResult", "cache_counts", "output_grid", "simulate", "warm_up"]
 
 #: Columns of a simulation result (and of its CSV file).
 COLUMNS = OUTPUT_COLUMNS
@@ -305,6 +306,19 @@ def simulate(
     )
 
 
+def cache_counts(modules: Iterable[ModuleType]) -> tuple[int, int]:
+    """(hits, misses) of numba's cache in this process, summed over the compiled functions of
+    ``modules`` (misses: compiled here)."""
+    hits = misses = 0
+    for module in modules:
+        for obj in vars(module).values():
+            stats = getattr(obj, "stats", None)
+            if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
+                hits += sum(stats.cache_hits.values())
+                misses += sum(stats.cache_misses.values())
+    return hits, misses
+
+
 def warm_up() -> dict[str, Any]:
     """Load the compiled kernel from numba's cache (or compile and cache it) with a tiny run.
 
@@ -320,12 +334,6 @@ def warm_up() -> dict[str, Any]:
         return info
     t0 = time.perf_counter()
     simulate(REFERENCE, 0.05, dt_out=0.05, initial={"dphi": -0.5}, progress=False)
-    hits = misses = 0
-    for module in (stepper, filippov, hermite, events, equations, coordinates):
-        for obj in vars(module).values():
-            stats = getattr(obj, "stats", None)
-            if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
-                hits += sum(stats.cache_hits.values())
-                misses += sum(stats.cache_misses.values())
+    hits, misses = cache_counts((stepper, filippov, hermite, events, equations, coordinates))
     info.update(cache_hits=hits, cache_misses=misses, seconds=time.perf_counter() - t0)
     return info

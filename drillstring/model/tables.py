@@ -19,8 +19,8 @@ import collections
 import numbers
 import re
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any, Protocol
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar, Protocol, Self
 
 from drillstring.model.units import DIMENSIONS, si_scale
 from drillstring.validation import check_choice, check_real
@@ -28,6 +28,7 @@ from drillstring.validation import check_choice, check_real
 __all__ = [
     "Parameter",
     "Scales",
+    "Tabled",
     "block_layout",
     "check_names",
     "parameter_slots",
@@ -165,6 +166,68 @@ def table_from_si(
             raise ValueError(f"{where} {k} must be a real number, got {v!r}")
         out[k] = v / si_scale(rows[k].dimension, C, t)
     return out
+
+
+class Tabled:
+    """A part declared by its ``PARAMETERS`` table (a frozen dataclass whose fields are the
+    table's rows): its values by name and their SI form (``docs/controllers.md``, "SI form")."""
+
+    PARAMETERS: ClassVar[tuple[Parameter, ...]] = ()
+
+    def _check_table(self, skip: Collection[str] = ()) -> None:
+        """Check and store each field that is a row of the table (but ``skip``), the message
+        naming the class, the parameter and the value (:meth:`Parameter.check`)."""
+        names = {f.name for f in fields(self)}  # type: ignore[arg-type]
+        for p in self.PARAMETERS:
+            if p.name in names and p.name not in skip:
+                value = p.check(type(self).__name__, getattr(self, p.name))
+                object.__setattr__(self, p.name, value)
+
+    def values(self) -> dict[str, Any]:
+        """The parameters by name, scaled (the table's order)."""
+        return {p.name: getattr(self, p.name) for p in self.PARAMETERS}
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> Self:
+        """The part of scaled parameter values (:meth:`values` inverted; those with a default
+        may be left out).
+
+        Raises
+        ------
+        ValueError
+            An unknown name, or a value the part rejects (the message names it).
+        """
+        check_names(cls.__name__, cls.PARAMETERS, values)
+        return cls(**values)
+
+    def to_si(self, scales: Scales) -> dict[str, Any]:
+        """The parameters in SI units, each scaled by its dimension (choices unchanged,
+        infinite limits stay infinite).
+
+        Parameters
+        ----------
+        scales : PhysicalParams or any object with ``C`` and ``t_star``
+            The rig's torque and time scales (eqs. (15)-(16)).
+
+        Returns
+        -------
+        dict
+            Name -> SI value.
+        """
+        return table_to_si(self.PARAMETERS, self.values(), scales)
+
+    @classmethod
+    def from_si(cls, scales: Scales, values: Mapping[str, Any]) -> Self:
+        """The part of SI parameter values, the inverse of :meth:`to_si`.
+
+        Raises
+        ------
+        ValueError
+            An unknown name, a value that is not a real number, or one the part rejects.
+        """
+        return cls.from_values(
+            table_from_si(f"{cls.__name__}.from_si", cls.PARAMETERS, values, scales)
+        )
 
 
 def block_layout(name: str, table: Sequence[tuple[str, int]], state: Collection[str] = ()) -> Any:

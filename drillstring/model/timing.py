@@ -24,18 +24,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
-    Scales,
+    Tabled,
     block_layout,
     parameter_slots,
-    table_from_si,
-    table_to_si,
 )
 
 __all__ = [
@@ -54,7 +52,7 @@ N_PENDING = 16
 
 
 @dataclass(frozen=True)
-class Timing:
+class Timing(Tabled):
     """The controller's own sample period and its latency (scaled time).
 
     Parameters
@@ -92,8 +90,7 @@ class Timing:
     )
 
     def __post_init__(self) -> None:
-        for p in self.PARAMETERS:
-            object.__setattr__(self, p.name, p.check("Timing", getattr(self, p.name)))
+        self._check_table()
         if self.latency > 0.0 and self.period == 0.0:
             raise ValueError(
                 f"Timing.latency = {self.latency!r} needs the controller's own period "
@@ -109,25 +106,6 @@ class Timing:
     def is_host(self) -> bool:
         """True for the law at every sample of the host, without latency (the default)."""
         return self.period == 0.0
-
-    def values(self) -> dict[str, Any]:
-        """The settings by name (scaled)."""
-        return {p.name: getattr(self, p.name) for p in self.PARAMETERS}
-
-    def to_si(self, scales: Scales) -> dict[str, Any]:
-        """The settings in seconds, with the rig's t*."""
-        return table_to_si(self.PARAMETERS, self.values(), scales)
-
-    @classmethod
-    def from_si(cls, scales: Scales, values: dict[str, Any]) -> Timing:
-        """The settings of values in seconds, the inverse of :meth:`to_si`.
-
-        Raises
-        ------
-        ValueError
-            An unknown name or a value :class:`Timing` rejects.
-        """
-        return cls(**table_from_si("Timing.from_si", cls.PARAMETERS, values, scales))
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """Write the settings into the controller's block ``b``, whose timing section

@@ -30,11 +30,9 @@ returned exactly (not R0 + r - R0, which can differ from r by rounding).
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -42,10 +40,9 @@ from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
     Scales,
+    Tabled,
     block_layout,
     parameter_slots,
-    table_from_si,
-    table_to_si,
 )
 from drillstring.validation import check_choice, check_real
 
@@ -60,7 +57,7 @@ RPM = 2.0 * math.pi / 60.0
 
 
 @dataclass(frozen=True)
-class TopDrive:
+class TopDrive(Tabled):
     """A top drive's limits in scaled units; every limit can be off (infinite, or lag 0).
 
     Parameters
@@ -126,47 +123,6 @@ class TopDrive:
                 f"TopDrive: omega_min = {self.omega_min!r} is not below omega_max = "
                 f"{self.omega_max!r}"
             )
-
-    def values(self) -> dict[str, Any]:
-        """The limits by name (scaled)."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-
-    def to_si(self, scales: Scales) -> dict[str, Any]:
-        """The limits in SI units (N m, N m/s, s, W, rad/s), each scaled by its dimension.
-
-        Parameters
-        ----------
-        scales : PhysicalParams or any object with ``C`` and ``t_star``
-            The rig's scales.
-
-        Returns
-        -------
-        dict
-            Name -> SI value (infinite limits stay infinite).
-        """
-        return table_to_si(self.PARAMETERS, self.values(), scales)
-
-    @classmethod
-    def from_si(cls, scales: Scales, values: Mapping[str, Any]) -> TopDrive:
-        """The top drive of SI limits, the inverse of :meth:`to_si` (missing ones: off).
-
-        Parameters
-        ----------
-        scales : PhysicalParams or any object with ``C`` and ``t_star``
-            The rig's scales.
-        values : mapping
-            Name -> SI value.
-
-        Returns
-        -------
-        TopDrive
-
-        Raises
-        ------
-        ValueError
-            An unknown name or a value :class:`TopDrive` rejects.
-        """
-        return cls(**table_from_si("TopDrive.from_si", cls.PARAMETERS, values, scales))
 
     def pack(self, b: np.ndarray, at: int) -> None:
         """Write the limits into the controller's block ``b``, whose top-drive section

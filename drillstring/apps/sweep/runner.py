@@ -91,7 +91,7 @@ from drillstring.model.laws import SpeedPI
 from drillstring.model.params import REFERENCE, PhysicalParams
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.sensing import Sensing
-from drillstring.model.simulate import warm_up
+from drillstring.model.simulate import cache_counts, warm_up
 from drillstring.model.topdrive import TopDrive
 
 __all__ = [
@@ -314,15 +314,8 @@ def kernel_warmup() -> dict[str, Any]:
         drive = TopDrive(R_min=-100.0, R_max=100.0, lag=0.01)
         controller = DigitalController(law, drive, Sensing(torque="motor"))
         simulate_sampled(REFERENCE, controller, 0.01, 1e-3, dt_out=0.01)
-        hits = misses = 0
-        compiled = (digital_loop, digital_block, model_laws, model_topdrive, model_sensing,
-                    model_timing)  # fmt: skip
-        for module in compiled:
-            for obj in vars(module).values():
-                stats = getattr(obj, "stats", None)
-                if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
-                    hits += sum(stats.cache_hits.values())
-                    misses += sum(stats.cache_misses.values())
+        hits, misses = cache_counts((digital_loop, digital_block, model_laws, model_topdrive,
+                                     model_sensing, model_timing))  # fmt: skip
         info.update(
             sampled_cache_hits=hits,
             sampled_cache_misses=misses,
@@ -663,7 +656,6 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
     list of Path
         The PNG files, in the order of ``spec.metrics``.
     """
-    header = columns(spec)
     kinds = dict(METRICS[spec.study])
     reference = spec.reference_values()
     title_base = f"{spec.study} sweep, base {Path(spec.base_label).name}"
@@ -671,8 +663,7 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
         return _controller_plots(spec, rows, out_dir, title_base)
     paths = []
     for metric in spec.metrics:
-        col = header.index(metric)
-        raw = [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
+        raw = _column(spec, rows, metric)
         kind = kinds[metric]
         values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
         fig = sweep_figure(

@@ -244,28 +244,20 @@ class SweepSpec:
         return tuple(int(k) for k in np.unravel_index(index, self.shape))
 
     def point_values(self, index: int) -> dict[str, float]:
-        """Swept parameter values at point ``index``.
-
-        Parameters
-        ----------
-        index : int
-            Row-major point index.
-
-        Returns
-        -------
-        dict of str to float
-            Each axis's ``param`` -> its value at the point.
-
-        Raises
-        ------
-        IndexError
-            ``index`` is outside the sweep.
+        """Swept parameter values at point ``index`` (row-major): each axis's ``param`` -> its
+        value; IndexError outside the sweep.
         """
         ij = self.grid_index(index)
         return {a.param: float(a.values()[k]) for a, k in zip(self.axes, ij, strict=True)}
 
     def point_params(self, index: int) -> ScaledParams:
-        """The scaled parameter set of point ``index`` (full-model studies).
+        """The scaled parameter set of point ``index`` (full-model studies): :meth:`params_at` of
+        :meth:`point_values`, with their errors (and IndexError outside the sweep).
+        """
+        return self.params_at(self.point_values(index))
+
+    def params_at(self, values: Mapping[str, float]) -> ScaledParams:
+        """The scaled parameter set at any values of the swept names (e.g. between the grid points).
 
         A physical base takes the swept values (:meth:`physical_at`) and is converted by eqs.
         (15)-(16); a scaled base takes the swept fields, then ``gammabar`` (gamma =
@@ -273,41 +265,18 @@ class SweepSpec:
 
         Parameters
         ----------
-        index : int
-            Row-major point index.
+        values : mapping of str to float
+            A value for each swept name.
 
         Returns
         -------
         ScaledParams
-            The point's set, validated.
+            The set, validated.
 
         Raises
         ------
         ValueError
             For the axial study (no full parameter set per point).
-        IndexError
-            ``index`` is outside the sweep.
-        ParameterError
-            A swept value makes an invalid parameter set.
-        """
-        return self.params_at(self.point_values(index))
-
-    def params_at(self, values: Mapping[str, float]) -> ScaledParams:
-        """The scaled parameter set at any values of the swept names (see :meth:`point_params`).
-
-        Parameters
-        ----------
-        values : mapping of str to float
-            A value for each swept name (e.g. between the grid points).
-
-        Returns
-        -------
-        ScaledParams
-
-        Raises
-        ------
-        ValueError
-            For the axial study.
         ParameterError
             The values make an invalid parameter set.
         """

@@ -48,8 +48,8 @@ from drillstring.apps.sweep.spec import Axis, SweepSpec
 from drillstring.controller.averaged import (
     AveragedModel,
     averaged_model,
+    delay_roots,
     linearised_ode_matrix,
-    open_loop_roots,
 )
 from drillstring.controller.lineup import CONSTRAINED_CONTROLLERS, LmiGain, lmi_gain, rig_lineup
 from drillstring.controller.string_spectrum import string_abscissa
@@ -85,7 +85,6 @@ __all__ = [
     "map_top_drive",
     "open_loop_metrics",
     "point_gains",
-    "point_string",
     "rightmost_nonzero_root",
 ]
 
@@ -183,7 +182,7 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
     Parameters
     ----------
     roots : ndarray of complex
-        Characteristic roots (e.g. :func:`~drillstring.controller.averaged.open_loop_roots`).
+        Characteristic roots (e.g. :func:`~drillstring.controller.averaged.delay_roots`).
     tol : float
         Modulus below which the smallest root counts as s = 0.
 
@@ -263,7 +262,7 @@ def open_loop_metrics(
     """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    root = rightmost_nonzero_root(open_loop_roots(model))
+    root = rightmost_nonzero_root(delay_roots(model))
     res = _run(params, tau_end, float(model.R_ff), opts)
     out = {
         "A": design.A,
@@ -284,12 +283,8 @@ def closed_loop_metrics(
 
     Parameters
     ----------
-    params : ScaledParams
-        The point's parameter set.
-    design : DesignInputs
-        Its axial design inputs.
-    tau_end : float
-        Run length (scaled).
+    params, design, tau_end
+        As for :func:`open_loop_metrics`.
     opts : ClosedLoopOptions
         Options of the closed-loop study (``gains``, ``feedforward``, ``gain_max``, ``h``,
         ``dphi0``, ``dt_out``, ``window``, ``tol``).
@@ -362,12 +357,6 @@ def map_top_drive(
     if braking == "none":
         drive = replace(drive, R_min=max(0.0, drive.R_min), braking="none")
     return drive
-
-
-def point_string(scales: Scales | None, elements: int) -> StringParams | None:
-    """The drill pipe of a point as ``elements`` elements (None for one: the paper's model):
-    :func:`~drillstring.model.pipe.string_of_rig` of the point's rig."""
-    return string_of_rig(scales, elements)
 
 
 def _abscissa(M: np.ndarray) -> float:
@@ -512,18 +501,9 @@ def lineup_at(
 
     Parameters
     ----------
-    params : ScaledParams
-        The point.
-    model : AveragedModel
-        Its averaged model.
-    paper, constrained : LmiGain
-        The two LMI designs (``constrained`` None: its laws cannot be asked for).
-    opts : ControllerOptions
-        How the controllers run.
-    scales : PhysicalParams or None
-        The point's rig, for a drive rated in SI units and the telemetry's seconds.
-    names : tuple of str, optional
-        The controllers.
+    params, model, paper, constrained, opts, scales, names
+        As for :func:`evaluate_controllers` (``constrained`` None: its laws cannot be asked
+        for).
 
     Returns
     -------
@@ -694,7 +674,7 @@ def linear_boundary(
             params = spec.params_at(values)
             scales = spec.physical_at(values) if physical else spec.point_scales(0)
             model = averaged_model(params, design.A, design.taubar_crit)
-            string = point_string(scales, opts.elements)
+            string = string_of_rig(scales, opts.elements)
             out[OPEN_LOOP][i, j] = linear_abscissa(model, None, string)
             paper, constrained, wanted, _ = point_gains(model, opts, names, roots=False)
             controllers = lineup_at(params, model, paper, constrained, opts, scales, wanted)
@@ -734,16 +714,12 @@ def controllers_metrics(
 
     Parameters
     ----------
-    params : ScaledParams
-        The point's parameter set.
-    design : DesignInputs
-        Its axial design inputs.
-    tau_end : float
-        Run length (scaled), a multiple of ``Ts``.
+    params, design, tau_end
+        As for :func:`open_loop_metrics` (``tau_end`` a multiple of ``Ts``).
     opts : ControllerOptions
         Options of the controllers study.
     scales : PhysicalParams, optional
-        The point's rig, for a top drive rated in SI units and the telemetry's seconds.
+        As for :func:`evaluate_controllers`.
 
     Returns
     -------
@@ -763,7 +739,7 @@ def controllers_metrics(
     model = averaged_model(params, design.A, design.taubar_crit)
     names = tuple(opts.controllers)
     paper, constrained, wanted, error = point_gains(model, opts)
-    string = point_string(scales, opts.elements)
+    string = string_of_rig(scales, opts.elements)
     runs = evaluate_controllers(
         params, model, paper, constrained, opts, tau_end=tau_end,
         initial={"dphi": opts.dphi0_rel * params.omega0}, scales=scales, string=string,
