@@ -4,7 +4,7 @@ FMI 3.0 twins", "Array outputs").
 On 16 elements, in fmpy's low-level ``fmpy.fmi3`` API: the scaled twin's arrays are the
 engine's profile (:func:`~drillstring.model.engine.string_profiles` of the engine stepped as the
 FMU steps) bit for bit, on the native fast path and on the Python path; the SI twin's are that
-profile in SI units (the conversions of ``docs/units.md``: torque C (R0/C + T), speed
+profile in SI units (the conversions of ``docs/si_fmus.md``: torque C (R0/C + T), speed
 (omega0 + dphi)/t*). The array length is the structural parameter ``string_elements``, set in
 Configuration Mode; a wrong ``nValues`` is ``fmi3Error``; the FMI 2.0 plants declare no arrays.
 The refusals are rows of the FMI 3.0 conformance table (``tests/test_fmu3.py``); fmpy's rules,
