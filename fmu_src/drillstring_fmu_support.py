@@ -85,7 +85,10 @@ PHASES = ("instantiated", "initialization", "stepping", "terminated")
 _STATE_FORMAT = 2
 
 __all__ = [
+    "ARRAY_VR_BASE",
+    "ARRAY_VR_STRIDE",
     "CONFIG_FILE",
+    "ArrayOutput",
     "FmuModel",
     "FastPath",
     "FmuState",
@@ -242,6 +245,29 @@ def output(
     return Variable(name, type, "output", description, depends_on=tuple(depends_on), **kw)
 
 
+#: The value references the FMI 3.0 front layer passes to fmi2GetReal for the elements of an
+#: array output (:class:`ArrayOutput`): element ``i`` of ``ARRAYS[j]`` is
+#: ``ARRAY_VR_BASE + j * ARRAY_VR_STRIDE + i``. No FMU variable has one, and the front layer of
+#: an FMI 2.0 FMU refuses every value reference its model description does not declare before
+#: pythonfmu sees it.
+ARRAY_VR_BASE = 0x40000000
+ARRAY_VR_STRIDE = 0x10000
+
+
+@dataclass(frozen=True)
+class ArrayOutput:
+    """An array output of the FMU's FMI 3.0 twin (FMI 2.0 has no arrays, so the FMI 2.0 FMU does
+    not declare it): a Float64 output of one dimension whose length is the value of the Integer
+    parameter ``size`` (declared a structural parameter in FMI 3.0), with ``unit`` and
+    ``display_unit`` as :class:`Variable`'s."""
+
+    name: str
+    description: str
+    size: str
+    unit: str = "1"
+    display_unit: str | None = None
+
+
 # ------------------------------------------------------------------------------------------------
 # steps and states
 # ------------------------------------------------------------------------------------------------
@@ -380,6 +406,8 @@ class FmuModel(Fmi2Slave):
 
     MODEL: ClassVar[str] = ""
     VARIABLES: ClassVar[tuple[Variable, ...]] = ()
+    #: The array outputs of the FMI 3.0 twin (served by :meth:`array_values`).
+    ARRAYS: ClassVar[tuple[ArrayOutput, ...]] = ()
     #: Time origin of every FMU of the project (the plant's history for tau <= 0 is the
     #: nominal motion, so the scaled time starts at 0).
     START_TIME: ClassVar[float] = 0.0
@@ -447,6 +475,18 @@ class FmuModel(Fmi2Slave):
 
     def save(self) -> tuple[dict[str, Any], Any, Callable[[], bytes]]:  # pragma: no cover
         """(JSON-able fields, in-memory snapshot, function making the bytes) of the model."""
+        raise NotImplementedError
+
+    @classmethod
+    def array_vr(cls, j: int) -> int:
+        """The slave's value reference of the first element of ``ARRAYS[j]`` (``ARRAY_VR_BASE``;
+        the front layer of the FMI 3.0 twin asks for element i at this + i)."""
+        if not 0 <= j < len(cls.ARRAYS):
+            raise IndexError(f"{cls.__name__} has {len(cls.ARRAYS)} array outputs, not #{j}")
+        return ARRAY_VR_BASE + j * ARRAY_VR_STRIDE
+
+    def array_values(self, name: str) -> np.ndarray:  # pragma: no cover - abstract
+        """The elements of the array output ``name`` (one of :attr:`ARRAYS`) now."""
         raise NotImplementedError
 
     def fast_path(self) -> FastPath | None:
@@ -668,7 +708,30 @@ class FmuModel(Fmi2Slave):
             ]
         return out
 
+    def _array_getter(self, what: str, vrs: list[int]) -> list[float]:
+        """The elements of array outputs the FMI 3.0 front layer asks for (``ARRAY_VR_BASE``)."""
+        out = [math.nan] * len(vrs)
+        with self._call(what):
+            self._ensure_configured()
+            arrays: dict[int, np.ndarray] = {}
+            values = []
+            for vr in vrs:
+                j, i = divmod(vr - ARRAY_VR_BASE, ARRAY_VR_STRIDE)
+                if not 0 <= j < len(self.ARRAYS):
+                    raise _Rejected(f"no array output has value reference {vr}")
+                if j not in arrays:
+                    arrays[j] = np.asarray(self.array_values(self.ARRAYS[j].name), dtype=float)
+                if not 0 <= i < arrays[j].size:
+                    raise _Rejected(
+                        f"{self.ARRAYS[j].name} has {arrays[j].size} elements, not element {i}"
+                    )
+                values.append(float(arrays[j][i]))
+            out = values
+        return out
+
     def get_real(self, vrs: list[int]) -> list[float]:
+        if vrs and vrs[0] >= ARRAY_VR_BASE:
+            return self._array_getter("fmi3GetFloat64", vrs)
         return self._getter("fmi2GetReal", vrs, float, math.nan)
 
     def get_integer(self, vrs: list[int]) -> list[int]:

@@ -45,6 +45,7 @@ from drillstring.model.engine import (
     OUTPUT_KEYS,
     Engine,
     EngineOptions,
+    string_profiles,
 )
 from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
@@ -295,6 +296,33 @@ def _string_declarations() -> list[units.Declared]:
 
 
 DECLARED = _declarations()
+#: The along-string profile (``docs/model.md``, "The distributed string"; the engine's
+#: :func:`~drillstring.model.engine.string_profiles`) as array outputs of the FMI 3.0 twin, N =
+#: string_elements long: each element's torque (table first) and the angular speed of the node at
+#: each element's lower end (x = i/N, i = 1..N: the inner nodes, then the bit).
+_ARRAYS = {
+    SCALED: (
+        fmu.ArrayOutput(
+            "element_torque_minus_R0", "Torque of each string element less R0 (scaled: in units "
+            "of C), from the table (the first: top_torque_minus_R0) to the bit", "string_elements"
+        ),
+        fmu.ArrayOutput(
+            "node_dphi", "Angular speed perturbation of the node at the lower end of each string "
+            "element (scaled), from below the table to the bit (the last: dphi)", "string_elements"
+        ),
+    ),
+    SI: (
+        fmu.ArrayOutput(
+            "element_torque", "Torque of each string element, from the table (the first: "
+            "top_torque) to the bit", "string_elements", unit="N.m", display_unit="kN.m"
+        ),
+        fmu.ArrayOutput(
+            "node_speed", "Angular speed of the node at the lower end of each string element, "
+            "from below the table to the bit (the last: bit_speed)", "string_elements",
+            unit="rad/s", display_unit="rpm"
+        ),
+    ),
+}  # fmt: skip
 #: The engine options among the FMU's variables and their dimension (the same name in both unit
 #: systems): the engine takes them scaled.
 _OPTION_DIMENSIONS = {d.scaled: d.dimension for d in DECLARED if d.scaled in ("h", "event_tol")}
@@ -348,6 +376,7 @@ class PlantFmu(fmu.FmuModel):
         super().__init_subclass__(**kwargs)
         system = cls.SYSTEM = units.system(cls.UNIT_SYSTEM)
         cls.VARIABLES = units.variables(DECLARED, system)
+        cls.ARRAYS = _ARRAYS[system.name]
         cls.FAST_KEYS = _FAST_KEYS[system.name]
         cls.FAST_SI = float(system.physical)
         cls.VALIDITY = _validity(system)
@@ -447,6 +476,24 @@ class PlantFmu(fmu.FmuModel):
         if self.SYSTEM.physical:
             return self.scaling.plant_constants
         return (0.0,) * native.N_K
+
+    def array_values(self, name: str) -> np.ndarray:
+        """The along-string profile now (:data:`_ARRAYS`): the engine's
+        :func:`~drillstring.model.engine.string_profiles` at the current sample, converted as
+        the FMU's scalar outputs (SI: as ``top_torque`` and ``bit_speed``)."""
+        eng = self.engine
+        assert eng is not None
+        scaled = eng.outputs()
+        data = {k: np.array([scaled[k]]) for k in ("u", "du", "phi", "dphi", "theta", "dtheta")}
+        data["tau"] = np.array([eng.tau])
+        profile = string_profiles(eng.params, eng.string, data, eng.string_nodes()[None, :])
+        torque, speed = profile["torque_minus_R0"][0], profile["dphi_node"][0, 1:]
+        if not self.SYSTEM.physical:
+            return {"element_torque_minus_R0": torque, "node_dphi": speed}[name]
+        si = self.scaling.plant_outputs(
+            {**scaled, "dphi": speed, "top_torque_minus_R0": torque}, eng.tau
+        )
+        return {"element_torque": si["top_torque"], "node_speed": si["bit_speed"]}[name]
 
     # ----------------------------------------------------------------- physics
     def configure(self, values: Mapping[str, Any]) -> None:

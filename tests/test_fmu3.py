@@ -100,7 +100,14 @@ def test_fmi3_model_description_declares_the_fmi2_variables(built, model):
 
     vars2 = {sv.get("name"): sv for sv in r2.find("ModelVariables")}
     vars3 = {v.get("name"): v for v in r3.find("ModelVariables")}
-    assert set(vars3) == set(vars2) | {"time"}
+    # the plants' along-string profile: FMI 3.0 arrays (tests/test_fmu3_arrays.py), sized by a
+    # structural parameter
+    arrays = {n: v for n, v in vars3.items() if v.find("Dimension") is not None}
+    assert len(arrays) == (2 if model in (tl.PLANT, tl.PLANT_SI) else 0)
+    sizes = {d.get("valueReference") for v in arrays.values() for d in v.findall("Dimension")}
+    assert set(vars3) == set(vars2) | {"time"} | set(arrays)
+    for name in arrays:
+        vars3.pop(name)
     time = vars3.pop("time")
     assert (time.tag, time.get("causality"), time.get("variability")) == (
         "Float64",
@@ -116,6 +123,9 @@ def test_fmi3_model_description_declares_the_fmi2_variables(built, model):
         v3, t2 = vars3[name], sv[0]
         assert v3.tag == FMI3_TYPE[t2.tag], name
         for key in ("valueReference", "causality", "variability", "initial", "description"):
+            if key == "causality" and sv.get("valueReference") in sizes:
+                assert v3.get(key) == "structuralParameter", name
+                continue
             assert v3.get(key) == sv.get(key), (name, key)
         for key in ("unit", "displayUnit", "min", "max", "start", "declaredType"):
             assert v3.get(key) == t2.get(key), (name, key)
@@ -133,10 +143,12 @@ def test_fmi3_model_description_declares_the_fmi2_variables(built, model):
         ]
 
     s2, s3 = r2.find("ModelStructure"), r3.find("ModelStructure")
+    array_vrs = [(v.get("valueReference"), "") for v in arrays.values()]
     outputs3 = [(u.get("valueReference"), u.get("dependencies")) for u in s3.findall("Output")]
-    assert outputs3 == by_vr(s2.findall("Outputs/Unknown"))
+    assert outputs3 == by_vr(s2.findall("Outputs/Unknown")) + array_vrs
     initial3 = [u.get("valueReference") for u in s3.findall("InitialUnknown")]
-    assert initial3 == [vr for vr, _ in by_vr(s2.findall("InitialUnknowns/Unknown"))]
+    initial2 = [vr for vr, _ in by_vr(s2.findall("InitialUnknowns/Unknown"))]
+    assert initial3 == initial2 + [vr for vr, _ in array_vrs]
     units2 = {u.get("name") for u in r2.find("UnitDefinitions")}
     assert {u.get("name") for u in r3.find("UnitDefinitions")} == units2 | {time.get("unit")}
 
@@ -179,9 +191,15 @@ def test_fmi3_plant_equals_fmi2_plant_on_fig5_open_loop_in_simulate_fmu(built):
     }
     r2 = simulate_fmu(str(built.plant.fmu), **kwargs)
     r3 = simulate_fmu(str(twin(built, tl.PLANT)), **kwargs)
-    assert r2.dtype.names == r3.dtype.names and len(r2) == len(r3) == 6001
+    # the twin records its arrays too (tests/test_fmu3_arrays.py): on the default one element
+    # the top torque and the bit's speed
+    arrays = {"element_torque_minus_R0": "top_torque_minus_R0", "node_dphi": "dphi"}
+    assert set(r3.dtype.names) == set(r2.dtype.names) | set(arrays)
+    assert len(r2) == len(r3) == 6001
     for name in r2.dtype.names:
         assert np.array_equal(r2[name], r3[name]), name
+    for name, scalar in arrays.items():
+        assert np.array_equal(r3[name][:, 0], r2[scalar]), name
     assert np.ptp(r2["dphi"]) > 1.0  # the run is the stick-slip of Fig. 5, not a rest state
 
 
@@ -494,6 +512,28 @@ ROWS = {
         lambda r, vr: r.call("GetFloat64", (VR * 1)(vr["phi"]), 1, (F64 * 2)(), 2),
         ERROR,
         r"^fmi3GetFloat64: nValues = 2 for 1 value references",
+    ),
+    "array-n-values-mismatch": (
+        "stepping",
+        lambda r, vr: r.call("GetFloat64", (VR * 1)(vr["node_dphi"]), 1, (F64 * 2)(), 2),
+        ERROR,
+        r"^fmi3GetFloat64: nValues = 2 for 1 value references, which hold 1 values",
+    ),
+    "structural-parameter-outside-configuration": (
+        "instantiated",
+        lambda r, vr: r.call(
+            "SetInt32", (VR * 1)(vr["string_elements"]), 1, (ctypes.c_int32 * 1)(16), 1
+        ),
+        ERROR,
+        r"^fmi3SetInt32: variable string_elements .* is a structural parameter .* only in "
+        r"ConfigurationMode",
+    ),
+    "configuration-mode-only-structural": (
+        "instantiated",
+        lambda r, vr: max(r.call("EnterConfigurationMode"), r.set64([vr["psi"]], [300.0])),
+        ERROR,
+        r"^fmi3SetFloat64: variable psi .* is not a structural parameter: in ConfigurationMode "
+        r"only those can be set",
     ),
     "set-an-output": (
         "stepping",

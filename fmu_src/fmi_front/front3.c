@@ -10,8 +10,11 @@
  * hands the rest to machine.c, which the FMI 2.0 front shares: the same checks, statuses and
  * messages, the same pythonfmu slave underneath (which speaks FMI 2.0 to this layer).
  *
- * What the FMU does not provide (model exchange, scheduled execution, event mode, clocks, arrays,
- * the types it has no variables of, derivatives) answers fmi3Error with a message; an
+ * Array outputs (the plant's along-string profile, DS_ARRAYS) are 1-D Float64 sized by an Integer
+ * structural parameter, which is set in Configuration Mode; the slave serves their elements at
+ * value references of its own (ds_array). What the FMU does not provide (model exchange,
+ * scheduled execution, event mode, clocks, the types it has no variables of, derivatives, the
+ * Reconfiguration Mode) answers fmi3Error with a message; an
  * instantiation that fails returns NULL with a message, at once.
  */
 #include "drillstring_fmi2.h"
@@ -68,13 +71,17 @@ _Static_assert(sizeof(fmi3ValueReference) == sizeof(fmi2ValueReference),
                "value references are passed on as they are");
 _Static_assert(sizeof(fmi3Int32) == sizeof(fmi2Integer), "Int32 values are passed on as they are");
 
-#define MASK_SetDebugLogging ST_ANY_LIVE
+#define MASK_SetDebugLogging (ST_ANY_LIVE | ST_CONFIGURATION)
 #define MASK_EnterInitializationMode ST_INSTANTIATED
 #define MASK_ExitInitializationMode ST_INITIALIZATION
 #define MASK_Terminate (ST_STEP_COMPLETE | ST_STEP_FAILED)
-#define MASK_Reset ST_ANY_LIVE
-#define MASK_Get (ST_INITIALIZATION | ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED)
-#define MASK_Set (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE)
+#define MASK_Reset (ST_ANY_LIVE | ST_CONFIGURATION)
+/* in ConfigurationMode only the structural parameters (ds_check_vrs) */
+#define MASK_Get (ST_INITIALIZATION | ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED | \
+                  ST_CONFIGURATION)
+#define MASK_Set (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_CONFIGURATION)
+#define MASK_EnterConfigurationMode ST_INSTANTIATED
+#define MASK_ExitConfigurationMode ST_CONFIGURATION
 #define MASK_FMUState ST_ANY_LIVE
 #define MASK_DoStep ST_STEP_COMPLETE
 
@@ -281,15 +288,99 @@ SAME_TYPE_SET(String, fmi3String, 'S')
 SAME_TYPE_GET(Int32, fmi3Int32, 'I')
 SAME_TYPE_GET(String, fmi3String, 'S')
 
-/* Float64 values: the slave's, and the independent variable time (the instance's time: where
-   the last step ended, or the start time), which only this layer knows. */
+/* The array output with value reference vr, or NULL. */
+static const ds_array *array_of(fmi3ValueReference vr)
+{
+    for (const ds_array *a = DS_ARRAYS; a->vr != 0; ++a) /* ends with {0, 0, 0} */
+        if (a->vr == vr) return a;
+    return NULL;
+}
+
+/* The current length of an array: the value of its structural parameter (>= 1 by its min). */
+static fmi2Status array_length(Component *c, const ds_array *a, size_t *n)
+{
+    const fmi2ValueReference size_vr = a->size_vr;
+    fmi2Integer value = 0;
+    const fmi2Status s = ds_get(c, &size_vr, 1, &value, 'I');
+    *n = value > 0 ? (size_t)value : 0;
+    return s;
+}
+
+/* The n elements of an array output, from the slave (at its value references slave_vr + i). */
+static fmi2Status array_values(Component *c, const ds_array *a, size_t n, fmi3Float64 out[])
+{
+    fmi2ValueReference *svr = malloc(n * sizeof *svr);
+    if (!svr) {
+        ds_logf(c, fmi2Error, "fmi3GetFloat64: out of memory for %zu values", n);
+        return fmi2Error;
+    }
+    for (size_t k = 0; k < n; ++k) svr[k] = a->slave_vr + (fmi2ValueReference)k;
+    ds_fast_drop(c);
+    const fmi2Status s = ds_finish(c, ds_pf.GetReal(c->inner, svr, n, out));
+    free(svr);
+    return s;
+}
+
+/* fmi3GetFloat64 with array outputs among the value references: nValues must be the sum of their
+   lengths (1 for a scalar); the values in the order of the references, each array's elements
+   in row-major order. */
+static fmi3Status get_with_arrays(Component *c, const fmi3ValueReference vr[], size_t nvr,
+                                  fmi3Float64 values[], size_t nValues)
+{
+    const char *fn = "fmi3GetFloat64";
+    size_t *lengths = malloc(nvr * sizeof *lengths);
+    if (!lengths) {
+        ds_logf(c, fmi2Error, "%s: out of memory for %zu value references", fn, nvr);
+        return fmi3Error;
+    }
+    fmi2Status worst = fmi2OK;
+    size_t total = 0;
+    for (size_t i = 0; i < nvr && worst <= fmi2Warning; ++i) {
+        const ds_array *a = array_of(vr[i]);
+        lengths[i] = 1;
+        if (a) {
+            const fmi2Status s = array_length(c, a, &lengths[i]);
+            if (s > worst) worst = s;
+        }
+        total += lengths[i];
+    }
+    if (worst <= fmi2Warning && nValues != total) {
+        ds_logf(c, fmi2Error, "%s: nValues = %zu for %zu value references, which hold %zu "
+                "values (an array output holds as many as its structural parameter says); "
+                "nothing done", fn, nValues, nvr, total);
+        worst = fmi2Error;
+    }
+    size_t at = 0;
+    for (size_t i = 0; i < nvr && worst <= fmi2Warning; ++i) {
+        const ds_array *a = array_of(vr[i]);
+        fmi2Status s = fmi2OK;
+        if (a) {
+            if (lengths[i] > 0) s = array_values(c, a, lengths[i], &values[at]);
+        } else if (DS_VARIABLES[vr[i]].causality == DS_INDEPENDENT) {
+            values[at] = c->last_time;
+        } else {
+            s = ds_get(c, &vr[i], 1, &values[at], 'R');
+        }
+        at += lengths[i];
+        if (s > worst) worst = s;
+    }
+    free(lengths);
+    return status3(worst);
+}
+
+/* Float64 values: the slave's, the independent variable time (the instance's time: where the
+   last step ended, or the start time), which only this layer knows, and the array outputs. */
 EXPORT fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                                  fmi3Float64 values[], size_t nValues)
 {
     Component *c = ds_component(instance);
     const char *fn = "fmi3GetFloat64";
-    if (!ds_begin(c, fn, MASK_Get) || !scalars(c, fn, nvr, nValues)) return fmi3Error;
+    if (!ds_begin(c, fn, MASK_Get)) return fmi3Error;
+    size_t arrays = 0;
+    for (size_t i = 0; i < nvr && vr; ++i) arrays += array_of(vr[i]) != NULL;
+    if (!arrays && !scalars(c, fn, nvr, nValues)) return fmi3Error;
     if (!ds_check_vrs(c, fn, vr, nvr, values, 'R', 0)) return fmi3Error;
+    if (arrays) return get_with_arrays(c, vr, nvr, values, nValues);
     size_t times = 0;
     for (size_t i = 0; i < nvr; ++i) times += DS_VARIABLES[vr[i]].causality == DS_INDEPENDENT;
     if (times == 0) return status3(ds_get(c, vr, nvr, values, 'R'));
@@ -459,6 +550,28 @@ EXPORT fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference v
     return no_such_type(instance, "fmi3SetClock", MASK_Set, "Clock", vr, nvr);
 }
 
+/* ---- Configuration Mode: the structural parameters (the lengths of the array outputs) -------- */
+EXPORT fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance)
+{
+    Component *c = ds_component(instance);
+    const char *fn = "fmi3EnterConfigurationMode";
+    if (!ds_begin(c, fn, MASK_EnterConfigurationMode)) return fmi3Error;
+    if (DS_N_ARRAYS == 0) {
+        ds_logf(c, fmi2Error, "%s: not provided (the FMU has no structural parameters)", fn);
+        return fmi3Error;
+    }
+    c->state = ST_CONFIGURATION;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance)
+{
+    Component *c = ds_component(instance);
+    if (!ds_begin(c, "fmi3ExitConfigurationMode", MASK_ExitConfigurationMode)) return fmi3Error;
+    c->state = ST_INSTANTIATED; /* no Reconfiguration Mode: the structural parameters are fixed */
+    return fmi3OK;
+}
+
 /* ---- stepping -------------------------------------------------------------------------------- */
 EXPORT fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
                              fmi3Float64 communicationStepSize,
@@ -562,10 +675,6 @@ NOT_PROVIDED(UpdateDiscreteStates, NO_EVENTS,
              , (void)discreteStatesNeedUpdate, (void)terminateSimulation,
              (void)nominalsOfContinuousStatesChanged, (void)valuesOfContinuousStatesChanged,
              (void)nextEventTimeDefined, (void)nextEventTime)
-NOT_PROVIDED(EnterConfigurationMode, "the FMU has no structural parameters",
-             (fmi3Instance instance), )
-NOT_PROVIDED(ExitConfigurationMode, "the FMU has no structural parameters",
-             (fmi3Instance instance), )
 NOT_PROVIDED(GetNumberOfVariableDependencies, "providesPerElementDependencies is false",
              (fmi3Instance instance, fmi3ValueReference valueReference, size_t *nDependencies),
              , (void)valueReference, (void)nDependencies)

@@ -32,6 +32,7 @@ const char *ds_state_name(int s)
                                       "StepMode after fmi3Discard (until fmi3SetFMUState)");
     case ST_TERMINATED: return "Terminated";
     case ST_FATAL: return "Fatal";
+    case ST_CONFIGURATION: return "ConfigurationMode";
     default: return "?";
     }
 }
@@ -52,7 +53,7 @@ void ds_append_item(char *out, size_t cap, const char *item)
 static void allowed_states(int mask, char *out, size_t n)
 {
     out[0] = '\0';
-    for (int s = ST_INSTANTIATED; s <= ST_FATAL; s <<= 1)
+    for (int s = ST_INSTANTIATED; s <= ST_CONFIGURATION; s <<= 1)
         if (mask & s) ds_append_item(out, n, ds_state_name(s));
     if (!out[0]) ds_format(out, n, "%s", DS_FN("StepInProgress, which this FMU never enters",
                                                "a mode this FMU does not provide"));
@@ -119,7 +120,20 @@ int ds_check_vrs(Component *c, const char *fn, const fmi2ValueReference vr[], si
                     "done", fn, v->name, vr[i], type_name(v->type), type_name(type));
             return 0;
         }
+        if (c->state == ST_CONFIGURATION && v->causality != DS_STRUCTURAL) {
+            ds_logf(c, fmi2Error, "%s: variable %s (value reference %u) is not a structural "
+                    "parameter: in ConfigurationMode only those can be %s; nothing done", fn,
+                    v->name, vr[i], set ? "set" : "read");
+            return 0;
+        }
         if (!set) continue;
+        if (v->causality == DS_STRUCTURAL && c->state != ST_CONFIGURATION) {
+            ds_logf(c, fmi2Error, "%s: variable %s (value reference %u) is a structural parameter "
+                    "(it sizes array outputs): it can be set only in ConfigurationMode (between "
+                    "fmi3EnterConfigurationMode and fmi3ExitConfigurationMode), not in state %s; "
+                    "nothing done", fn, v->name, vr[i], ds_state_name(c->state));
+            return 0;
+        }
         if (v->causality == DS_INDEPENDENT) {
             ds_logf(c, fmi2Error, "%s: variable %s (value reference %u) is the independent "
                     "variable (the FMU's time, which the steps advance) and cannot be set; "

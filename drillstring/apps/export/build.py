@@ -157,13 +157,18 @@ def _postprocess(
     roots = {2: (spec.model, root)}
     if 3 in fmi:
         model3 = fmi3_model_identifier(spec.model)
-        roots[3] = (model3, fmi3_model_description(root, cls.VARIABLES, starts, model3))
+        roots[3] = (model3, fmi3_model_description(root, cls.VARIABLES, starts, model3, cls.ARRAYS))
+    array_vrs = [cls.array_vr(j) for j in range(len(cls.ARRAYS))]
     written = {}
     for version in fmi:
         model, description = roots[version]
         layer = work / f"{model}.so"
         compile_front_layer(
-            model_header(description, entry), layer, record["include"], work, fmi=version
+            model_header(description, entry, array_vrs if version == 3 else ()),
+            layer,
+            record["include"],
+            work,
+            fmi=version,
         )
         files = dict(entries)
         files[f"{_BINARIES[version]}/{model}.so"] = layer.read_bytes()

@@ -42,6 +42,7 @@ _CAUSALITY_CODE = {
     "input": "DS_INPUT",
     "output": "DS_OUTPUT",
     "independent": "DS_INDEPENDENT",
+    "structuralParameter": "DS_STRUCTURAL",
 }
 #: The FMI 3.0 type elements and their type codes.
 _TYPE_CODE3 = {"Float64": "R", "Int32": "I", "Enumeration": "E", "Boolean": "B", "String": "S"}
@@ -64,13 +65,18 @@ def find_compiler() -> list[str]:
         ) from None
 
 
-def model_header(root: ET.Element, entry: str) -> str:
-    """``model_data.h`` of the front layer, from the final modelDescription.xml (FMI 2.0 or 3.0)."""
+def model_header(root: ET.Element, entry: str, array_vrs: Sequence[int] = ()) -> str:
+    """``model_data.h`` of the front layer, from the final modelDescription.xml (FMI 2.0 or 3.0).
+
+    ``array_vrs``: for each array output of the FMI 3.0 description, in order, the value
+    reference of its first element in the slave's numbering (the slave's ``ARRAY_VR_BASE``); the
+    table ``DS_ARRAYS`` gives the front each array's value reference and that of its size."""
     cs = root.find("CoSimulation")
     assert cs is not None
     fmi3 = root.get("fmiVersion") == "3.0"
     svs = list(root.find("ModelVariables") or [])
     rows = {}
+    arrays = []
     for sv in svs:
         kind = _TYPE_CODE3.get(sv.tag, "?") if fmi3 else _TYPE_CODE[sv[0].tag]
         if kind == "?":
@@ -80,6 +86,16 @@ def model_header(root: ET.Element, entry: str) -> str:
             raise BuildError(f"variable {sv.get('name')}: causality {causality} not supported")
         vr = int(sv.get("valueReference", "-1"))
         rows[vr] = (sv.get("name"), kind, _CAUSALITY_CODE[causality])
+        dims = sv.findall("Dimension")
+        if len(dims) > 1 or (dims and (kind != "R" or dims[0].get("valueReference") is None)):
+            raise BuildError(
+                f"variable {sv.get('name')}: only 1-D Float64 arrays sized by a "
+                "structural parameter are supported"
+            )
+        if dims:
+            arrays.append((vr, int(dims[0].get("valueReference", "-1"))))
+    if len(arrays) != len(array_vrs):
+        raise BuildError(f"{len(arrays)} array variables, {len(array_vrs)} slave arrays")
     if not rows or min(rows) < 0 or max(rows) > 100_000:
         raise BuildError(f"value references {sorted(rows)} out of the supported range")
     categories = [c.get("name") for c in root.find("LogCategories") or []]
@@ -92,7 +108,15 @@ def model_header(root: ET.Element, entry: str) -> str:
         f"#define DS_ENTRY_MODULE {json.dumps(entry)}",
         f"#define DS_N_VR {max(rows) + 1}",
         f"#define DS_N_LOG_CATEGORIES {len(categories)}",
+        f"#define DS_N_ARRAYS {len(arrays)}",
         "#ifdef DS_MODEL_TABLES /* defined in machine.c only */",
+        "const ds_array DS_ARRAYS[DS_N_ARRAYS + 1] = {",
+        *[
+            f"    {{{vr}, {size}, {first}}},"
+            for (vr, size), first in zip(arrays, array_vrs, strict=True)
+        ],
+        "    {0, 0, 0},",
+        "};",
         "const ds_variable DS_VARIABLES[DS_N_VR] = {",
     ]
     for vr in sorted(rows):

@@ -9,7 +9,10 @@ is an ``Enumeration`` of an ``EnumerationType``, accessed as Int64), lists ``Out
 ``InitialUnknown`` by value reference, and wants exactly one independent variable: ``time``
 (value reference after the slave's), whose unit states the time base a tool cannot read from an
 FMI 2.0 FMU (s, or "1" for the scaled time tau). The ``instantiationToken`` is derived from the
-FMI 2.0 GUID and this description's content.
+FMI 2.0 GUID and this description's content. What FMI 2.0 cannot declare comes last: the slave's
+array outputs (``ArrayOutput``, the plant's along-string profile), each a ``Float64`` with a
+``Dimension`` that names the Integer parameter holding its length, which becomes a
+``structuralParameter``.
 """
 
 from __future__ import annotations
@@ -113,7 +116,11 @@ def _fmi3_time_base(variables: Sequence[Any]) -> str:
 
 
 def fmi3_model_description(
-    fmi2_root: ET.Element, variables: Sequence[Any], starts: dict[str, Any], model: str
+    fmi2_root: ET.Element,
+    variables: Sequence[Any],
+    starts: dict[str, Any],
+    model: str,
+    arrays: Sequence[Any] = (),
 ) -> ET.Element:
     """The FMI 3.0 co-simulation model description of the twin of the FMU ``fmi2_root`` describes.
 
@@ -127,6 +134,10 @@ def fmi3_model_description(
         The start values by name (those of the FMI 2.0 description).
     model : str
         The twin's model identifier (:func:`fmi3_model_identifier`).
+    arrays : sequence of drillstring_fmu_support.ArrayOutput
+        The twin's array outputs (value references after ``time``'s). The Integer parameter
+        that holds an array's length becomes a structural parameter, set in Configuration Mode:
+        FMI 3.0 sizes an array only by a constant or by a structural parameter's value.
 
     Returns
     -------
@@ -172,7 +183,13 @@ def fmi3_model_description(
         },
     )
     time = SimpleNamespace(type="Real", unit=_time_unit(variables), display_unit=None)
-    root.append(unit_definitions([*variables, time]))
+    as_reals = [
+        SimpleNamespace(type="Real", unit=a.unit, display_unit=a.display_unit) for a in arrays
+    ]
+    root.append(unit_definitions([*variables, time, *as_reals]))
+    sizes = {a.size for a in arrays}
+    if sizes - {v.name for v in variables if v.type == "Integer" and v.causality == "parameter"}:
+        raise BuildError(f"array sizes {sorted(sizes)} must be Integer parameters")
     enumerations = {v.type_name: v for v in variables if v.type == "Enumeration"}
     if enumerations:
         types = ET.SubElement(root, "TypeDefinitions")
@@ -186,13 +203,15 @@ def fmi3_model_description(
             root.append(copy.deepcopy(node))
 
     model_variables = ET.SubElement(root, "ModelVariables")
-    model_variables.append(_time_variable(variables, max(vr.values()) + 1))
+    time_vr = max(vr.values()) + 1
+    model_variables.append(_time_variable(variables, time_vr))
+    array_vr = {a.name: time_vr + 1 + j for j, a in enumerate(arrays)}
     for sv in sorted(svs, key=lambda e: vr[e.get("name", "")]):
         var = by_name[sv.get("name")]
         attrib = {
             "name": var.name,
             "valueReference": str(vr[var.name]),
-            "causality": var.causality,
+            "causality": "structuralParameter" if var.name in sizes else var.causality,
             "variability": var.variability,
         }
         if sv.get("description") is not None:
@@ -213,6 +232,20 @@ def fmi3_model_description(
             attrib["start"] = format_start(starts[var.name], var.type)
         ordered = {k: attrib[k] for k in _ATTRIBUTE_ORDER if k in attrib}
         ET.SubElement(model_variables, _FMI3_TYPE[var.type], ordered)
+    for a in arrays:
+        attrib = {
+            "name": a.name,
+            "valueReference": str(array_vr[a.name]),
+            "description": a.description,
+            "causality": "output",
+            "variability": "continuous",
+            "initial": "calculated",
+            "unit": a.unit,
+        }
+        if a.display_unit is not None:
+            attrib["displayUnit"] = a.display_unit
+        element = ET.SubElement(model_variables, "Float64", attrib)
+        ET.SubElement(element, "Dimension", valueReference=str(vr[a.size]))
 
     structure = ET.SubElement(root, "ModelStructure")
     outputs = sorted((v for v in variables if v.causality == "output"), key=lambda v: vr[v.name])
@@ -222,10 +255,12 @@ def fmi3_model_description(
         if deps:
             attrib["dependenciesKind"] = " ".join("dependent" for _ in deps)
         ET.SubElement(structure, "Output", attrib)
+    for a in arrays:  # the profile is the state's: no direct feedthrough
+        ET.SubElement(structure, "Output", valueReference=str(array_vr[a.name]), dependencies="")
     # initial="calculated": computed in initialization mode; no dependencies attribute = may
     # depend on all the parameters and inputs
-    for var in outputs:
-        ET.SubElement(structure, "InitialUnknown", valueReference=str(vr[var.name]))
+    for ref in [*(vr[v.name] for v in outputs), *array_vr.values()]:
+        ET.SubElement(structure, "InitialUnknown", valueReference=str(ref))
     _set_token(root, fmi2_root.get("guid", ""))
     return root
 
