@@ -82,10 +82,12 @@ FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
     :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
-    module that forgot it out of ``make test-fast``). Then the order: the tests that need no
-    build first, those of the session's build next, those of a compilation in a clean HOME or a
-    build of their own last (each group in its collection order), so that the builds run beside
-    the tests that do not wait for them (``_background``)."""
+    module that forgot it out of ``make test-fast``). Then the order: the files whose tests need
+    no build first, those that need the session's build next, those with a test of a compilation
+    in a clean HOME or a build of its own last, so that the builds run beside the tests that do
+    not wait for them (``_background``); within a group the files with more tests first (the
+    longer ones, as a rule: two workers end together when the short files come last), the tests
+    of a file in their collection order."""
 
     def group(item: pytest.Item) -> int:
         names = set(getattr(item, "fixturenames", ()))
@@ -97,7 +99,14 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.slow)
         if FMU_FIXTURES & names:
             item.add_marker(pytest.mark.fmu)
-    items.sort(key=group)  # stable: the collection order within each group
+    # a file's place is that of its last group (pytest-xdist's --dist loadfile hands out whole
+    # files, in the order of their first test); the sort is stable
+    last: dict[Path, int] = {}
+    count: dict[Path, int] = {}
+    for item in items:
+        last[item.path] = max(last.get(item.path, 0), group(item))
+        count[item.path] = count.get(item.path, 0) + 1
+    items.sort(key=lambda item: (last[item.path], -count[item.path]))
 
 
 @pytest.fixture(scope="session", autouse=True)
