@@ -1,7 +1,7 @@
 # drillstring: `make demo` runs the main job, `make test` runs lint + the whole suite,
 # `make test-fast` the tests that need no FMU build and no host (markers in pyproject.toml).
-# `make test` runs on PYTEST_WORKERS processes (pytest-xdist, each test file on one of them; the
-# session's builds are made once for all, see tests/conftest.py).
+# `make test` runs on PYTEST_WORKERS processes (pytest-xdist; the tests of a file that share a
+# module's fixture on one of them, the session's builds made once for all: tests/conftest.py).
 # Both use one virtual environment, .venv, created with `python3 -m venv` on first use and
 # reinstalled (editable, with the test extra: numba and the FMI hosts too) only when
 # pyproject.toml changes.
@@ -25,7 +25,7 @@ $(STAMP): pyproject.toml
 test: venv
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadfile
+	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadgroup
 
 test-fast: venv
 	$(BIN)/pytest -q -m "not fmu and not slow"

@@ -25,12 +25,13 @@ that need none of them run first. Tests that use ``clean_home``, ``first_use``,
 build of their own), and every user of a build ``fmu``; the markers are described in
 ``pyproject.toml``.
 
-``make test`` runs the suite in two processes (pytest-xdist, ``--dist loadfile``: a module's
-fixtures are made once). Each worker is a session of its own, so the session's builds and first
-runs (``built``, ``first_use``, ``self_contained``, ``other_gains``, ``small_fmus``) are made by
-the first worker that asks, under a file lock in a folder the workers share, and loaded by the
-others (:func:`_once`); the kernel is compiled into numba's cache by one worker while the other
-waits (``_kernel_compiled``). Without ``-n`` everything runs in this process as before.
+``make test`` runs the suite in two processes (pytest-xdist, ``--dist loadgroup``: the tests
+that share a module's fixture on one worker, see ``pytest_collection_modifyitems``). Each
+worker is a session of its own, so the session's builds and first runs (``built``,
+``first_use``, ``self_contained``, ``other_gains``, ``small_fmus``) are made by the first
+worker that asks, under a file lock in a folder the workers share, and loaded by the others
+(:func:`_once`); the kernel is compiled into numba's cache by one worker while the other waits
+(``_kernel_compiled``). Without ``-n`` everything runs in this process as before.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty folder
@@ -79,7 +80,7 @@ SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
 FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
     :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
     module that forgot it out of ``make test-fast``). Then the order: the files whose tests need
@@ -87,7 +88,10 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     in a clean HOME or a build of its own last, so that the builds run beside the tests that do
     not wait for them (``_background``); within a group the files with more tests first (the
     longer ones, as a rule: two workers end together when the short files come last), the tests
-    of a file in their collection order."""
+    of a file in their collection order. Under pytest-xdist (``--dist loadgroup``) the tests of
+    a file that share a fixture of the module stay together on one worker (the fixture is made
+    once), every other test goes to the first worker free (a file of long independent runs,
+    ``test_ssp.py``'s, is shared out)."""
 
     def group(item: pytest.Item) -> int:
         names = set(getattr(item, "fixturenames", ()))
@@ -99,14 +103,30 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.slow)
         if FMU_FIXTURES & names:
             item.add_marker(pytest.mark.fmu)
-    # a file's place is that of its last group (pytest-xdist's --dist loadfile hands out whole
-    # files, in the order of their first test); the sort is stable
+    # a file's place is that of its last group (the tests of a file that share a module's
+    # fixture run together under pytest-xdist); the sort is stable
     last: dict[Path, int] = {}
     count: dict[Path, int] = {}
     for item in items:
         last[item.path] = max(last.get(item.path, 0), group(item))
         count[item.path] = count.get(item.path, 0) + 1
     items.sort(key=lambda item: (last[item.path], -count[item.path]))
+    if config.pluginmanager.hasplugin("xdist"):
+        for item in items:
+            if _shares_a_module_fixture(item):
+                item.add_marker(pytest.mark.xdist_group(name=item.nodeid.split("::")[0]))
+
+
+def _shares_a_module_fixture(item: pytest.Item) -> bool:
+    """Whether ``item`` uses a fixture made once per module (or class, or package)."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return False
+    return any(
+        d.scope in ("module", "class", "package")
+        for defs in info.name2fixturedefs.values()
+        for d in defs
+    )
 
 
 @pytest.fixture(scope="session", autouse=True)
