@@ -80,6 +80,7 @@ SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
 FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the xdist_group marks
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
     :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
