@@ -33,12 +33,13 @@ import os
 import statistics
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from drillstring.analysis.severity import OUTCOMES, SLOWEST_PERIOD
 from drillstring.apps.controllers import controller_map_spec
+from drillstring.apps.sweep.options import MAP_WINDOW
 from drillstring.apps.sweep.runner import kernel_warmup, run_sweep
-from drillstring.apps.sweep.spec import MAP_WINDOW, spec_from_dict
 from drillstring.apps.sweep.studies import axial_design, evaluate_point, point_string
 from drillstring.controller.averaged import averaged_model
 from drillstring.model.engine import EngineOptions
@@ -46,38 +47,8 @@ from drillstring.model.simulate import simulate
 
 
 def single(spec, controller):
-    """The spec with one controller (and the constrained gains only if it needs them)."""
-    data = spec.to_dict()
-    options = {
-        k: v
-        for k, v in data["options"].items()
-        if k
-        in (
-            "top_drive",
-            "gains",
-            "gains_constrained",
-            "window",
-            "min_periods",
-            "Ts",
-            "dphi0_rel",
-            "feedforward",
-            "h",
-            "dt_out",
-        )  # fmt: skip
-    }
-    options["controllers"] = [controller]
-    if options.get("gains_constrained") is None:
-        options.pop("gains_constrained", None)
-    base = dict(data["base"])
-    return spec_from_dict(
-        {
-            "study": "controllers",
-            "base": base,
-            "tau_end": data["tau_end"],
-            "sweep": data["sweep"],
-            "options": options,
-        }  # fmt: skip
-    )
+    """The spec with one controller (its other options, the constrained gains read or not)."""
+    return replace(spec, options=replace(spec.options, controllers=(controller,)))
 
 
 def best_of(f, repeat):
@@ -92,7 +63,7 @@ def best_of(f, repeat):
 
 def point_times(spec, points, repeat):
     """(monolithic, {controller: time}) per point, interleaved."""
-    names = spec.options["controllers"]
+    names = spec.options.controllers
     specs = {c: single(spec, c) for c in names}
     opts = spec.options
     out = []
@@ -100,13 +71,13 @@ def point_times(spec, points, repeat):
         p = spec.point_params(index)
         design = axial_design(p)
         model = averaged_model(p, design.A, design.taubar_crit)
-        options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
-        string = point_string(spec.point_scales(index), opts["elements"])
+        options = EngineOptions(h=opts.h, torsional_stick=True, on_invalid=opts.on_invalid)
+        string = point_string(spec.point_scales(index), opts.elements)
 
         def mono(p=p, model=model, options=options, string=string):
             return simulate(p, spec.tau_end, control=float(model.R_ff),
-                            initial={"dphi": opts["dphi0_rel"] * p.omega0},
-                            dt_out=opts["dt_out"], options=options, progress=False,
+                            initial={"dphi": opts.dphi0_rel * p.omega0},
+                            dt_out=opts.dt_out, options=options, progress=False,
                             string=string)  # fmt: skip
 
         t, res = best_of(mono, repeat)
@@ -180,13 +151,13 @@ def main() -> None:
     periods = {"window": window, "min_periods": min(5.0, window / SLOWEST_PERIOD)}
     periods["elements"] = args.elements
     spec = controller_map_spec(args.gains, n=args.n, tau_end=args.tau_end, **periods)
-    names = spec.options["controllers"]
+    names = spec.options.controllers
     print(
         f"map: {args.n} x {args.n} over {spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
         f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN, controllers {', '.join(names)}, "
-        f"top drive {spec.options['top_drive']}; tau_end = {spec.tau_end:g}, window "
-        f"{spec.options['window']:g}, Ts = {spec.options['Ts']:g}, h = {spec.options['h']:g}, "
-        f"dt_out = {spec.options['dt_out']:g}, string of {spec.options['elements']} element(s)"
+        f"top drive {spec.options.top_drive}; tau_end = {spec.tau_end:g}, window "
+        f"{spec.options.window:g}, Ts = {spec.options.Ts:g}, h = {spec.options.h:g}, "
+        f"dt_out = {spec.options.dt_out:g}, string of {spec.options.elements} element(s)"
     )
     print(f"cores: {os.cpu_count()}, load average before: {os.getloadavg()}")
     print(f"kernel warm-up in this process: {kernel_warmup()}")

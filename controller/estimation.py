@@ -4,7 +4,7 @@ torsional model (``docs/controllers.md``, "Sensing").
 The paper's law needs the bit angle and speed, which a rig measures downhole only (mud-pulse
 telemetry: a few bits per second, seconds of latency). At the surface it has the table speed and
 the motor torque; with the table's equation (13) the mean string torque over a sample follows
-from the motor torque and the table acceleration (:mod:`drillstring.model.digital.sense`). On the
+from the motor torque and the table acceleration (:mod:`drillstring.model.sensing`). On the
 linearised averaged model (13), (27), state ``x = [phi, dphi, x3, dtheta]`` (29), input ``u = R -
 R0 + K0``, the measurements ``y = [dtheta, x3]`` (``x3 = -(string torque) - K0``) make ``dphi``
 observable; the bit angle ``phi`` is not (it enters no measured equation: the rigid-body mode),

@@ -43,10 +43,12 @@ from drillstring.model.topdrive import RPM, TopDrive
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
+    "CONSTRAINED_CONTROLLERS",
     "CONTROLLERS",
     "FEEDFORWARD",
     "INDUSTRIAL",
     "LmiGain",
+    "MAP_CONTROLLERS",
     "MUD_PULSE_LATENCY_S",
     "MUD_PULSE_NOISE_DEG",
     "MUD_PULSE_NOISE_RPM",
@@ -72,6 +74,12 @@ INDUSTRIAL = CONTROLLERS[:3]
 #: input-constrained design with exact measurements, by mud-pulse telemetry and from the
 #: surface observer.
 RIG_CONTROLLERS = (*INDUSTRIAL, "lmi", "lmi-constrained", "lmi-telemetry", "lmi-observer")
+#: The controllers of :data:`RIG_CONTROLLERS` with the input-constrained design's gain.
+CONSTRAINED_CONTROLLERS = RIG_CONTROLLERS[4:]
+#: The controllers a map runs by default: the constrained LMI law with mud-pulse telemetry too
+#: (it ends in reverse rotation early, 4 % of a point's time; the observer's row, a full run, is
+#: left to the option).
+MAP_CONTROLLERS = RIG_CONTROLLERS[:6]
 #: Mud-pulse telemetry of the downhole bit angle and speed: a frame every 2 s, used 4 s after
 #: it was taken (a few bits per second, seconds of latency; ``docs/controllers.md``).
 MUD_PULSE_PERIOD_S = 2.0

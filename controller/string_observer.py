@@ -359,7 +359,7 @@ def one_mode_estimates(
     observer: Observer, theta: ArrayLike, dtheta: ArrayLike, torque: ArrayLike, r: ArrayLike
 ) -> dict[str, NDArray[np.float64]]:
     """Today's one-mode observer on recorded surface signals, as the compiled controller runs it
-    (``drillstring/model/digital/sense.py``, ``_observer_view``): the string torque its model
+    (``drillstring/model/sensing.py``, ``_observer_view``): the string torque its model
     knows is the measured torque at the top.
 
     Returns

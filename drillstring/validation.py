@@ -12,11 +12,19 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["is_finite_real", "check_int", "check_real", "check_choice", "check_out_folder"]
+__all__ = [
+    "is_finite_real",
+    "check_int",
+    "check_real",
+    "check_choice",
+    "check_str",
+    "check_table",
+    "check_out_folder",
+]
 
 E = TypeVar("E", bound=ValueError)
 
@@ -176,6 +184,77 @@ def check_choice(
     if not isinstance(value, str) or value not in choices:
         raise error(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
     return value
+
+
+def check_str(
+    name: str,
+    value: Any,
+    *,
+    error: type[E] = ValueError,  # type: ignore[assignment]
+) -> str:
+    """Return ``value`` if it is a ``str``, else raise ``error`` naming it.
+
+    Parameters
+    ----------
+    name : str
+        What the value is, as the message should call it.
+    value : object
+        The value to check.
+    error : type
+        Exception class raised (a ``ValueError`` subclass).
+
+    Returns
+    -------
+    str
+        ``value``.
+
+    Raises
+    ------
+    error
+        ``value`` is not a string.
+    """
+    if not isinstance(value, str):
+        raise error(f"{name} must be a string, got {value!r}")
+    return value
+
+
+def check_table(
+    name: str,
+    value: Any,
+    known: Sequence[str],
+    *,
+    error: type[E] = ValueError,  # type: ignore[assignment]
+) -> dict[str, Any]:
+    """Return ``value`` as a dict if it is a mapping of known keys, else raise ``error``.
+
+    Parameters
+    ----------
+    name : str
+        What the table is, as the message should call it (``"options"``).
+    value : object
+        The value to check (a parsed TOML table or JSON object).
+    known : sequence of str
+        The keys allowed (not all need be present).
+    error : type
+        Exception class raised (a ``ValueError`` subclass).
+
+    Returns
+    -------
+    dict
+        A copy of ``value``.
+
+    Raises
+    ------
+    error
+        ``value`` is not a mapping, or has a key not in ``known`` (the message names it and
+        lists the known keys).
+    """
+    if not isinstance(value, Mapping):
+        raise error(f"{name} must be a table/object, got {value!r}")
+    for key in value:
+        if key not in known:
+            raise error(f"unknown key {key!r} in {name} (known keys: {', '.join(known)})")
+    return dict(value)
 
 
 def check_out_folder(

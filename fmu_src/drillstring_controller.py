@@ -43,9 +43,9 @@ import drillstring_fmu_units as units
 import numpy as np
 
 from drillstring.model import native
-from drillstring.model.digital import layout as L
 from drillstring.model.digital.block import fmu_output, fmu_step
 from drillstring.model.digital.controller import DigitalController, OperatingPoint, check_block
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.laws import Law, SampledAffine, ZTorque
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sensing import Sensing
@@ -344,25 +344,25 @@ class ControllerFmu(fmu.FmuModel):
         b = controller.block(point)
         if self.UNIT_SYSTEM == SI:
             C, t = self._scales(values)
-            b[L.B_SI] = 1.0
-            b[L.B_TSTAR] = t
-            b[L.B_C] = C
-            b[L.B_OMEGA0_SI] = values["Omega0"]
-            b[L.B_R0_SI] = values["R0"]
+            b[BLOCK.si] = 1.0
+            b[BLOCK.t_star] = t
+            b[BLOCK.C] = C
+            b[BLOCK.omega0_si] = values["Omega0"]
+            b[BLOCK.R0_si] = values["R0"]
         return b
 
     def _load_inputs(self) -> np.ndarray:
         b = self.block
         assert b is not None
         for i, name in enumerate(self.INPUT_NAMES):
-            b[L.B_IN + i] = self.values[name]
-        b[L.B_TIME] = self.time
+            b[BLOCK.inputs + i] = self.values[name]
+        b[BLOCK.time] = self.time
         return b
 
     def output_values(self) -> Mapping[str, Any]:
         b = self._load_inputs()
         fmu_output(b)
-        return {self.OUTPUT: float(b[L.B_OUT])}
+        return {self.OUTPUT: float(b[BLOCK.output])}
 
     def advance(self, t: float, h: float) -> fmu.StepResult:
         b = self._load_inputs()
@@ -376,8 +376,8 @@ class ControllerFmu(fmu.FmuModel):
         block = self._fast_block
         if block is None or block.io is not self.block:
             step, outputs = native.controller_functions()
-            at = {name: L.B_IN + i for i, name in enumerate(self.INPUT_NAMES)}
-            block = fmu.FastPath(self.block, step, outputs, at, {self.OUTPUT: L.B_OUT})
+            at = {name: BLOCK.inputs + i for i, name in enumerate(self.INPUT_NAMES)}
+            block = fmu.FastPath(self.block, step, outputs, at, {self.OUTPUT: BLOCK.output})
             self._fast_block = block
         return block
 

@@ -9,16 +9,10 @@ step size (:func:`.step_control.next_step`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
-from drillstring.orchestration.exchange import Exchange
-from drillstring.orchestration.instances import Instances
-from drillstring.orchestration.recorder import Recorder
-from drillstring.orchestration.step import JacobiStep
+from drillstring.orchestration.run import Run
 from drillstring.orchestration.step_control import (
-    StepControl,
     accepts,
     coupling_error,
     next_step,
@@ -29,52 +23,28 @@ from drillstring.orchestration.step_control import (
 __all__ = ["run_adaptive"]
 
 
-def run_adaptive(
-    step: JacobiStep,
-    instances: Instances,
-    exchange: Exchange,
-    recorder: Recorder,
-    stats: dict,
-    step_log: list[tuple[float, float, float, bool]],
-    t0: float,
-    t_end: float,
-    h: float,
-    control: StepControl,
-    progress: Callable[[float], None],
-) -> None:
-    """Step-size-controlled co-simulation from ``t0`` (initialized and recorded) to ``t_end``.
+def run_adaptive(run: Run) -> None:
+    """Step-size-controlled co-simulation of a run set up at its start time
+    (:meth:`.Run.set_up`) to its stop time, from its first step ``options.step`` with the
+    tolerances and limits of ``options.step_control``.
 
     Parameters
     ----------
-    step : JacobiStep or GaussSeidelStep
-        The macro step.
-    instances : Instances
-        The units (saved and rolled back).
-    exchange : Exchange
-        Their exchange (its inputs are written again after a rollback).
-    recorder : Recorder
-        Receives one row per accepted step.
-    stats : dict
-        Counts ``accepted``, ``rejected``, ``forced`` steps and the range ``h_min``,
-        ``h_max`` of the accepted ones.
-    step_log : list
-        Receives ``(t, h, err, accepted)`` of every attempt.
-    t0, t_end : float
-        Start and stop time.
-    h : float
-        First step to attempt.
-    control : StepControl
-        Tolerances and limits.
-    progress : callable
-        Called with the simulated time now and then.
+    run : Run
+        The run: its units (saved and rolled back), their exchange (its inputs are written
+        again after a rollback), macro step, recorder (one row per accepted step) and progress
+        callback. Counts ``accepted`` (with :meth:`.Run.accept`), ``rejected`` and ``forced``
+        steps and logs every attempt in ``step_log``.
     """
+    instances, exchange, step, recorder = run.instances, run.exchange, run.step, run.recorder
+    control, t_end, h = run.options.step_control, run.options.stop_time, run.options.step
     instances.check_rollback()
     y = exchange.y
     y_n = np.empty_like(y)
     y_prev = np.empty_like(y)
     have_prev = False
     h_prev = h
-    t = t0
+    t = run.options.start_time
     linear = step.linear
     eps = 1e-12 * max(abs(t_end), 1.0)
     while t < t_end - eps:
@@ -87,27 +57,25 @@ def run_adaptive(
             extrapolated = y_prev if linear and have_prev else None
             err, p = coupling_error(y, y_n, extrapolated, hs, h_prev, control)
             accept = accepts(err, hs, control)
-            step_log.append((t, hs, err, accept))
+            run.step_log.append((t, hs, err, accept))
             if accept:
                 break
-            stats["rejected"] += 1
+            run.rejected += 1
             rejected_here = True
             instances.restore_states(t)
             np.copyto(y, y_n)
             exchange.reset_inputs(t)
             h = retry_step(hs, err, p, control)
         if err > 1.0:
-            stats["forced"] += 1
+            run.forced += 1
         instances.free_states()
         np.copyto(y_prev, y_n)
         have_prev = True
         h_prev = hs
         t = t + hs if t_end - (t + hs) > eps else t_end
-        stats["accepted"] += 1
-        stats["h_min"] = min(stats["h_min"], hs)
-        stats["h_max"] = max(stats["h_max"], hs)
+        run.accept(hs)
         recorder.record(t)
-        if stats["accepted"] % 64 == 0:
-            progress(t)
+        if run.accepted % 64 == 0:
+            run.progress(t)
         h = next_step(hs, err, p, rejected_here, control)
-    progress(t)
+    run.progress(t)

@@ -20,13 +20,11 @@ the points of :func:`grid_points`; their rows are the same bits (tested).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
 from drillstring.orchestration import native_loop
-from drillstring.orchestration.recorder import Recorder
-from drillstring.orchestration.step import JacobiStep
+from drillstring.orchestration.run import Run
 
 __all__ = ["grid_points", "n_steps", "run_fixed"]
 
@@ -68,7 +66,8 @@ def grid_points(
     t0, t_end, h : float
         Start, stop time and macro step.
     ns_grid, sum_grid : bool
-        As for :func:`run_fixed`.
+        libcosim's nanosecond grid, or the time accumulated (``t + H``, Ecos's grid); neither:
+        ``t0 + k*H`` (module docstring).
 
     Returns
     -------
@@ -98,40 +97,22 @@ def grid_points(
     return times, steps
 
 
-def run_fixed(
-    step: JacobiStep,
-    recorder: Recorder,
-    stats: dict,
-    t0: float,
-    t_end: float,
-    h: float,
-    ns_grid: bool,
-    progress: Callable[[float], None],
-    sum_grid: bool = False,
-) -> None:
-    """Fixed-step co-simulation from ``t0`` (already initialized and recorded) to ``t_end``.
+def run_fixed(run: Run) -> None:
+    """Fixed-step co-simulation of a run set up at its start time (:meth:`.Run.set_up`) to its
+    stop time, on the grid of its ``options.grid`` (module docstring), counting the steps in
+    ``run.accepted``.
 
     Parameters
     ----------
-    step : JacobiStep or GaussSeidelStep
-        The macro step.
-    recorder : Recorder
-        Receives one row per communication point.
-    stats : dict
-        Its ``"accepted"`` entry counts the steps taken.
-    t0, t_end, h : float
-        Start, stop time and macro step.
-    ns_grid : bool
-        Use libcosim's nanosecond grid (module docstring).
-    progress : callable
-        Called with the simulated time now and then.
-    sum_grid : bool
-        Accumulate the time, ``t + H`` (Ecos's grid; module docstring).
+    run : Run
+        The run: its macro step, recorder, progress callback and options.
     """
-    times, steps = grid_points(t0, t_end, h, ns_grid, sum_grid)
+    o, step, recorder, progress = run.options, run.step, run.recorder, run.progress
+    t0, h = o.start_time, o.step
+    times, steps = grid_points(t0, o.stop_time, h, o.grid == "ns", o.grid == "sum")
     recorder.reserve(len(times))  # exact size: no growth in the loop
     if native_loop.supported(step):
-        native_loop.run_native(step, recorder, stats, times, steps, progress)
+        native_loop.run_native(run, times, steps)
         return
     y = step.y
     need_prev = step.linear
@@ -150,7 +131,7 @@ def run_fixed(
             have_prev = True
         h_prev = hn
         t = t_next
-        stats["accepted"] = n
+        run.accepted = n
         record(t)
         if n & 255 == 0:
             progress(t)

@@ -71,13 +71,11 @@ from drillstring.orchestration.connections import (
     unit_definitions,
     variable_unit,
 )
-from drillstring.orchestration.exchange import Exchange
 from drillstring.orchestration.fixed import n_steps, run_fixed
 from drillstring.orchestration.instances import Instances, UnitFailure
-from drillstring.orchestration.recorder import Recorder
 from drillstring.orchestration.results import CosimResult, FmuFailure, StepStats
+from drillstring.orchestration.run import Run, RunOptions
 from drillstring.orchestration.ssp import SspError, SspPackage, SspParameter, read_ssp
-from drillstring.orchestration.step import macro_step
 from drillstring.orchestration.step_control import StepControl
 from drillstring.validation import check_choice, check_real
 
@@ -396,42 +394,28 @@ class Master:
                     f"unit {unit.name!r} cannot handle variable communication step sizes; use "
                     "a fixed step that divides stop_time - start_time"
                 )
-        return self._execute(
-            float(start_time),
-            float(stop_time),
-            step,
-            step_control,
-            scheme,
-            extrapolation,
-            exchange == "simple",
-            grid,
-            progress,
+        options = RunOptions(
+            start_time=float(start_time),
+            stop_time=float(stop_time),
+            step=step,
+            step_control=step_control,
+            scheme=scheme,
+            extrapolation=extrapolation,
+            exchange=exchange,
+            grid=grid,
+            progress=progress,
         )
+        return self._execute(options)
 
-    def _execute(
-        self,
-        t0: float,
-        t_end: float,
-        h: float,
-        control: StepControl | None,
-        scheme: str,
-        extrapolation: str,
-        simple: bool,
-        grid: str,
-        progress: bool | None,
-    ) -> CosimResult:
-        """One run on fresh instances (arguments checked by :meth:`run`)."""
+    def _execute(self, options: RunOptions) -> CosimResult:
+        """One run on fresh instances (options checked by :meth:`run`)."""
         wall = _time.perf_counter()
         failure: FmuFailure | None = None
-        stats = dict(accepted=0, rejected=0, forced=0, h_min=math.inf, h_max=0.0)
-        step_log: list[tuple[float, float, float, bool]] | None = (
-            [] if control is not None else None
-        )
+        t0, t_end = options.start_time, options.stop_time
         instances = Instances(self.system, self._unzipdirs, self.log_categories)
-        recorder: Recorder | None = None
         bar = tqdm(
             total=t_end - t0,
-            disable=None if progress is None else not progress,
+            disable=None if options.progress is None else not options.progress,
             desc="co-simulation",
             unit="s(sim)",
             leave=False,
@@ -441,69 +425,35 @@ class Master:
         def show(t: float) -> None:
             bar.update(t - t0 - bar.n)
 
+        run = Run(options, instances, self.record, show)
         try:
-            instances.instantiate(t0, t_end)
-            exchange = Exchange(instances, simple)
-            recorder = Recorder(instances, exchange, self.record)
-            step = macro_step(instances, exchange, scheme, extrapolation)
-            instances.enter_initialization(t0)
-            exchange.exchange(t0)
-            instances.exit_initialization(t0)
-            exchange.exchange(t0)
-            recorder.record(t0)
-            if control is None:
-                run_fixed(step, recorder, stats, t0, t_end, h, grid == "ns", show, grid == "sum")
+            run.set_up()
+            if options.step_control is None:
+                run_fixed(run)
             else:
-                run_adaptive(
-                    step,
-                    instances,
-                    exchange,
-                    recorder,
-                    stats,
-                    step_log,
-                    t0,
-                    t_end,
-                    h,
-                    control,
-                    show,
-                )
+                run_adaptive(run)
         except UnitFailure as f:
             failure = instances.describe(f)
             log.warning("co-simulation stopped: %s", failure)
         finally:
             bar.close()
             instances.release()
-        if control is None and recorder is not None and recorder.n > 1:
-            steps = np.diff(recorder.times())
-            stats["h_min"], stats["h_max"] = float(steps.min()), float(steps.max())
-        accepted = stats["accepted"]
-        result_stats = StepStats(
-            accepted=accepted,
-            rejected=stats["rejected"],
-            forced=stats["forced"],
-            h_min=stats["h_min"] if accepted else math.nan,
-            h_max=stats["h_max"] if accepted else math.nan,
-            wall_time=_time.perf_counter() - wall,
-        )
+        stats = run.stats(_time.perf_counter() - wall)
         log.info(
             "co-simulation %s: %d accepted, %d rejected steps, %.3g s wall",
             "completed" if failure is None else "failed",
-            result_stats.accepted,
-            result_stats.rejected,
-            result_stats.wall_time,
+            stats.accepted,
+            stats.rejected,
+            stats.wall_time,
         )
-        if step_log is not None:
-            step_log = np.array(
-                step_log,
-                dtype=[("time", float), ("h", float), ("error", float), ("accepted", bool)],
-            )
+        recorder = run.recorder
         data = recorder.table() if recorder is not None else _empty_table(self.columns)
         return CosimResult(
             data=data,
-            stats=result_stats,
+            stats=stats,
             failure=failure,
             log=tuple(instances.log),
-            step_log=step_log,
+            step_log=run.step_table(),
         )
 
 

@@ -39,14 +39,13 @@ import logging
 import os
 import subprocess
 import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from drillstring.ccompiler import CompilerNotFound, find_c_compiler
 from drillstring.fileio import atomic_write
-from drillstring.orchestration.recorder import Recorder
+from drillstring.orchestration.run import Run
 from drillstring.orchestration.step import JacobiStep
 
 __all__ = ["CHUNK", "ENV", "SOURCE", "library", "run_native", "supported"]
@@ -139,29 +138,19 @@ def _batches(ops: list[tuple[int, int, int, int, int, int, int]]) -> np.ndarray:
     return np.array(ops, dtype=np.uint64).reshape(-1, _OP_WORDS)
 
 
-def run_native(
-    step: JacobiStep,
-    recorder: Recorder,
-    stats: dict,
-    times: np.ndarray,
-    steps: np.ndarray,
-    progress: Callable[[float], None],
-) -> None:
+def run_native(run: Run, times: np.ndarray, steps: np.ndarray) -> None:
     """The fixed-step loop of :func:`~.fixed.run_fixed` in C (:func:`supported` must be True).
 
     Parameters
     ----------
-    step : JacobiStep
-        The macro step (its units, exchange and value vector).
-    recorder : Recorder
-        The row of ``times[0]`` recorded, room reserved for one row per point of ``times``.
-    stats : dict
-        Its ``"accepted"`` entry counts the steps taken.
+    run : Run
+        The run: its macro step (its units, exchange and value vector), its recorder (the row
+        of ``times[0]`` recorded, room reserved for one row per point of ``times``) and its
+        progress callback (called with the simulated time after each chunk); ``run.accepted``
+        counts the steps taken.
     times, steps : numpy.ndarray
         Communication points ``t_0 .. t_N`` and the steps ``h_0 .. h_{N-1}`` passed to
         ``fmi2DoStep`` (:func:`~.fixed.grid_points`).
-    progress : callable
-        Called with the simulated time after each chunk.
 
     Raises
     ------
@@ -169,6 +158,7 @@ def run_native(
         Through :meth:`.Instances.fail`, for the first call that returns more than fmi2Warning,
         after the rows and the step count of the steps done.
     """
+    step, recorder = run.step, run.recorder
     loop = library()
     items = step._items
     units = np.array(
@@ -235,15 +225,16 @@ def run_native(
         )  # fmt: skip
         recorder.n += done
         k += done
-        stats["accepted"] = k
+        run.accepted = k
         if fail[0]:
-            _report(step, recorder, stats, xops, iops, int(fail[0]), int(fail[1]), int(fail[2]),
+            _report(run, xops, iops, int(fail[0]), int(fail[1]), int(fail[2]),
                     float(times[k]), float(steps[k]), float(times[k + 1]))  # fmt: skip
-        progress(float(times[k]))
+        run.progress(float(times[k]))
 
 
-def _report(step, recorder, stats, xops, iops, phase, i, status, t, h, t_next) -> None:
+def _report(run: Run, xops, iops, phase, i, status, t, h, t_next) -> None:
     """Raise the failure of step ``t -> t + h`` as the Python loop does."""
+    step = run.step
     if phase == _INPUTS:
         step._fail(iops[i].inst, iops[i].fname, status, t, None)
     if phase == _DO_STEP:
@@ -251,6 +242,6 @@ def _report(step, recorder, stats, xops, iops, phase, i, status, t, h, t_next) -
     if phase == _EXCHANGE:
         op = xops[i]
         step._fail(op[7], op[8], status, t + h, None)
-    stats["accepted"] += 1  # the Python loop counts a step before recording its row
-    inst = recorder.extra_ops[i][1]
-    recorder.instances.fail(inst, "fmi2Get (recorded variables)", status, t_next, None)
+    run.accepted += 1  # the Python loop counts a step before recording its row
+    inst = run.recorder.extra_ops[i][1]
+    run.recorder.instances.fail(inst, "fmi2Get (recorded variables)", status, t_next, None)

@@ -59,6 +59,7 @@ from pythonfmu import FmuBuilder
 import drillstring.model.control  # noqa: F401  (import the repository's package before any FMU
 import drillstring.model.engine  # noqa: F401  puts its bundled copy on sys.path, see restore_sys_path)
 from drillstring.apps.export import build as builder
+from drillstring.apps.export.model_description3 import fmi3_model_identifier
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.gains import PAPER_F, GainsFile, read_gains, write_gains
 from drillstring.model.params import REFERENCE
@@ -221,9 +222,12 @@ def build_only(
     out: str | os.PathLike[str],
     gains: str | os.PathLike[str],
     source_date_epoch: int | None = None,
+    fmi: tuple[int, ...] = (2,),
+    self_contained: bool = False,
 ) -> dict[str, Path]:
     """:func:`drillstring.apps.export.build.build_fmus` with only the FMUs ``models`` built (the
-    others and the SSP packages left out), in this process; returns {model identifier: path}.
+    others and the SSP packages left out) in the FMI versions ``fmi`` (the FMI 3.0 twin of ``X``
+    is ``X3``), self-contained or not, in this process; returns {model identifier: path}.
 
     The build proper is ``build_fmus``'s own: the gains file read (or designed when missing),
     ``SOURCE_DATE_EPOCH`` from the environment unless ``source_date_epoch`` is given, each FMU's
@@ -234,16 +238,17 @@ def build_only(
     """
     real_fmu, real_packages = builder.build_fmu, builder.build_packages
 
-    def only(spec: Any, *args: Any, **kwargs: Any) -> Path | None:
-        return real_fmu(spec, *args, **kwargs) if spec.model in models else None
+    def only(spec: Any, *args: Any, **kwargs: Any) -> dict[str, Path]:
+        return real_fmu(spec, *args, **kwargs) if spec.model in models else {}
 
     builder.build_fmu, builder.build_packages = only, lambda *args, **kwargs: {}
     try:
-        built = builder.build_fmus(out, gains, source_date_epoch)
+        built = builder.build_fmus(out, gains, source_date_epoch, self_contained, fmi)
     finally:
         builder.build_fmu, builder.build_packages = real_fmu, real_packages
-    assert {m for m, path in built.items() if path is not None} == set(models), built
-    return {m: path for m, path in built.items() if path is not None}
+    name = {2: lambda m: m, 3: fmi3_model_identifier}
+    assert set(built) == {name[v](m) for m in models for v in fmi}, built
+    return built
 
 
 @dataclass

@@ -37,14 +37,14 @@ from drillstring.controller.estimation import OBSERVED, design_observer
 from drillstring.controller.gains import GainsFileError, read_gains, write_gains
 from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.model.control import AffineFeedback
-from drillstring.model.digital import sense
 from drillstring.model.digital.controller import DigitalController
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6
 from drillstring.model.laws import SampledAffine, SpeedPI
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sampled import simulate_sampled
-from drillstring.model.sensing import Sensing
+from drillstring.model.sensing import Sensing, sensed
 from drillstring.model.topdrive import TDS_11SA, TopDrive, top_drive
 
 MODEL = averaged_model(REFERENCE, 0.385415, 2.392788)  # the design's A, taubar_crit
@@ -213,7 +213,10 @@ def test_observer_estimates_the_bit_speed_from_surface_signals_on_its_model():
     for k in range(6000):
         phi, dphi, x3, dtheta = x
         theta = phi - x3 - MODEL.K0
-        phi_s, dphi_s, _ = sense.sensed(run.block, k * Ts, phi, dphi, theta, dtheta, theta - phi)
+        b, rho = run.block, run.block[BLOCK.rho]
+        phi_s, dphi_s, _ = sensed(
+            b, BLOCK.sensing, rho, k * Ts, phi, dphi, theta, dtheta, theta - phi
+        )
         errors.append((phi_s - phi, dphi_s - dphi))
         r = run.step(k * Ts, phi, dphi, theta, dtheta, Ts)
         x = obs.Ad @ x + obs.Bd * (r + MODEL.K0)

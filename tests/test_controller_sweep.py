@@ -9,8 +9,10 @@ polynomial; resume works like in the other studies; the options are validated.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -33,23 +35,20 @@ from drillstring.apps.controllers import (
 )
 from drillstring.apps.sweep.metrics import controller_column
 from drillstring.apps.sweep.runner import run_sweep
-from drillstring.apps.sweep.spec import (
-    FEED_FOR_WOB,
-    MAP_CONTROLLERS,
-    SweepSpecError,
-    spec_from_dict,
-)
+from drillstring.apps.sweep.spec import FEED_FOR_WOB, SweepSpecError, spec_from_dict
 from drillstring.apps.sweep.studies import (
     OPEN_LOOP,
     axial_design,
     evaluate_point,
     linear_boundary,
-    point_controllers,
+    lineup_at,
+    point_gains,
 )
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import design_constrained
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.controller.lineup import (
+    MAP_CONTROLLERS,
     RIG_CONTROLLERS,
     SENSING,
     TIMED_CONTROLLERS,
@@ -126,6 +125,14 @@ def _spec(paper, constrained, *, tau_end=20.0, sweep=None, **options):
     )
 
 
+def _lineup(spec, params, scales):
+    """The study's controllers at a point (its gains, drive and tuning), not run."""
+    d = axial_design(params)
+    model = averaged_model(params, d.A, d.taubar_crit)
+    paper, constrained, names, _ = point_gains(model, spec.options)
+    return lineup_at(params, model, paper, constrained, spec.options, scales, names)
+
+
 def _rows(path):
     with open(path, newline="") as fh:
         return list(csv.DictReader(fh))
@@ -141,7 +148,7 @@ def serial_map(paper_gains, constrained_gains, tmp_path_factory):
 @pytest.mark.slow  # a local Dask cluster of worker processes
 def test_controller_map_on_dask_equals_the_serial_run(serial_map, tmp_path):
     spec, serial = serial_map
-    assert spec.options["controllers"] == MAP_CONTROLLERS
+    assert spec.options.controllers == MAP_CONTROLLERS
     report = run_sweep(spec, tmp_path, workers=2, progress=False)
     assert report.complete and serial.complete and report.n_failed == 0
     a, b = _rows(serial.results), _rows(report.results)
@@ -224,17 +231,15 @@ def test_the_map_window_holds_five_periods_of_the_slowest_stick_slip(paper_gains
     point; a shorter window is refused naming its value, and the trend test's two windows fit
     after the switch-on."""
     spec = controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"])
-    window, tau_end = spec.options["window"], spec.tau_end
-    assert window == COMPARISON_WINDOW and 2.0 * window <= tau_end - spec.options["t_on"]
+    window, tau_end = spec.options.window, spec.tau_end
+    assert window == COMPARISON_WINDOW and 2.0 * window <= tau_end - spec.options.t_on
     rig = REFERENCE_RIG
     points = {"slow corner": {"rpm": 30.0, "W0_kN": wob_range(rig)[1]},
               "reference": {"rpm": RPM0, "W0_kN": W0_KN}}  # fmt: skip
     periods = {}
     for label, values in points.items():
         p = spec.params_at(values)
-        d = axial_design(p)
-        model = averaged_model(p, d.A, d.taubar_crit)
-        pi = point_controllers(p, model, spec.options, spec.physical_at(values))[0]["stiff-pi"]
+        pi = _lineup(spec, p, spec.physical_at(values))["stiff-pi"]
         r = simulate_sampled(
             p, pi, tau_end, 1e-3, initial={"dphi": -0.5 * p.omega0},
             options=EngineOptions(torsional_stick=True),
@@ -302,7 +307,7 @@ def test_the_derived_axes_by_hand():
             [{"param": "W0_kN", "start": 16.0, "stop": 20.0, "num": 2}],
             r"W0_kN = 16.0\) is invalid: W0 = 16000.0 N is not above the wearflat contact part",
         ),
-        ([{"param": "rpm", "start": 0.0, "stop": 60.0, "num": 2}], "rpm = 0.0 must be"),
+        ([{"param": "rpm", "start": 0.0, "stop": 60.0, "num": 2}], "rpm must be > 0, got 0.0"),
         (
             [
                 {"param": "rpm", "start": 30.0, "stop": 60.0, "num": 2},
@@ -402,6 +407,16 @@ def test_the_overlaid_boundary_is_where_the_eigenvalues_cross(paper_gains, const
     assert crossings == 2
 
 
+def test_the_study_options_pickle_for_the_workers(serial_map):
+    """The spec a Dask worker receives: its typed options, the tuning as one object and the
+    gains files read, as the submitting process has them."""
+    spec, _ = serial_map
+    back = pickle.loads(pickle.dumps(spec))
+    assert back.options == spec.options and back.options.tuning == spec.options.tuning
+    assert back.options.gains_file.F == spec.options.gains_file.F
+    assert back.options.constrained_file.F == spec.options.constrained_file.F
+
+
 def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
     spec = _spec(paper_gains, constrained_gains)
     calls = []
@@ -434,8 +449,8 @@ def test_controller_map_resumes(paper_gains, constrained_gains, tmp_path):
         ({"top_drive": "tds-12"}, "options.top_drive = 'tds-12': top drive 'tds-12'"),
         ({"top_drive": "-3R0"}, "options.top_drive = '-3r0'"),
         ({"gains_constrained": None}, "options.controllers has lmi-constrained, lmi-telemetry: "),
-        ({"impedance": "wave"}, "options.impedance must be one of lumped, pipe, got 'wave'"),
-        ({"soft_speed": "stiff"}, "options.soft_speed must be one of two-mass, impedance"),
+        ({"impedance": "wave"}, "options.impedance must be one of 'lumped', 'pipe', got 'wave'"),
+        ({"soft_speed": "stiff"}, "options.soft_speed must be one of 'two-mass', 'impedance'"),
         ({"z_matching": -0.5}, "options.z_matching must be >= 0, got -0.5"),
         ({"min_periods": -1}, "options.min_periods must be >= 0, got -1"),
     ],
@@ -468,7 +483,7 @@ def test_a_subset_of_controllers_leaves_the_others_empty(
     paper_gains, constrained_gains, serial_map, tmp_path
 ):
     spec = _spec(paper_gains, constrained_gains, controllers=["soft-speed", "stiff-pi"])
-    assert spec.options["controllers"] == ("stiff-pi", "soft-speed")
+    assert spec.options.controllers == ("stiff-pi", "soft-speed")
     report = run_sweep(spec, tmp_path, serial=True, progress=False, plots=False)
     full = _rows(serial_map[1].results)
     for row, ref in zip(_rows(report.results), full, strict=True):
@@ -575,10 +590,16 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
     assert rows["lmi"]["peak_torque_over_R0"] == pytest.approx(
         rows["lmi-unlimited"]["peak_torque_over_R0"], rel=1e-2
     )
-    with pytest.raises(ValueError, match="2 window = 4.0 reaches back before the switch-on"):
+    with pytest.raises(
+        ValueError, match=r"options.t_on = 6.0 must lie in \[0, tau_end - 2 window\] = \[0, 4.0\]"
+    ):
         write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
                                     tau_end=8.0, window=2.0, min_periods=0.0,
                                     log=None)  # fmt: skip
+    # the controllers are evaluated with the torsional-stick model on, as at a map's points
+    no_stick = dataclasses.replace(SHORT_FIG6, torsional_stick=False)
+    with pytest.raises(ValueError, match="'fig6-short' has the torsional-stick model off"):
+        write_controller_comparison(tmp_path, paper_gains[0], experiment=no_stick, log=None)
 
 
 @pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
@@ -593,13 +614,11 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
     choices = {"impedance": "pipe", "soft_speed": "impedance", "z_matching": 0.25}
     spec = _spec(paper_gains, constrained_gains, **choices)
     p = spec.point_params(3)
-    d = axial_design(p)
-    model = averaged_model(p, d.A, d.taubar_crit)
-    laws = point_controllers(p, model, spec.options, spec.point_scales(3))[0]
+    laws = _lineup(spec, p, spec.point_scales(3))
     assert laws["soft-speed"].law.kp == pytest.approx(Zp, abs=2e-4)
     assert laws["z-torque"].law.z_gain == pytest.approx(0.25 / Zp, rel=1e-3)
     rig = spec.point_scales(3)
-    default = point_controllers(p, model, _spec(paper_gains, constrained_gains).options, rig)[0]
+    default = _lineup(_spec(paper_gains, constrained_gains), p, rig)
     assert default["soft-speed"].law.kp == pytest.approx(2.0 * math.sqrt(5.0), rel=1e-12)
     # a scaled base of no known rig has no pipe
     base = {"kind": "scaled", **REFERENCE.replace(psi=300.0).to_dict()}
@@ -607,7 +626,7 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
             "sweep": [{"param": "omega0", "start": 4.0, "stop": 6.0, "num": 2}]}  # fmt: skip
     options = {"gains": str(paper_gains[1]), "controllers": ["soft-speed"], "window": 5.0,
                "min_periods": 0.0, "top_drive": "50R0"}  # fmt: skip
-    assert spec_from_dict({**data, "options": options}).options["impedance"] == "lumped"
+    assert spec_from_dict({**data, "options": options}).options.tuning.impedance == "lumped"
     with pytest.raises(SweepSpecError, match="options.impedance = 'pipe' needs the rig's drill"):
         spec_from_dict({**data, "options": {**options, "impedance": "pipe"}})
     # nor a point whose string (C) is of no known rig
@@ -633,13 +652,7 @@ def test_the_tuning_choices_reach_the_map_and_the_comparison(
     with pytest.raises(SystemExit) as exc:
         controllers_main(["map", *args, "--impedance", "wave", "--out", str(out)])
     assert exc.value.code == 2 and "invalid choice: 'wave'" in capsys.readouterr().err
-    m = tmp_path / "map"
-    rc = controllers_main(["map", *args, "--gains-constrained", str(constrained_gains[1]),
-                           "--n", "2", "--tau-end", "2", "--controllers", "soft-speed",
-                           "--workers", "0", "--no-progress", "--out", str(m)])  # fmt: skip
-    assert rc == 0
-    written = json.loads((m / "spec.json").read_text())["options"]
-    assert {k: written[k] for k in choices} == choices
+    # the map's command line with these choices: test_cli_compare_and_map
 
 
 @pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
@@ -670,6 +683,7 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
         "--no-progress",
         "--elements",  # the one-mode model (the default is the 16-element string)
         "1",
+        *("--impedance", "pipe", "--soft-speed", "impedance", "--z-matching", "0.25"),
     ]
     assert controllers_main([*base, "--out", str(tmp_path / "bad"), "--wob", "15", "20"]) == 2
     assert "W0 = 15000.0 N is not above the wearflat contact part" in capsys.readouterr().err
@@ -687,6 +701,9 @@ def test_cli_compare_and_map(paper_gains, constrained_gains, tmp_path, capsys):
     assert [a["param"] for a in spec["sweep"]] == ["rpm", "W0_kN"]
     assert spec["sweep"][1]["start"] == pytest.approx(wob_range(REFERENCE_RIG)[0])
     assert spec["feed"] == FEED_FOR_WOB
+    # the tuning options reach the map's spec
+    choices = {"impedance": "pipe", "soft_speed": "impedance", "z_matching": 0.25}
+    assert {k: spec["options"][k] for k in choices} == choices
 
 
 def test_the_sensing_labels_say_what_each_controller_measures(paper_gains, constrained_gains):

@@ -18,13 +18,18 @@ import numpy as np
 import pytest
 
 from drillstring.model.control import AffineFeedback
-from drillstring.model.digital import layout as L
-from drillstring.model.digital import sense
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
-from drillstring.model.laws import FeedForward, SampledAffine, SpeedPI
+from drillstring.model.digital.layout import BLOCK
+from drillstring.model.laws import (
+    FEED_FORWARD_PARAMS,
+    LAW_SLOTS,
+    FeedForward,
+    SampledAffine,
+    SpeedPI,
+)
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.sampled import simulate_sampled
-from drillstring.model.sensing import Sensing
+from drillstring.model.sensing import Sensing, gaussian, string_torque
 from drillstring.model.topdrive import RPM, TDS_11SA, TopDrive, top_drive
 
 POINT = OperatingPoint(omega0=5.0, R0=4.0, rho=5.0)
@@ -81,7 +86,8 @@ def _command_step(drive, r, Ts):
     """At rest on R0 (one sample of R_ff = 0), then the command R_ff = r held."""
     run = _run(FeedForward(R_ff=0.0), drive)
     run.step(0.0, 0.0, 0.0, 0.0, 0.0, Ts)
-    run.block[L.B_LP + L.LP_RFF] = r  # the law's feed-forward, changed in place
+    # the law's feed-forward, changed in place
+    run.block[BLOCK.law + LAW_SLOTS.p + FEED_FORWARD_PARAMS.R_ff] = r
     return run
 
 
@@ -217,12 +223,12 @@ def test_telemetry_frames_and_latency():
 
 
 def test_telemetry_noise_is_gaussian_seeded_and_the_same_in_python():
-    draws = np.array([sense.gaussian(7, k, 0) for k in range(20000)])
+    draws = np.array([gaussian(7, k, 0) for k in range(20000)])
     assert abs(draws.mean()) < 0.03 and abs(draws.std() - 1.0) < 0.02
-    other = np.array([sense.gaussian(8, k, 0) for k in range(200)])
+    other = np.array([gaussian(8, k, 0) for k in range(200)])
     assert not np.array_equal(draws[:200], other)
-    py = getattr(sense.gaussian, "py_func", sense.gaussian)
-    assert [py(7, k, 1) for k in range(50)] == [sense.gaussian(7, k, 1) for k in range(50)]
+    py = getattr(gaussian, "py_func", gaussian)
+    assert [py(7, k, 1) for k in range(50)] == [gaussian(7, k, 1) for k in range(50)]
     f = AffineFeedback(F=(0.0, 1.0, 0.0, 0.0), K0=0.0, R_ff=0.0, latch="none")
     s = Sensing(downhole="telemetry", period=0.1, noise_dphi=0.2, seed=7)
     r1, r2 = _run(SampledAffine(f), sensing=s), _run(SampledAffine(f), sensing=s)
@@ -239,7 +245,7 @@ def test_string_torque_from_the_motor_is_the_twist_of_equation_13():
     for k in range(30):
         r = run.step(k * Ts, -w, 0.0, 0.0, dtheta, Ts)  # the twist theta - phi = w
         dtheta += Ts * (r - w) / POINT.rho  # (13) over the sample
-        estimate = sense.string_torque(run.block, (k + 1) * Ts, w, dtheta)
+        estimate = string_torque(run.block, BLOCK.sensing, POINT.rho, w, dtheta)
         assert estimate == pytest.approx(w, rel=1e-10)
 
 

@@ -33,7 +33,7 @@ import fmu_testlib as tl
 import numpy as np
 import pytest
 
-from drillstring.model.digital import layout as L
+from drillstring.model.digital.layout import BLOCK, SECTIONS
 from drillstring.model.kernel import state as S
 
 pytestmark = pytest.mark.fmu
@@ -99,9 +99,9 @@ def _block(change: Callable[[np.ndarray], None]) -> Callable[[bytes], bytes]:
     return forge
 
 
-def _block_at(slot: str, offset: int, value: float) -> Callable[[bytes], bytes]:
+def _block_at(part: str, entry: str, offset: int, value: float) -> Callable[[bytes], bytes]:
     def change(b: np.ndarray) -> None:
-        b[L.OFFSETS[slot] + offset] = value
+        b[getattr(BLOCK, part) + getattr(SECTIONS[part], entry) + offset] = value
 
     return _block(change)
 
@@ -202,18 +202,18 @@ def _cases() -> dict[str, tuple[str, Callable[..., tuple[dict[str, Any], bytes]]
         ),
         "controller-law-state-nan": (
             "controller",
-            model(_block_at("LX", 0, np.nan)),
-            r"the controller block's entry LX \(block\[\d+\]\) is nan, not finite",
+            model(_block_at("law", "x", 0, np.nan)),
+            r"the controller block's entry law\.x \(block\[\d+\]\) is nan, not finite",
         ),
         "controller-frame-count": (
             "controller",
-            model(_block_at("SNX", 1, -5.5)),
-            r"the controller block's entry SNX \(block\[\d+\]\) is -5\.5, not a count",
+            model(_block_at("sensing", "taken", 0, -5.5)),
+            r"the controller block's entry sensing\.taken \(block\[\d+\]\) is -5\.5, not a count",
         ),
         "controller-gain": (
             "controller",
-            model(_block_at("LP", 1, 1e6)),
-            r"the controller block's parameter entry LP \(block\[\d+\]\) is 1000000\.0",
+            model(_block_at("law", "p", 1, 1e6)),
+            r"the controller block's parameter entry law\.p \(block\[\d+\]\) is 1000000\.0",
         ),
         "controller-short": (
             "controller",

@@ -10,12 +10,14 @@ times (OD^2 + ID^2)/8), never taken from the code under test.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import tomllib
 from pathlib import Path
 
 import pytest
 
+from drillstring.apps.simulate import simulate_main
 from drillstring.controller.tuning import REFERENCE_PIPE, rig_pipe
 from drillstring.model.params import (
     KNOWN_PARAMS,
@@ -23,6 +25,7 @@ from drillstring.model.params import (
     PIPE_RIG,
     REFERENCE,
     REFERENCE_RIG,
+    ParameterError,
     PhysicalParams,
     ScaledParams,
     get_params,
@@ -31,6 +34,7 @@ from drillstring.model.params import (
     load_params,
     params_from_spec,
     read_params,
+    rig_from_spec,
     save_params,
 )
 from drillstring.model.pipe import (
@@ -191,6 +195,41 @@ def test_rig_string_with_elements() -> None:
     assert rig_string("reference-rig", elements=1, lumping="lumped").lumping == "lumped"
     with pytest.raises(ValueError, match="'paper' lumping has one element"):
         rig_string("pipe-rig", elements=2, lumping="paper")
+
+
+def test_rig_from_spec_by_name_and_by_file(tmp_path: Path) -> None:
+    """The physical rig behind a ``--params`` value: a physical set as it is (also one of no
+    known rig), a scaled set the known rig it is the scaled set of, else none."""
+    assert rig_from_spec("pipe-rig") is PIPE_RIG
+    assert rig_from_spec("reference-rig") is REFERENCE_RIG
+    assert rig_from_spec("reference") is REFERENCE_RIG
+    faster = PIPE_RIG.replace(Omega0=2.0 * PIPE_RIG.Omega0)
+    assert rig_from_spec(save_params(faster, tmp_path / "faster.toml")) == faster
+    assert rig_from_spec(save_params(get_params("pipe-rig"), tmp_path / "s.json")) is PIPE_RIG
+    assert rig_from_spec(save_params(REFERENCE.replace(psi=300.0), tmp_path / "o.toml")) is None
+    with pytest.raises(ParameterError, match="unknown parameter set 'nope'"):
+        rig_from_spec("nope")
+
+
+def test_simulate_finds_a_known_rigs_pipe_by_its_numbers(tmp_path: Path) -> None:
+    """``drillstring simulate --elements N`` on a file of the pipe rig at twice its speed (no
+    named set: only its masses, inertias and stiffnesses tell the rig) runs the pipe rig's pipe,
+    its axial mass ratio and kappa by hand; on a rig of no known pipe the reference pipe."""
+    faster = save_params(PIPE_RIG.replace(Omega0=2.0 * PIPE_RIG.Omega0), tmp_path / "fast.toml")
+    other = save_params(REFERENCE.replace(psi=300.0), tmp_path / "other.toml")
+    strings = {}
+    for name, spec in (("pipe", faster), ("other", other)):
+        out = tmp_path / name
+        argv = ["--params", str(spec), "--elements", "4", "--tau-end", "0.2", "--out", str(out)]
+        assert simulate_main(argv) == 0
+        strings[name] = json.loads((out / "simulation.json").read_text())["string"]
+    kappa = RHO_STEEL * J * LENGTH / 200.0
+    pipe = strings["pipe"]
+    assert (pipe["elements"], pipe["lumping"]) == (4, "lumped")
+    assert pipe["axial_mass_ratio"] == pytest.approx(PIPE_MASS / M_PIPE_RIG, rel=1e-13)
+    assert pipe["kappa"] == pytest.approx(kappa, rel=1e-13)
+    assert strings["other"]["axial_mass_ratio"] == 0.0  # the reference pipe: a massless spring
+    assert strings["other"]["kappa"] == pytest.approx(kappa, rel=1e-13)
 
 
 @pytest.mark.parametrize("name", ["reference", "nope", None])

@@ -196,5 +196,3 @@ def test_io_layout_is_its_table():
     # the outputs: the 13 SI quantities (the top-of-string torque the last) and 4 integers
     assert offsets == sorted(offsets) and P.size == P.out + 17
     assert P.k + native.N_K == P.tau and native.PLANT_IO_SIZE == P.size
-    layout = native.io_layout("L", (("a", 1), ("b", 3), ("c", 2)))
-    assert (layout.a, layout.b, layout.c, layout.size) == (0, 1, 4, 6)

@@ -17,15 +17,17 @@ from test_controller_sweep import SHORT_FIG6, _design_gains
 
 from drillstring.apps.controllers import (
     COMPARISON_COLUMNS,
-    MAP_RPM,
-    MAP_SI,
-    MAP_WOB_MAX,
+    MAP_SPEC,
     NO_BRAKING,
+    controller_map_spec,
+    wob_range,
     write_controller_comparison,
     write_controller_map,
 )
 from drillstring.apps.sweep.runner import _boundary_overlays, read_results, shown_values
 from drillstring.apps.sweep.runner import columns as sweep_columns
+from drillstring.apps.sweep.spec import load_spec
+from drillstring.apps.sweep.tables import MAP_SI
 from drillstring.controller.gains import PAPER_F, write_gains
 from drillstring.controller.lineup import RIG_CONTROLLERS, TIMED_CONTROLLERS
 from drillstring.model.params import REFERENCE_RIG
@@ -109,17 +111,26 @@ def test_the_comparison_on_the_string_in_si_with_and_without_braking(gains, tmp_
 
 @pytest.mark.slow  # an end-to-end run of several seconds: make test, not test-fast
 def test_a_3x3_map_on_the_string_without_braking_in_si(gains, tmp_path) -> None:
-
-    assert MAP_RPM == (20.0, 150.0) and MAP_WOB_MAX == 40.0
     paper = write_gains(gains[0], tmp_path / "paper.json")
     cons = write_gains(gains[1], tmp_path / "constrained.json")
+    # the shipped map as drillstring sweep reads it (--base-dir: the design's folder) is the
+    # command's default: 25 x 25 over 20-150 rpm and from what the rig's feed gives for
+    # v0 = 0.25 at its speed to 40 kN, on the converged string
+    design = tmp_path / "design"
+    write_gains(gains[0], design / "gains.json")
+    write_gains(gains[1], design / "gains_constrained.json")
+    shipped = load_spec(MAP_SPEC, base_dir=design)
+    assert shipped.to_dict() == controller_map_spec(design / "gains.json").to_dict()
+    speed, wob = shipped.axes
+    assert (speed.start, speed.stop, speed.num, wob.stop, wob.num) == (20.0, 150.0, 25, 40.0, 25)
+    assert wob.start == wob_range(REFERENCE_RIG)[0] and shipped.options.elements == 16
     out = tmp_path / "map"
     m = write_controller_map(
         out, paper, constrained_path=cons, controllers=("stiff-pi", "z-torque", "lmi"), n=3,
         rpm=(40.0, 90.0), wob_kN=(20.0, 30.0), tau_end=4.0, window=1.0, min_periods=0.0,
         elements=4, braking="none", serial=True, log=None,
     )  # fmt: skip
-    assert m.spec.options["elements"] == 4 and m.spec.options["braking"] == "none"
+    assert m.spec.options.elements == 4 and m.spec.options.braking == "none"
     with open(m.files["si"], newline="") as fh:
         table = list(csv.DictReader(fh))
     assert m.files["si"].name == MAP_SI and len(table) == 9

@@ -33,14 +33,14 @@ from drillstring.controller.string_observer import (
     one_mode_estimates,
     scaled_surface_noise,
 )
-from drillstring.model.digital import sense
 from drillstring.model.digital.controller import DigitalController
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.engine import EngineOptions
 from drillstring.model.laws import FeedForward
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.pipe import rig_string
 from drillstring.model.sampled import simulate_sampled
-from drillstring.model.sensing import Sensing
+from drillstring.model.sensing import Sensing, sensed
 
 MODEL = averaged_model(REFERENCE, 0.385415, 2.392788)  # the design's A, taubar_crit
 TS = 1e-3
@@ -185,7 +185,10 @@ def test_one_mode_replay_is_the_compiled_observer():
     est = one_mode_estimates(obs, theta, dtheta, torque, r)
     for k in range(40):
         phi = theta[k] - torque[k]
-        got = sense.sensed(run.block, k * TS, phi, 0.0, theta[k], dtheta[k], torque[k])
+        rho = run.block[BLOCK.rho]
+        got = sensed(
+            run.block, BLOCK.sensing, rho, k * TS, phi, 0.0, theta[k], dtheta[k], torque[k]
+        )
         assert got[:2] == pytest.approx((est["phi"][k], est["dphi"][k]), abs=1e-12)
         assert run.step(k * TS, phi, 0.0, theta[k], dtheta[k], TS) == pytest.approx(r[k])
 

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from drillstring.model.digital import layout as L
-from drillstring.model.digital import sense
 from drillstring.model.digital.controller import DigitalController, Running
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.laws import ZTorque
 from drillstring.model.params import REFERENCE
 from drillstring.model.pipe import rig_string, torsional_chain
 from drillstring.model.sampled import simulate_sampled
-from drillstring.model.sensing import Sensing
+from drillstring.model.sensing import Sensing, string_torque
 
 TS = 1e-3
 
@@ -27,13 +26,13 @@ def _replay(controller, r, rho=None):
     plant's measurements and the kernel's top torque of each row; and its torque estimates."""
     block = controller.block(REFERENCE)
     if rho is not None:
-        block[L.B_RHO] = rho
+        block[BLOCK.rho] = rho
     run = Running(controller, block)
     applied, sensed = [], []
     for k in range(len(r.tau) - 1):
         m = (r.phi[k], r.dphi[k], r.theta[k], r.dtheta[k])
         top = r.top_torque_minus_R0[k]
-        sensed.append(sense.string_torque(block, k * TS, top, r.dtheta[k]))
+        sensed.append(string_torque(block, BLOCK.sensing, block[BLOCK.rho], top, r.dtheta[k]))
         applied.append(run.step(k * TS, *m, TS, top=top))
     return np.array(applied), np.array(sensed)
 

@@ -17,11 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from drillstring.apps.sweep.options import ClosedLoopOptions
 from drillstring.apps.sweep.runner import SweepError, columns, read_results, run_sweep, sweep_main
 from drillstring.apps.sweep.spec import (
     MAX_POINTS,
-    OPTION_DEFAULTS,
-    SweepOptions,
     SweepSpecError,
     load_spec,
     spec_from_dict,
@@ -305,8 +304,7 @@ def test_closed_loop_with_the_paper_gain_file(tmp_path):
 
 
 def test_closed_loop_design_at_the_point_converges():
-    opts = SweepOptions(values=tuple(OPTION_DEFAULTS["closed-loop"].items()))
-    out = closed_loop_metrics(REFERENCE, axial_design(REFERENCE), 20.0, opts)
+    out = closed_loop_metrics(REFERENCE, axial_design(REFERENCE), 20.0, ClosedLoopOptions())
     assert out["status"] == "ok" and out["converged"] == 1
     assert out["abscissa_closed"] < 0.0 and out["gain_norm"] <= 4.0e3
 

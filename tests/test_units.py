@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from drillstring.model.control import AffineFeedback
-from drillstring.model.digital import layout as L
 from drillstring.model.digital.block import fmu_output, fmu_step
 from drillstring.model.digital.controller import DigitalController, OperatingPoint
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.laws import SampledAffine
 from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.units import (
@@ -83,9 +83,9 @@ def _blocks(law):
     back = SampledAffine.from_si(rig, law.to_si(rig))
     si = DigitalController(back).block(OperatingPoint(rig.Omega0 * rig.t_star, rig.R0 / rig.C,
                                                       rig.I2 / rig.I1))  # fmt: skip
-    si[L.B_SI] = 1.0
-    si[L.B_TSTAR], si[L.B_C] = rig.t_star, rig.C
-    si[L.B_OMEGA0_SI], si[L.B_R0_SI] = rig.Omega0, rig.R0
+    si[BLOCK.si] = 1.0
+    si[BLOCK.t_star], si[BLOCK.C] = rig.t_star, rig.C
+    si[BLOCK.omega0_si], si[BLOCK.R0_si] = rig.Omega0, rig.R0
     return scaled, si
 
 
@@ -101,8 +101,8 @@ def test_si_controller_equals_the_scaled_one_on_the_plants_si_outputs(latch):
         x_l = rng.normal(size=4)
         _set(scaled, tau_l, x_l, si=False)
         _set(si, tau_l, x_l, si=True)
-        fmu_step(scaled, scaled[L.B_TIME], 1e-3)
-        fmu_step(si, si[L.B_TIME], 1e-3 * SC.t_star)
+        fmu_step(scaled, scaled[BLOCK.time], 1e-3)
+        fmu_step(si, si[BLOCK.time], 1e-3 * SC.t_star)
         # then any later state
         tau = rng.uniform(tau_l, 60.0)
         x = rng.normal(size=4)
@@ -110,7 +110,7 @@ def test_si_controller_equals_the_scaled_one_on_the_plants_si_outputs(latch):
         _set(si, tau, x, si=True)
         fmu_output(scaled)
         fmu_output(si)
-        assert si[L.B_OUT] == pytest.approx(SC.table_torque(scaled[L.B_OUT]), rel=1e-11,
+        assert si[BLOCK.output] == pytest.approx(SC.table_torque(scaled[BLOCK.output]), rel=1e-11,
                                             abs=1e-9 * abs(LAW.F[0] * REFERENCE_RIG.C))  # fmt: skip
         checked += 1
     assert checked == 100
@@ -120,16 +120,16 @@ def _set(block, tau, x, si):
     """Inputs and time of a block: scaled perturbations, or their SI plant outputs at tau."""
     phi, dphi, theta, dtheta = x
     if not si:
-        block[L.B_IN : L.B_IN + 4] = x
-        block[L.B_TIME] = tau
+        block[BLOCK.inputs : BLOCK.inputs + 4] = x
+        block[BLOCK.time] = tau
         return
     p = SC.scaled
     values = {"u": 0.0, "du": 0.0, "d": p.d0, "g": 0.0, "tau_n": p.tau_n0}
     out = SC.plant_outputs({**values, "phi": phi, "dphi": dphi, "theta": theta, "dtheta": dtheta},
                            tau)  # fmt: skip
-    block[L.B_IN : L.B_IN + 4] = [out[k] for k in ("bit_angle", "bit_speed", "table_angle",
-                                                    "table_speed")]  # fmt: skip
-    block[L.B_TIME] = SC.time(tau)
+    names = ("bit_angle", "bit_speed", "table_angle", "table_speed")
+    block[BLOCK.inputs : BLOCK.inputs + 4] = [out[k] for k in names]
+    block[BLOCK.time] = SC.time(tau)
 
 
 def test_law_and_initial_state_round_trip():

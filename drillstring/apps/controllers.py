@@ -20,12 +20,10 @@ Two jobs (``docs/controllers.md``), each a function the demo calls and a subcomm
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import os
 import sys
 import textwrap
-from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,59 +31,42 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.analysis.severity import (
-    MIN_WINDOW_PERIODS,
-    OUTCOMES,
-    check_window,
-    severity_metrics,
-)
+from drillstring.analysis.severity import MIN_WINDOW_PERIODS, Severity, severity_metrics
 from drillstring.apps.colors import CONTROLLER_COLORS
-from drillstring.apps.sweep.metrics import (
-    CONTROLLER_METRICS,
-    SI_DISPLAY,
-    controller_column,
-    si_factor,
-)
+from drillstring.apps.sweep.options import MAP_WINDOW, ControllerOptions
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
-from drillstring.apps.sweep.spec import (
-    CONSTRAINED_CONTROLLERS,
-    MAP_CONTROLLERS,
-    MAP_WINDOW,
-    SweepSpec,
-    SweepSpecError,
-    spec_from_dict,
-)
+from drillstring.apps.sweep.spec import SweepSpec, SweepSpecError, spec_from_dict
+from drillstring.apps.sweep.studies import OPEN_LOOP, evaluate_controllers, map_top_drive
+from drillstring.apps.sweep.tables import BY_CONTROLLER_COLUMNS
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import CONSTRAINED_FILE
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFile, GainsFileError, read_gains
 from drillstring.controller.lineup import (
+    CONSTRAINED_CONTROLLERS,
+    MAP_CONTROLLERS,
     RIG_CONTROLLERS,
     SENSING,
     TIMED_CONTROLLERS,
     Tuning,
     lmi_gain,
-    rig_lineup,
     sensing_note,
 )
 from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES
-from drillstring.fileio import save_figure, write_csv, write_json
+from drillstring.fileio import load_table, save_figure, write_csv, write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6, Experiment
-from drillstring.model.params import PhysicalParams, ScaledParams, known_rig
+from drillstring.model.params import PhysicalParams, known_rig
 from drillstring.model.pipe import StringParams, string_of_rig
-from drillstring.model.sampled import DEFAULT_TS, simulate_sampled
+from drillstring.model.sampled import DEFAULT_TS
 from drillstring.model.simulate import SimulationResult, simulate
-from drillstring.model.topdrive import BRAKING, RPM, top_drive_from_spec
+from drillstring.model.topdrive import BRAKING, RPM
 from drillstring.plotting import new_figure
 from drillstring.validation import check_int, check_real
 
 __all__ = [
     "COMPARISON_COLUMNS",
-    "MAP_OUTCOMES",
-    "MAP_RPM",
-    "MAP_SI",
-    "MAP_WOB_MAX",
+    "MAP_SPEC",
     "MAP_V0",
     "Comparison",
     "ControllerMap",
@@ -93,7 +74,6 @@ __all__ = [
     "controllers_main",
     "format_comparison",
     "wob_range",
-    "write_map_si",
     "write_controller_comparison",
     "write_controller_map",
 ]
@@ -132,7 +112,6 @@ NO_BRAKING = " (no braking)"
 #: Elements of the converged string, the default of ``drillstring controllers compare|map``
 #: (``docs/controllers.md``, "On the distributed string").
 STRING_ELEMENTS = 16
-OPEN_LOOP = "open-loop"
 #: The paper's set-up of Fig. 6: its LMI law evaluated continuously, no top drive (the
 #: reproduction of the figure; no real drive delivers its torque).
 LMI_UNLIMITED = "lmi-unlimited"
@@ -149,11 +128,6 @@ def _gains(gains: GainsFile | str | os.PathLike[str]) -> GainsFile:
     return gains if isinstance(gains, GainsFile) else read_gains(gains)
 
 
-def _matching_rig(params: ScaledParams) -> PhysicalParams | None:
-    """A known physical rig whose scaled set is ``params`` (to 1e-9), for the SI columns."""
-    return known_rig(params)
-
-
 # --------------------------------------------------------------------------------------------
 # the Fig. 6-like comparison
 # --------------------------------------------------------------------------------------------
@@ -165,7 +139,7 @@ class Comparison:
 
     ``rows`` are the rows of ``comparison.csv`` (:data:`COMPARISON_COLUMNS`), ``laws`` each
     controller's parameters (scaled and, with a rig, SI), ``files`` the written paths, ``runs``
-    the simulation results by row name.
+    the simulation results by row name, ``options`` how the controllers ran (with braking).
     """
 
     rows: list[dict[str, Any]]
@@ -173,10 +147,7 @@ class Comparison:
     files: dict[str, Path] = field(default_factory=dict)
     runs: dict[str, SimulationResult] = field(default_factory=dict, repr=False)
     experiment: str = FIG6.name
-    Ts: float = DEFAULT_TS
-    window: float = COMPARISON_WINDOW
-    top_drive: str = "tds-11sa"
-    tuning: Tuning = field(default_factory=Tuning)
+    options: ControllerOptions = field(default_factory=ControllerOptions)
     elements: int = 1
 
 
@@ -184,12 +155,11 @@ def _row(
     name: str,
     drive: str,
     result: SimulationResult,
-    window: float,
+    s: Severity,
     t_on: float,
     rig: PhysicalParams | None,
     braking: str = "four-quadrant",
 ) -> dict[str, Any]:
-    s = severity_metrics(result, window, t_from=t_on)
     p = result.params
     entries = sum(
         1
@@ -363,7 +333,8 @@ def write_controller_comparison(
     ``experiment.t_on`` with the torsional-stick model on; then each digital controller of
     :func:`~drillstring.controller.lineup.rig_lineup` (the industrial laws, the paper-style LMI
     design of ``gains``, the constrained design of ``constrained`` with exact, mud-pulse and
-    observer sensing) acts with sample period ``Ts`` under the top drive ``top_drive``; and, as
+    observer sensing) acts with sample period ``Ts`` under the top drive ``top_drive``
+    (:func:`~drillstring.apps.sweep.studies.evaluate_controllers`, as at a map's points); and, as
     the paper's set-up, its LMI law continuously without a drive (:data:`LMI_UNLIMITED`). The
     metrics are taken over the last ``window`` of the run, the effort from the switch-on on.
 
@@ -415,73 +386,66 @@ def write_controller_comparison(
     Raises
     ------
     ValueError
-        A bad value (named), a window shorter than ``min_periods`` periods of the slowest
-        stick-slip or than the trend test needs after the switch-on, no rig for the gains.
+        A bad value (named; the checks of :class:`~drillstring.apps.sweep.options.
+        ControllerOptions`), a window shorter than ``min_periods`` periods of the slowest
+        stick-slip or than the trend test needs after the switch-on, no rig for the gains, an
+        experiment without the torsional-stick model.
     """
+    if not experiment.torsional_stick:
+        raise ValueError(
+            f"experiment {experiment.name!r} has the torsional-stick model off: the controllers "
+            "are evaluated with it on (evaluate_controllers)"
+        )
     g = _gains(gains)
     gc = None if constrained is None else _gains(constrained)
-    Ts = check_real("Ts", Ts, lower=0.0)
-    window = check_window(window, periods=min_periods)
-    tau_end = check_real("tau_end", tau_end, lower=0.0)
     t_on = experiment.t_on
-    if 2.0 * window > tau_end - t_on:
-        raise ValueError(
-            f"2 window = {2 * window!r} reaches back before the switch-on at t_on = {t_on!r} "
-            f"(run to {tau_end!r}): the trend test compares two windows"
-        )
     params = g.params
     if gc is not None and gc.params != params:
         raise ValueError("the constrained design is for another parameter set than the gains")
-    rig = rig if rig is not None else _matching_rig(params)
+    rig = rig if rig is not None else known_rig(params)
     if rig is None:
         raise ValueError("no physical rig maps onto the gains' parameter set: give rig=")
     tuning = Tuning() if tuning is None else tuning
-    drive = None if top_drive == "none" else top_drive_from_spec(top_drive, params.R0, rig)
-    drives = {"four-quadrant": drive}
-    if without_braking and drive is not None:
-        drives["none"] = replace(drive, R_min=max(0.0, drive.R_min), braking="none")
     model = averaged_model(params, g.A, g.taubar_crit)
     paper = lmi_gain(model, g, feedforward="file")
     cgain = None if gc is None else lmi_gain(model, gc, feedforward="file")
-    names = [n for n in RIG_CONTROLLERS if cgain is not None or n not in _CONSTRAINED_ROWS]
+    rig_names = [n for n in RIG_CONTROLLERS if gc is not None or n not in CONSTRAINED_CONTROLLERS]
     # the timing of a real drive: the rows of TIMED_CONTROLLERS whose controller runs here
-    names += [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in names]
-    lineups = {
-        b: rig_lineup(
-            params,
-            model,
-            paper=paper,
-            constrained=cgain,
-            top_drive=d,
-            scales=rig,
-            Ts=Ts,
-            tuning=tuning,
-            t_on=t_on,
-            latch=experiment.latch,
-            names=names,
-        )  # fmt: skip
-        for b, d in drives.items()
-    }
-    controllers = lineups["four-quadrant"]
-    options = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)
-    start: dict[str, Any] = {"initial": experiment.initial(), "options": options}
-    if string is not None:
-        start["string"] = string
+    timed = [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in rig_names]
+    names = (*rig_names, *timed)
+    options = ControllerOptions(
+        controllers=tuple(rig_names), top_drive=top_drive, h=experiment.h, Ts=Ts, t_on=t_on,
+        latch=experiment.latch, window=window, min_periods=min_periods, tuning=tuning,
+    )  # fmt: skip
+    tau_end = options.check_run(tau_end)
+    drive = map_top_drive(options.top_drive, params, rig)
+    brakings = ("four-quadrant", "none") if without_braking and drive is not None else BRAKING[:1]
+    start: dict[str, Any] = {"initial": experiment.initial(), "string": string}
+    evaluated = {
+        b: evaluate_controllers(params, model, paper, cgain, replace(options, braking=b),
+                                tau_end=tau_end, scales=rig, names=names, **start)
+        for b in brakings
+    }  # fmt: skip
+    engine = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)
     runs: dict[str, SimulationResult] = {
-        OPEN_LOOP: simulate(params, tau_end, control=paper.R_ff, **start)
+        OPEN_LOOP: simulate(params, tau_end, control=paper.R_ff, options=engine, **start)
     }
     braking_of: dict[str, str] = {}
+    severity: dict[str, Severity] = {}
+    controllers = {name: run.controller for name, run in evaluated["four-quadrant"].items()}
     for name in controllers:
-        for b, lineup in lineups.items():
+        for b in brakings:
             key = name if b == "four-quadrant" else name + NO_BRAKING
-            runs[key] = simulate_sampled(params, lineup[name], tau_end, Ts, **start)
+            runs[key], severity[key] = evaluated[b][name].result, evaluated[b][name].severity
             braking_of[key] = b
     continuous = AffineFeedback(paper.F, paper.K0, paper.R_ff, t_on, experiment.latch)
-    runs[LMI_UNLIMITED] = simulate(params, tau_end, control=continuous, **start)
+    runs[LMI_UNLIMITED] = simulate(params, tau_end, control=continuous, options=engine, **start)
+    for key in (OPEN_LOOP, LMI_UNLIMITED):
+        severity[key] = severity_metrics(runs[key], options.window, t_from=t_on)
     row_of = {
         key: _row(key.removesuffix(NO_BRAKING),
-                  "none" if key in (OPEN_LOOP, LMI_UNLIMITED) else top_drive, r, window, t_on,
-                  rig, braking_of.get(key, "four-quadrant"))
+                  "none" if key in (OPEN_LOOP, LMI_UNLIMITED) else top_drive, r, severity[key],
+                  t_on, rig, braking_of.get(key, "four-quadrant"))
         for key, r in runs.items()
     }  # fmt: skip
     rows = list(row_of.values())
@@ -504,7 +468,7 @@ def write_controller_comparison(
     )
     title = (
         f"{experiment.name} set-up on {model_text}: controllers on at t = "
-        f"{t_on * rig.t_star:.3g} s, sampled every {Ts * rig.t_star * 1e3:.3g} ms, "
+        f"{t_on * rig.t_star:.3g} s, sampled every {options.Ts * rig.t_star * 1e3:.3g} ms, "
         f"top drive {top_drive}\n(solid: with braking, dashed: without; {LMI_UNLIMITED}: no "
         "drive, the paper's; grey band: the metrics' window)\n"
         + "\n".join(
@@ -515,7 +479,14 @@ def write_controller_comparison(
     )
     files = {
         "figure": _plot(
-            out / "comparison.png", runs, row_of, rig, t_on, window, title, _rating_kNm(drive, rig)
+            out / "comparison.png",
+            runs,
+            row_of,
+            rig,
+            t_on,
+            options.window,
+            title,
+            _rating_kNm(drive, rig),
         ),  # fmt: skip
         "table": write_csv(
             out / "comparison.csv",
@@ -527,8 +498,8 @@ def write_controller_comparison(
         "experiment": experiment.name,
         "t_on": t_on,
         "tau_end": tau_end,
-        "Ts": Ts,
-        "window": window,
+        "Ts": options.Ts,
+        "window": options.window,
         "top_drive": {"spec": top_drive, "limits": None if drive is None else drive.to_si(rig)},
         "tuning": tuning.values(),
         "string": {
@@ -550,10 +521,7 @@ def write_controller_comparison(
         files=files,
         runs=runs,
         experiment=experiment.name,
-        Ts=Ts,
-        window=window,
-        top_drive=top_drive,
-        tuning=tuning,
+        options=options,
         elements=elements,
     )
 
@@ -563,9 +531,6 @@ def _rating_kNm(drive: Any, rig: PhysicalParams) -> tuple[float, float] | None:
     if drive is None or not (math.isfinite(drive.R_min) and math.isfinite(drive.R_max)):
         return None
     return drive.R_min * rig.C / 1e3, drive.R_max * rig.C / 1e3
-
-
-_CONSTRAINED_ROWS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
 
 
 def _jsonable(obj: Any) -> Any:
@@ -587,46 +552,22 @@ def _jsonable(obj: Any) -> Any:
 
 @dataclass
 class ControllerMap:
-    """What :func:`write_controller_map` ran: the sweep's report and the per-controller counts
+    """What :func:`write_controller_map` ran: the sweep's report, the per-controller counts
     (``by_controller`` rows: controller, one count per outcome, stopped runs, failed points,
-    times best)."""
+    times best), the tables written and the spec."""
 
     report: SweepReport
     by_controller: list[dict[str, Any]]
     files: dict[str, Path] = field(default_factory=dict)
-    spec: Any = None
+    spec: SweepSpec | None = None
 
 
-#: The outcomes counted per controller in ``by_controller.csv`` (a stopped run counts under
-#: ``stopped``, and also under its status code when that is reverse rotation or bit bouncing).
-MAP_OUTCOMES = (*OUTCOMES, "no_design", "reverse_rotation", "bit_bounce")
-
-
-def _count_rows(results: Path, controllers: Sequence[str]) -> list[dict[str, Any]]:
-    with open(results, newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
-    best = Counter(r["best"] for r in rows if not r["error"])
-    out = []
-    for c in controllers:
-        outcomes = Counter(r[controller_column("outcome", c)] for r in rows if not r["error"])
-        entry: dict[str, Any] = {"controller": c}
-        for o in MAP_OUTCOMES:
-            entry[o] = outcomes.pop(o, 0)
-        entry["stopped"] = sum(entry[o] for o in MAP_OUTCOMES[len(OUTCOMES) + 1 :]) + sum(
-            outcomes.values()
-        )
-        entry["failed_points"] = sum(1 for r in rows if r["error"])
-        entry["best"] = best.get(c, 0)
-        out.append(entry)
-    return out
-
-
-#: The rpm range of the default map (the reference rig turns at 51.8 rpm; at 20.7 rpm and 27 kN
-#: Z-Torque sustains a slow oscillation that a map from 30 rpm missed).
-MAP_RPM = (20.0, 150.0)
-#: The upper end of the default map's nominal weight on bit [kN].
-MAP_WOB_MAX = 40.0
-#: The feeds v0 (scaled, at the reference speed) whose nominal WOB bounds the default map.
+#: The controller map, a sweep spec of the controllers study shipped with the package: 25 x 25
+#: points over the surface speed [rpm] and the nominal weight on bit [kN] on the reference rig,
+#: the map's controllers on the converged string, its gains files named relative to the design's
+#: folder (``drillstring sweep MAP_SPEC --base-dir out/design --out DIR`` runs it as it is).
+MAP_SPEC = Path(__file__).parent / "sweep" / "controller_map.json"
+#: The feeds v0 (scaled, at the reference speed) whose nominal WOB bounds the default map below.
 MAP_V0 = (0.25, 2.0)
 
 
@@ -655,98 +596,43 @@ def wob_range(rig: PhysicalParams, v0: tuple[float, float] = MAP_V0) -> tuple[fl
     )
 
 
-#: The map's table in SI (:func:`write_map_si`); ``results.csv`` is the sweep's working file
-#: (scaled metrics, what ``--resume`` reads).
-MAP_SI = "map_si.csv"
-#: Column-name tokens of the SI units of :data:`~drillstring.apps.sweep.metrics.SI_DISPLAY`.
-_UNIT_TOKENS = {"kN m": "kNm", "kW": "kW", "rpm": "rpm", "s": "s", "1/s": "per_s"}
-#: Dimensionless controller metrics (no unit in their name).
-_PLAIN = {"outcome", "utr", "severity", "stick_fraction", "stall", "saturated_fraction"}
-
-
-def write_map_si(spec: SweepSpec, results: Path, path: Path) -> Path:
-    """The controller map's ``results.csv`` in SI, the unit in each column name.
-
-    The axes (``rpm``, ``W0_kN``), the imposed speed and hook speed (``Omega0_rad_per_s``,
-    ``V0_m_per_s``), the design inputs A and taubar_crit (``_scaled``: the paper's scaled
-    slope and delay), the open loop's and each controller's linear abscissa [1/s], and per
-    controller (``<metric>_<unit>.<controller>``) the severity metrics with each point's rig
-    scales (peak torque in kN m, power in kW, table speed in rpm, times in s; outcome, UTR,
-    severity, stick and saturated fractions and the stall flag have no unit); ``best``,
-    ``wall_time_s``, ``error``.
-
-    Parameters
-    ----------
-    spec : SweepSpec
-        The controller map's spec (a physical base).
-    results : Path
-        Its ``results.csv``.
-    path : Path
-        Where to write.
-
-    Returns
-    -------
-    Path
-    """
-    with open(results, newline="", encoding="utf-8") as fh:
-        rows = sorted(csv.DictReader(fh), key=lambda r: int(r["index"]))
-    controllers = list(spec.options["controllers"])
-    names: list[tuple[str, str, str | None]] = []  # (out name, in name, metric or None)
-    for m, _ in CONTROLLER_METRICS:
-        for c in controllers:
-            if m in _PLAIN:
-                names.append((controller_column(m, c), controller_column(m, c), None))
-            else:
-                token = _UNIT_TOKENS[SI_DISPLAY[m][2]]
-                names.append((controller_column(f"{m}_{token}", c), controller_column(m, c), m))
-    header = [
-        "index", "i", "j", "rpm", "W0_kN", "Omega0_rad_per_s", "V0_m_per_s", "A_scaled",
-        "taubar_crit_scaled", "open_loop_abscissa_per_s", *(n for n, _, _ in names), "best",
-        "wall_time_s", "error",
-    ]  # fmt: skip
-
-    def num(v: str) -> float:
-        return float(v) if v not in ("", None) else math.nan
-
-    out = []
-    for r in rows:
-        k = int(r["index"])
-        sc = spec.point_scales(k)
-        line: list[Any] = [k, r["i"], r["j"], r["rpm"], r["W0_kN"], r["Omega0"], r["V0"],
-                           r["A"], r["taubar_crit"],
-                           num(r["open_loop_abscissa_scaled"]) / sc.t_star]  # fmt: skip
-        for _, src, metric in names:
-            v = r.get(src, "")
-            if metric is None:
-                line.append(v)
-            else:
-                factor, _ = si_factor(metric, sc.C, sc.t_star)
-                line.append(num(v) * factor)
-        line += [r["best"], r["seconds"], r["error"]]
-        out.append(line)
-    return write_csv(path, header, out)
-
-
 def controller_map_spec(
     gains_path: str | os.PathLike[str],
     *,
     constrained_path: str | os.PathLike[str] | None = None,
     rig: PhysicalParams | None = None,
-    controllers: Sequence[str] = MAP_CONTROLLERS,
-    top_drive: str = "tds-11sa",
-    n: int = 25,
-    rpm: tuple[float, float] = MAP_RPM,
+    n: int | None = None,
+    rpm: tuple[float, float] | None = None,
     wob_kN: tuple[float, float] | None = None,
-    tau_end: float = 200.0,
-    window: float = MAP_WINDOW,
-    min_periods: float = MIN_WINDOW_PERIODS,
-    Ts: float = DEFAULT_TS,
-    dphi0_rel: float = -0.5,
-    tuning: Tuning | None = None,
-    elements: int = 1,
-    braking: str = "four-quadrant",
+    tau_end: float | None = None,
+    **options: Any,
 ) -> SweepSpec:
-    """The sweep of :func:`write_controller_map` (its parameters, same defaults).
+    """The controller map of :data:`MAP_SPEC` for a design, with the changes given.
+
+    The paper-style LMI gain is fixed from ``gains_path``, the input-constrained one from
+    ``constrained_path``, their K0 and R_ff taken at each point; the base is the design's rig,
+    the WOB axis from what its feed gives for v0 = 0.25 at its speed (:func:`wob_range`) to
+    the spec's upper end.
+
+    Parameters
+    ----------
+    gains_path : path
+        The gains file of the paper-style LMI design; its parameter set must be the rig's.
+    constrained_path : path, optional
+        The gains file of the input-constrained design (default: the spec's
+        ``gains_constrained.json`` beside ``gains_path``, where ``drillstring design
+        --torque-limit`` writes it); read only when a constrained controller is run.
+    rig : PhysicalParams, optional
+        The physical base (default: the known rig whose scaled set is the design's).
+    n : int, optional
+        Points per axis (>= 2).
+    rpm, wob_kN : (float, float), optional
+        Ranges of the surface speed [rpm] and of the nominal weight on bit [kN].
+    tau_end : float, optional
+        Run length (scaled).
+    **options
+        Options of the controllers study (:class:`~drillstring.apps.sweep.options.
+        ControllerOptions`; the tuning as ``impedance``, ``soft_speed``, ``z_matching``).
 
     Returns
     -------
@@ -760,133 +646,65 @@ def controller_map_spec(
     GainsFileError
         A gains file that cannot be read.
     """
-    n = check_int("n", n, lower=2)
+    data = load_table(MAP_SPEC)
     g = read_gains(gains_path)
-    rig = rig if rig is not None else _matching_rig(g.params)
+    rig = rig if rig is not None else known_rig(g.params)
     if rig is None:
         raise ValueError(
             "the map's axes are physical (rpm, kN): the design's parameter set matches no known "
             "rig; pass rig="
         )
-    wob = (wob_range(rig)[0], MAP_WOB_MAX) if wob_kN is None else wob_kN
-    names = list(controllers)
-    tuning = Tuning() if tuning is None else tuning
-    if tuning.pipe is not None:
-        raise ValueError(
-            "the map's impedance 'pipe' is that of each point's rig (its known pipe): a given "
-            f"Tuning.pipe ({tuning.pipe!r}) is not an option of the sweep"
-        )
-    options: dict[str, Any] = {
-        "controllers": names,
-        "top_drive": top_drive,
-        "gains": str(Path(gains_path).resolve()),
-        "feedforward": "point",
-        "window": window,
-        "min_periods": min_periods,
-        "Ts": Ts,
-        "dphi0_rel": dphi0_rel,
-        "impedance": tuning.impedance,
-        "soft_speed": tuning.soft_speed,
-        "z_matching": tuning.z_matching,
-        "elements": check_int("elements", elements, lower=1),
-        "braking": braking,
-    }
-    if any(c in CONSTRAINED_CONTROLLERS for c in names):
-        path = (
-            Path(gains_path).parent / CONSTRAINED_FILE
-            if constrained_path is None
-            else Path(constrained_path)
-        )
-        options["gains_constrained"] = str(path.resolve())
-    return spec_from_dict(
-        {
-            "study": "controllers",
-            "base": {"kind": "physical", **rig.to_dict()},
-            "tau_end": tau_end,
-            "sweep": [
-                {"param": "rpm", "start": rpm[0], "stop": rpm[1], "num": n},
-                {"param": "W0_kN", "start": wob[0], "stop": wob[1], "num": n},
-            ],
-            "options": options,
-        },
-        source="controller map",
-    )
+    data["base"] = {"kind": "physical", **rig.to_dict()}
+    speed, wob = data["sweep"]
+    if n is not None:
+        speed["num"] = wob["num"] = check_int("n", n, lower=2)
+    if rpm is not None:
+        speed["start"], speed["stop"] = rpm
+    wob["start"], wob["stop"] = (wob_range(rig)[0], wob["stop"]) if wob_kN is None else wob_kN
+    if tau_end is not None:
+        data["tau_end"] = tau_end
+    opts = {**data["options"], **options}
+    folder = Path(gains_path).parent
+    opts["gains"] = str(Path(gains_path).resolve())
+    if any(c in CONSTRAINED_CONTROLLERS for c in opts["controllers"]):
+        path = Path(constrained_path or folder / opts["gains_constrained"])
+        opts["gains_constrained"] = str(path.resolve())
+    else:
+        del opts["gains_constrained"]
+    data["options"] = opts
+    return spec_from_dict(data, source="controller map", base_dir=folder)
 
 
 def write_controller_map(
     out_dir: str | os.PathLike[str],
     gains_path: str | os.PathLike[str],
     *,
-    constrained_path: str | os.PathLike[str] | None = None,
-    rig: PhysicalParams | None = None,
-    controllers: Sequence[str] = MAP_CONTROLLERS,
-    top_drive: str = "tds-11sa",
-    n: int = 25,
-    rpm: tuple[float, float] = MAP_RPM,
-    wob_kN: tuple[float, float] | None = None,
-    tau_end: float = 200.0,
-    window: float = MAP_WINDOW,
-    min_periods: float = MIN_WINDOW_PERIODS,
-    Ts: float = DEFAULT_TS,
-    dphi0_rel: float = -0.5,
-    tuning: Tuning | None = None,
-    elements: int = 1,
-    braking: str = "four-quadrant",
     serial: bool = False,
     workers: int | None = None,
     client: Any = None,
     resume: bool = False,
     progress: bool = False,
     log: Callable[[str], Any] | None = print,
+    **changes: Any,
 ) -> ControllerMap:
-    """The controller map: n x n points over the surface speed [rpm] and the nominal weight on
-    bit [kN] on the rig of the design, every controller under the same top drive.
-
-    Each point (rpm, W0) sets Omega0 and the hook speed V0 whose nominal weight on bit is W0
-    (feed: imposed rate of penetration chosen for the nominal WOB; ``docs/controllers.md``,
-    "Maps"). The paper-style LMI gain is fixed from ``gains_path``, the input-constrained one
-    from ``constrained_path``, their K0 and R_ff taken at each point.
+    """Run the controller map (:func:`controller_map_spec` of ``gains_path`` and ``changes``)
+    into ``out_dir``: every controller under the same top drive at each point (rpm, W0), the
+    point setting Omega0 and the hook speed V0 whose nominal weight on bit is W0 (feed:
+    imposed rate of penetration chosen for the nominal WOB; ``docs/controllers.md``, "Maps").
 
     Parameters
     ----------
     out_dir : path
-        The sweep's output folder (``results.csv``, ``plots/``, ``by_controller.csv``).
+        The sweep's output folder (``results.csv``, ``plots/``, ``by_controller.csv``,
+        ``map_si.csv``).
     gains_path : path
-        The gains file of the paper-style LMI design; its parameter set must be the rig's.
-    constrained_path : path, optional
-        The gains file of the input-constrained design (default: ``gains_constrained.json``
-        beside ``gains_path``, where ``drillstring design --torque-limit`` writes it); needed
-        only when a constrained controller is in ``controllers``.
-    rig : PhysicalParams, optional
-        The physical base (default: the known rig whose scaled set is the design's).
-    controllers : sequence of str
-        Of :data:`~drillstring.controller.lineup.RIG_CONTROLLERS`.
-    top_drive : str
-        The drive of every controller (``"none"`` or a spec of
-        :func:`~drillstring.model.topdrive.top_drive_from_spec`).
-    n : int
-        Points per axis (>= 2).
-    rpm : (float, float)
-        Range of the surface speed [rpm].
-    wob_kN : (float, float), optional
-        Range of the nominal weight on bit [kN] (default: from the low end of
-        :func:`wob_range` of the rig to :data:`MAP_WOB_MAX`).
-    tau_end, window, min_periods, Ts, dphi0_rel : float
-        Run length, late window, the periods of the slowest stick-slip the window must hold,
-        sample period, initial bit speed as a fraction of omega0 (options of the study,
-        :mod:`drillstring.apps.sweep.spec`).
-    tuning : Tuning, optional
-        The industrial rules' choices (options ``impedance``, ``soft_speed``, ``z_matching``;
-        ``"pipe"`` is each point's rig's pipe, so ``Tuning.pipe`` must be None).
-    elements : int
-        The drill pipe's elements (1: the paper's one-mode model; ``drillstring controllers
-        map`` takes :data:`STRING_ELEMENTS`): the runs and the linear overlay on that string.
-    braking : str
-        The drive's braking: "four-quadrant" or "none" (its torque range [0, R_max]).
+        The gains file of the paper-style LMI design.
     serial, workers, client, resume, progress
         As :func:`~drillstring.apps.sweep.runner.run_sweep`.
     log : callable, optional
         Receives the per-controller table (None: silent).
+    **changes
+        What :func:`controller_map_spec` takes besides ``gains_path``.
 
     Returns
     -------
@@ -899,53 +717,24 @@ def write_controller_map(
     GainsFileError
         A gains file that cannot be read.
     """
-    spec = controller_map_spec(
-        gains_path,
-        constrained_path=constrained_path,
-        rig=rig,
-        controllers=controllers,
-        top_drive=top_drive,
-        n=n,
-        rpm=rpm,
-        wob_kN=wob_kN,
-        tau_end=tau_end,
-        window=window,
-        min_periods=min_periods,
-        Ts=Ts,
-        dphi0_rel=dphi0_rel,
-        tuning=tuning,
-        elements=elements,
-        braking=braking,
-    )
-    report = run_sweep(
-        spec,
-        out_dir,
-        serial=serial,
-        workers=workers,
-        client=client,
-        resume=resume,
-        progress=progress,
-    )
-    table = _count_rows(report.results, spec.options["controllers"])
-    header = ["controller", *MAP_OUTCOMES, "stopped", "failed_points", "best"]
-    files = {
-        "by_controller": write_csv(
-            Path(out_dir) / "by_controller.csv", header, ([r[h] for h in header] for r in table)
-        ),
-        "si": write_map_si(spec, report.results, Path(out_dir) / MAP_SI),
-    }
+    spec = controller_map_spec(gains_path, **changes)
+    report = run_sweep(spec, out_dir, serial=serial, workers=workers, client=client,
+                       resume=resume, progress=progress)  # fmt: skip
+    opts = spec.options
     if log is not None:
+        braking = opts.braking
         log(
             f"{spec.n_points} points ({spec.axes[0].start:g}-{spec.axes[0].stop:g} rpm x "
             f"{spec.axes[1].start:.4g}-{spec.axes[1].stop:.4g} kN nominal WOB; {spec.feed}; "
-            f"top drive {top_drive}, braking {braking}; {elements} element(s)), "
+            f"top drive {opts.top_drive}, braking {braking}; {opts.elements} element(s)), "
             f"{report.n_failed} failed, {report.wall_time:.1f} s; "
             "outcomes per controller:"
         )
-        log(" ".join(f"{h:>16}" for h in header))
-        for r in table:
-            log(" ".join(f"{r[h]!s:>16}" for h in header))
-    return ControllerMap(report=report, by_controller=table, files=files, spec=spec)
+        log(" ".join(f"{h:>16}" for h in BY_CONTROLLER_COLUMNS))
+        for r in report.by_controller:
+            log(" ".join(f"{r[h]!s:>16}" for h in BY_CONTROLLER_COLUMNS))
+    return ControllerMap(report=report, by_controller=report.by_controller, files=report.tables,
+                         spec=spec)  # fmt: skip
 
 
 # --------------------------------------------------------------------------------------------
@@ -960,11 +749,19 @@ def _parser() -> argparse.ArgumentParser:
         "the LMI design: the Fig. 6-like comparison and a small map over speed and feed.",
     )
     sub = ap.add_subparsers(dest="job", required=True)
+    # the comparison's defaults; the map's are its spec's (MAP_SPEC), where a value is not given
+    defaults = ControllerOptions()
     for job, text in (
         ("compare", "every controller switched on from Fig. 6's stick-slip state at tau = 25"),
-        ("map", "n x n map of the severity metrics over speed and WOB for every controller"),
-    ):
+        ("map", "n x n map of the severity metrics over speed and WOB for every controller "
+         f"(the sweep spec {MAP_SPEC.name}, changed by the options given)"),
+    ):  # fmt: skip
         p = sub.add_parser(job, help=text, description=text)
+        compare = job == "compare"
+
+        def given(value: Any, compare: bool = compare) -> Any:
+            return value if compare else None
+
         p.add_argument(
             "--gains",
             type=Path,
@@ -972,47 +769,55 @@ def _parser() -> argparse.ArgumentParser:
             help=f"gains file of the LMI design (default: {DEFAULT_GAINS_PATH})",
         )
         p.add_argument("--out", type=Path, required=True, help="output folder")
-        p.add_argument("--Ts", type=float, default=DEFAULT_TS, help="sample period (scaled)")
+        p.add_argument("--Ts", type=float, default=given(defaults.Ts),
+                       help=f"sample period (scaled; default {defaults.Ts:g})")  # fmt: skip
         p.add_argument(
             "--window",
             type=float,
-            default=MAP_WINDOW,
-            help=f"late window of the metrics (scaled; default {MAP_WINDOW:g})",
+            default=given(defaults.window),
+            help=f"late window of the metrics (scaled; default {defaults.window:g})",
         )
         p.add_argument(
             "--min-periods",
             type=float,
-            default=MIN_WINDOW_PERIODS,
+            default=given(defaults.min_periods),
             help="periods of the slowest stick-slip (7 in scaled time) the window must hold "
-            f"(default {MIN_WINDOW_PERIODS}; 0 for a quick run whose outcomes are not trusted)",
+            f"(default {defaults.min_periods:g}; 0 for a quick run whose outcomes are not "
+            "trusted)",
         )
         p.add_argument(
             "--impedance",
             choices=IMPEDANCES,
-            default="lumped",
+            default=given(defaults.tuning.impedance),
             help="string impedance Z of the industrial rules: the lumped sqrt(C*I1) or the "
             "rig's drill pipe J*sqrt(G*rho_steel) (default lumped)",
         )
         p.add_argument(
             "--soft-speed",
             choices=SOFT_SPEED_RULES,
-            default="two-mass",
+            default=given(defaults.tuning.soft_speed),
             help="SoftSpeed's kp: 2*sqrt(rho)*Z (two-mass) or Z (impedance, the field rule; "
             "default two-mass)",
         )
         p.add_argument(
             "--elements",
             type=int,
-            default=STRING_ELEMENTS,
+            default=given(STRING_ELEMENTS),
             help=f"elements of the drill pipe (default {STRING_ELEMENTS}: the converged "
             "distributed string; 1: the paper's one-mode model)",
         )
         p.add_argument(
             "--z-matching",
             type=float,
-            default=1.0,
+            default=given(defaults.tuning.z_matching),
             help="Z-Torque's fraction of full impedance matching, >= 0 (default 1; "
             "Simulator4nDOF: 0.25)",
+        )
+        p.add_argument(
+            "--top-drive",
+            default=given(defaults.top_drive),
+            help="the drive of every controller: a rating (tds-11sa), a multiple of the nominal "
+            "torque (50R0), a torque (52kNm) or none (default tds-11sa)",
         )
     c = sub.choices["compare"]
     c.add_argument(
@@ -1022,12 +827,8 @@ def _parser() -> argparse.ArgumentParser:
         help="gains file of the input-constrained design (default: gains_constrained.json "
         "beside --gains, when it is there)",
     )
-    c.add_argument(
-        "--top-drive",
-        default="tds-11sa",
-        help="top drive of every controller: a rating (tds-11sa), 50R0, 52kNm, or none",
-    )
-    c.add_argument("--tau-end", type=float, default=COMPARISON_TAU_END, help="run length")
+    c.add_argument("--tau-end", type=float, default=COMPARISON_TAU_END,
+                   help=f"run length (default {COMPARISON_TAU_END:g})")  # fmt: skip
     c.add_argument(
         "--braking-only",
         action="store_true",
@@ -1038,14 +839,14 @@ def _parser() -> argparse.ArgumentParser:
         ": surface speed [rpm] x nominal weight on bit [kN] on the design's rig, every controller "
         "under one top drive (feed: imposed rate of penetration chosen for the nominal WOB)"
     )
-    m.add_argument("--n", type=int, default=25, help="points per axis (default 25)")
+    m.add_argument("--n", type=int, default=None, help="points per axis (default 25)")
     m.add_argument(
         "--rpm",
         type=float,
         nargs=2,
-        default=MAP_RPM,
+        default=None,
         metavar=("LO", "HI"),
-        help=f"range of the surface speed [rpm] (default {MAP_RPM[0]:g} {MAP_RPM[1]:g})",
+        help="range of the surface speed [rpm] (default 20 150)",
     )
     m.add_argument(
         "--wob",
@@ -1054,8 +855,8 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         metavar=("LO", "HI"),
         help="range of the nominal weight on bit [kN] (default: from what the rig's feed gives "
-        f"for v0 = {MAP_V0[0]:g} at its speed to {MAP_WOB_MAX:g}; it must stay above the "
-        "wearflat contact part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
+        f"for v0 = {MAP_V0[0]:g} at its speed to 40; it must stay above the wearflat contact "
+        "part n*a*l*sigma_bar, 16.5 kN on the reference rig)",
     )
     m.add_argument(
         "--gains-constrained",
@@ -1067,22 +868,16 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument(
         "--controllers",
         nargs="+",
-        default=list(MAP_CONTROLLERS),
+        default=None,
         metavar="NAME",
         help=f"the controllers (of {', '.join(RIG_CONTROLLERS)}; default "
         f"{' '.join(MAP_CONTROLLERS)})",
     )
-    m.add_argument(
-        "--top-drive",
-        default="tds-11sa",
-        help="the drive of every controller: a rating (tds-11sa), a multiple of the nominal "
-        "torque (50R0), a torque (52kNm) or none (default tds-11sa)",
-    )
-    m.add_argument("--tau-end", type=float, default=200.0, help="run length (default 200)")
+    m.add_argument("--tau-end", type=float, default=None, help="run length (default 200)")
     m.add_argument(
         "--braking",
         choices=BRAKING,
-        default="four-quadrant",
+        default=None,
         help="the drive's braking: four-quadrant (as rated) or none (torque in [0, R_max]; "
         "default four-quadrant)",
     )
@@ -1116,16 +911,16 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     prog = f"drillstring controllers {args.job}"
     try:
-        tuning = Tuning(
-            impedance=args.impedance, soft_speed=args.soft_speed, z_matching=args.z_matching
-        )
         if args.job == "compare":
+            tuning = Tuning(
+                impedance=args.impedance, soft_speed=args.soft_speed, z_matching=args.z_matching
+            )
             constrained = args.constrained
             if constrained is None:
                 beside = Path(args.gains).with_name(CONSTRAINED_FILE)
                 constrained = beside if beside.is_file() else None
             g = read_gains(args.gains)
-            rig = _matching_rig(g.params)
+            rig = known_rig(g.params)
             string = None if rig is None else string_of_rig(rig, args.elements)
             if rig is None and args.elements != 1:
                 string = StringParams(elements=check_int("elements", args.elements, lower=1))
@@ -1147,26 +942,22 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
         if args.workers is not None and args.workers < 0:
             print(f"{prog}: --workers must be >= 0, got {args.workers}", file=sys.stderr)
             return 2
+        spec_keys = ("controllers", "top_drive", "window", "min_periods", "Ts", "impedance",
+                     "soft_speed", "z_matching", "elements", "braking")  # fmt: skip
+        changes = {k: getattr(args, k) for k in spec_keys if getattr(args, k) is not None}
         result_map = write_controller_map(
             args.out,
             args.gains,
             constrained_path=args.gains_constrained,
-            controllers=args.controllers,
-            top_drive=args.top_drive,
             n=args.n,
-            rpm=tuple(args.rpm),
+            rpm=None if args.rpm is None else tuple(args.rpm),
             wob_kN=None if args.wob is None else tuple(args.wob),
             tau_end=args.tau_end,
-            window=args.window,
-            min_periods=args.min_periods,
-            Ts=args.Ts,
-            tuning=tuning,
-            elements=args.elements,
-            braking=args.braking,
             serial=args.workers == 0,
             workers=args.workers or None,
             resume=args.resume,
             progress=not args.no_progress,
+            **changes,
         )
         report = result_map.report
         print(f"maps: {report.out_dir / 'plots'}; results: {report.results}")

@@ -20,8 +20,8 @@ from drillstring.fileio import write_json
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import Control, EngineOptions
 from drillstring.model.experiments import DEFAULT_DT_OUT, DEFAULT_H, EXPERIMENTS, FIG5
-from drillstring.model.params import ParameterError, params_from_spec
-from drillstring.model.pipe import KNOWN_STRINGS, StringParams, rig_string
+from drillstring.model.params import ParameterError, params_from_spec, rig_from_spec
+from drillstring.model.pipe import string_of_rig
 from drillstring.model.simulate import simulate
 from drillstring.plotting import plot_velocities
 from drillstring.validation import check_out_folder, check_real
@@ -79,28 +79,6 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def string_of(spec: str, elements: int) -> StringParams:
-    """The string of a parameter set named on the command line, with ``elements`` elements.
-
-    Parameters
-    ----------
-    spec : str
-        The ``--params`` value: a rig with a known pipe (``reference-rig``, ``pipe-rig``), the
-        scaled ``reference`` set (the reference rig's pipe), or a file (the reference pipe).
-    elements : int
-        N.
-
-    Returns
-    -------
-    StringParams
-        The pipe of that rig (its kappa and axial mass ratio) as N elements.
-    """
-    name = "reference-rig" if spec == "reference" else spec
-    if name in KNOWN_STRINGS:
-        return rig_string(name, elements)
-    return StringParams(elements=elements)
-
-
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """Run the ``simulate`` subcommand; exit code 0 (ok), 1 (the run stopped), 2 (bad input).
 
@@ -138,7 +116,8 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             else:
                 t_on, latch = (exp.t_on, exp.latch) if exp is not None else (0.0, "none")
                 control = AffineFeedback(g.F, g.K0, g.R_ff, t_on=t_on, latch=latch)
-        string = string_of(args.params, args.elements)
+        # the pipe of the rig --params names, by the one rule for a rig's pipe
+        string = string_of_rig(rig_from_spec(args.params), args.elements)
         stick = args.torsional_stick or (exp is not None and exp.torsional_stick)
         dphi0 = args.dphi0 if args.dphi0 is not None else (exp or FIG5).dphi0
         tau_end = args.tau_end if args.tau_end is not None else (exp or FIG5).tau_end
@@ -166,10 +145,10 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             "flags": r.flags,
             "params": params.to_dict(),
             "string": {
-                "elements": string.elements,
-                "kappa": string.kappa,
-                "axial_mass_ratio": string.axial_mass_ratio,
-                "lumping": string.lumping,
+                "elements": r.string.elements,
+                "kappa": r.string.kappa,
+                "axial_mass_ratio": r.string.axial_mass_ratio,
+                "lumping": r.string.lumping,
             },
         },
     )

@@ -11,11 +11,13 @@ Every law here is a frozen dataclass of its parameters that declares them once, 
   systems (R_ff [N m] = C R_ff [scaled]);
 * the variables of the controller FMUs (``fmu_src/drillstring_controller.py``), one script over
   a law class;
-* the block the compiled code runs (:meth:`Law.pack`), :mod:`drillstring.model.digital`.
+* the law's slots in the block the compiled code runs (:data:`PI_PARAMS`, :data:`AFFINE_PARAMS`
+  in the section :data:`LAW_SLOTS`, written by :meth:`Law.pack`).
 
-The evaluation is written once, compiled (:mod:`drillstring.model.digital.lawcore`): the
-switch-on state, the output and the update of each law. A host runs a law inside a
-:class:`~drillstring.model.digital.controller.DigitalController` (the law between a sensing
+The evaluation is written once, below the declarations, in the subset numba compiles
+(``jit_for``; plain Python without numba): the switch-on state, the output and the update of
+each law kind (:func:`law_start`, :func:`law_output`, :func:`law_update`). A host runs a law
+inside a :class:`~drillstring.model.digital.controller.DigitalController` (the law between a sensing
 stage and a top drive): the controller FMUs, the sampled monolithic loop
 (:func:`drillstring.model.sampled.simulate_sampled`) and a Python caller alike.
 
@@ -44,19 +46,35 @@ from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
 
-from drillstring.model.control import LATCH_MODES, AffineFeedback
-from drillstring.model.digital import layout as L
+from drillstring.model.control import (
+    LATCH_MODES,
+    AffineFeedback,
+    feedback_torque,
+    switch_on_references,
+)
+from drillstring.model.kernel.jit import jit_for
 from drillstring.model.tables import (
     Parameter,
     Scales,
+    block_layout,
     check_names,
+    parameter_slots,
     table_from_si,
     table_to_si,
 )
 from drillstring.validation import check_choice, check_real
 
 __all__ = [
+    "AFFINE_PARAMS",
+    "AFFINE_STATE",
     "ANTI_WINDUP",
+    "FEED_FORWARD_PARAMS",
+    "LAW_AFFINE",
+    "LAW_NONE",
+    "LAW_PI",
+    "LAW_SLOTS",
+    "PI_PARAMS",
+    "PI_STATE",
     "SATURATION",
     "FeedForward",
     "Law",
@@ -64,14 +82,29 @@ __all__ = [
     "SampledAffine",
     "SpeedPI",
     "ZTorque",
+    "feed_forward",
     "law_from_si",
+    "law_output",
+    "law_start",
+    "law_state",
+    "law_update",
     "measure",
+    "preset",
 ]
+
+#: The compiled law kinds (a law's ``KIND``, the block's code): the feed-forward alone, the PI
+#: family on the table speed (stiff PI, SoftSpeed, Z-Torque), the paper's state feedback.
+LAW_NONE = 0
+LAW_PI = 1
+LAW_AFFINE = 2
 
 #: Anti-windup of the PI laws (their index is the block's code).
 ANTI_WINDUP = ("none", "back-calculation", "conditional")
+AW_BACK = ANTI_WINDUP.index("back-calculation")
+AW_COND = ANTI_WINDUP.index("conditional")
 #: What the affine law does while the top drive saturates (index: the block's code).
 SATURATION = ("none", "freeze-angle")
+SAT_FREEZE = SATURATION.index("freeze-angle")
 
 
 class Measurement(NamedTuple):
@@ -148,7 +181,7 @@ class Law:
     feed-forward ``R_ff`` and the switch-on time ``t_on`` are parameters of every law.
     """
 
-    KIND: ClassVar[int] = L.LAW_NONE
+    KIND: ClassVar[int] = LAW_NONE
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = ()
     R_ff: float
     t_on: float
@@ -231,12 +264,14 @@ class Law:
         """A validated copy with some parameters changed (names of the table)."""
         return type(self).from_values({**self.values(), **changes})
 
-    def pack(self, b: np.ndarray) -> None:
-        """Write the law (kind and ``LP`` entries) into the block ``b``
-        (:mod:`drillstring.model.digital.layout`)."""
-        b[L.B_LAW] = self.KIND
-        b[L.B_LP : L.B_LP + L.N_LP] = 0.0
-        b[L.B_LP + L.LP_RFF] = self.R_ff
+    def pack(self, b: np.ndarray, at: int) -> None:
+        """Write the law into the controller's block ``b``, whose law section
+        (:data:`LAW_SLOTS`) is at ``at``: its kind and its parameters (the switch-on time
+        ``t_on`` is the controller's own entry)."""
+        p = at + LAW_SLOTS.p
+        b[at + LAW_SLOTS.kind] = self.KIND
+        b[p : p + _N_P] = 0.0
+        b[p + FEED_FORWARD_PARAMS.R_ff] = self.R_ff
 
 
 def _tracking(kp: float, ki: float, tracking_time: float) -> float:
@@ -288,16 +323,16 @@ class SpeedPI(Law):
     anti_windup: str = "back-calculation"
     tracking_time: float = 0.0
 
-    KIND: ClassVar[int] = L.LAW_PI
+    KIND: ClassVar[int] = LAW_PI
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (*_PI_GAINS, _FEED_FORWARD, _SWITCH_ON,
                                                       *_WINDUP)  # fmt: skip
 
     def __post_init__(self) -> None:
         self._check_fields()
 
-    def pack(self, b: np.ndarray) -> None:
+    def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI without torque feedback (``z_gain = 0``, filters at rest)."""
-        _pack_pi(b, self, 0.0, 0.0, 0.0)
+        _pack_pi(b, at, self, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -341,7 +376,7 @@ class ZTorque(Law):
     anti_windup: str = "back-calculation"
     tracking_time: float = 0.0
 
-    KIND: ClassVar[int] = L.LAW_PI
+    KIND: ClassVar[int] = LAW_PI
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (
         *_PI_GAINS,
         Parameter(
@@ -363,21 +398,23 @@ class ZTorque(Law):
     def __post_init__(self) -> None:
         self._check_fields()
 
-    def pack(self, b: np.ndarray) -> None:
+    def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled PI with its torque feedback."""
-        _pack_pi(b, self, self.z_gain, self.omega_hp, self.omega_lp)
+        _pack_pi(b, at, self, self.z_gain, self.omega_hp, self.omega_lp)
 
 
-def _pack_pi(b: np.ndarray, law: SpeedPI | ZTorque, z_gain: float, w_hp: float, w_lp: float):
-    Law.pack(law, b)
-    p = L.B_LP
-    b[p + L.PI_KP] = law.kp
-    b[p + L.PI_KI] = law.ki
-    b[p + L.PI_ZGAIN] = z_gain
-    b[p + L.PI_WHP] = w_hp
-    b[p + L.PI_WLP] = w_lp
-    b[p + L.PI_AW] = ANTI_WINDUP.index(law.anti_windup)
-    b[p + L.PI_TT] = _tracking(law.kp, law.ki, law.tracking_time)
+def _pack_pi(
+    b: np.ndarray, at: int, law: SpeedPI | ZTorque, z_gain: float, w_hp: float, w_lp: float
+) -> None:
+    Law.pack(law, b, at)
+    p = at + LAW_SLOTS.p
+    b[p + PI_PARAMS.kp] = law.kp
+    b[p + PI_PARAMS.ki] = law.ki
+    b[p + PI_PARAMS.z_gain] = z_gain
+    b[p + PI_PARAMS.omega_hp] = w_hp
+    b[p + PI_PARAMS.omega_lp] = w_lp
+    b[p + PI_PARAMS.anti_windup] = ANTI_WINDUP.index(law.anti_windup)
+    b[p + PI_PARAMS.tracking_time] = _tracking(law.kp, law.ki, law.tracking_time)
 
 
 # --------------------------------------------------------------------------------------------
@@ -419,7 +456,7 @@ class SampledAffine(Law):
     on_saturation: str = "none"
     torque_gain: float = 0.0
 
-    KIND: ClassVar[int] = L.LAW_AFFINE
+    KIND: ClassVar[int] = LAW_AFFINE
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (
         *(
             Parameter(name, dim, f"State-feedback gain on x{i + 1} = {x} (Theorem 1)")
@@ -508,16 +545,16 @@ class SampledAffine(Law):
             torque_gain=values.get("torque_gain", 0.0),
         )
 
-    def pack(self, b: np.ndarray) -> None:
+    def pack(self, b: np.ndarray, at: int) -> None:
         """The compiled affine law: F, K0, R_ff, latch and saturation codes."""
-        Law.pack(self, b)
+        Law.pack(self, b, at)
         f = self.feedback
-        p = L.B_LP
-        b[p + L.AF_F : p + L.AF_F + 4] = f.F
-        b[p + L.AF_K0] = f.K0
-        b[p + L.AF_LATCH] = f.latch_code
-        b[p + L.AF_SAT] = SATURATION.index(self.on_saturation)
-        b[p + L.AF_G] = self.torque_gain
+        p = at + LAW_SLOTS.p
+        b[p + AFFINE_PARAMS.F : p + AFFINE_PARAMS.F + len(_GAIN)] = f.F
+        b[p + AFFINE_PARAMS.K0] = f.K0
+        b[p + AFFINE_PARAMS.latch] = f.latch_code
+        b[p + AFFINE_PARAMS.on_saturation] = SATURATION.index(self.on_saturation)
+        b[p + AFFINE_PARAMS.torque_gain] = self.torque_gain
 
 
 @dataclass(frozen=True)
@@ -527,11 +564,180 @@ class FeedForward(Law):
     R_ff: float = 0.0
     t_on: float = 0.0
 
-    KIND: ClassVar[int] = L.LAW_NONE
+    KIND: ClassVar[int] = LAW_NONE
     PARAMETERS: ClassVar[tuple[Parameter, ...]] = (_FEED_FORWARD, _SWITCH_ON)
 
     def __post_init__(self) -> None:
         self._check_fields()
+
+
+# --------------------------------------------------------------------------------------------
+# the laws' slots in the controller's block, generated from their tables
+# --------------------------------------------------------------------------------------------
+
+
+def _kind_params(name: str, law: type[Law]) -> Any:
+    """The ``p`` entries of a law kind: R_ff first (every kind has it), then the rest of the
+    kind's table in its order; ``t_on`` is the controller's own entry (its switch-on)."""
+    return block_layout(
+        name, (("R_ff", 1), *parameter_slots(law.PARAMETERS, skip=("R_ff", "t_on")))
+    )
+
+
+#: The parameters of each kind, offsets in the law's ``p`` entries. :class:`SpeedPI` is the PI
+#: kind of :class:`ZTorque`'s table with ``z_gain = 0`` (the same compiled law).
+FEED_FORWARD_PARAMS = _kind_params("FeedForwardParams", FeedForward)
+PI_PARAMS = _kind_params("PIParams", ZTorque)
+AFFINE_PARAMS = _kind_params("AffineParams", SampledAffine)
+#: The state of each kind, indices in the law's state tuple (its ``x`` entries): the PI's
+#: integral of the speed error, the high-pass's internal low-pass and the filtered torque; the
+#: affine law's latched references, its bit-angle state held while saturated and the hold flag.
+PI_STATE = block_layout("PIState", (("integral", 1), ("z", 1), ("y", 1)))
+AFFINE_STATE = block_layout(
+    "AffineState", (("phi_ref", 1), ("twist_ref", 1), ("x1", 1), ("hold", 1))
+)
+_N_P = max(k.size for k in (FEED_FORWARD_PARAMS, PI_PARAMS, AFFINE_PARAMS))
+_N_X = 4  # the compiled law's state is a tuple of this many floats
+assert max(PI_STATE.size, AFFINE_STATE.size) <= _N_X
+#: The law's section of the controller's block: the kind (``LAW_*``), the parameters of the
+#: kind, the state.
+LAW_SLOTS = block_layout("LawSlots", (("kind", 1), ("p", _N_P), ("x", _N_X)), state=("x",))
+
+
+# --------------------------------------------------------------------------------------------
+# the laws, compiled: on the block ``b`` whose law section (LAW_SLOTS) is at ``at``
+# --------------------------------------------------------------------------------------------
+
+inline = jit_for(__name__, inline=True)
+
+
+@inline
+def preset(kp: float, ki: float, e: float) -> float:
+    """The integral that makes ``kp*e + ki*I = 0``: bumpless transfer of a PI law (0 without
+    an integrator, ``ki = 0``)."""
+    return -kp * e / ki if ki > 0.0 else 0.0
+
+
+@inline
+def feed_forward(b, at):
+    """The law's feed-forward R_ff (31), what acts before its switch-on."""
+    return b[at + LAW_SLOTS.p + FEED_FORWARD_PARAMS.R_ff]
+
+
+@inline
+def law_state(b, at):
+    """The law's state as it is stored in its section (``x``)."""
+    x = at + LAW_SLOTS.x
+    return (b[x], b[x + 1], b[x + 2], b[x + 3])
+
+
+@inline
+def law_keep(b, at, x):
+    """Store the law's state ``x`` in its section."""
+    for i in range(_N_X):
+        b[at + LAW_SLOTS.x + i] = x[i]
+
+
+@inline
+def law_start(b, at, theta, dtheta, torque, phi, dphi):
+    """The law's state at switch-on from the measurements there (bumpless for each law).
+
+    PI: the integral preset for a continuous torque (``ki*I = -kp*e`` with ``e = -dtheta``),
+    the high-pass at rest on the current torque, the low-pass at 0. Affine: the references of
+    the latch mode (``docs/model.md``, "Bumpless switch-on").
+    """
+    kind = int(b[at + LAW_SLOTS.kind])
+    p = at + LAW_SLOTS.p
+    if kind == LAW_PI:
+        return (preset(b[p + PI_PARAMS.kp], b[p + PI_PARAMS.ki], -dtheta), torque, 0.0, 0.0)
+    if kind == LAW_AFFINE:
+        phi_ref, twist_ref = switch_on_references(
+            int(b[p + AFFINE_PARAMS.latch]), phi, theta, b[p + AFFINE_PARAMS.K0]
+        )
+        return (phi_ref, twist_ref, 0.0, 0.0)
+    return (0.0, 0.0, 0.0, 0.0)
+
+
+@inline
+def _gain(b, at):
+    f = at + LAW_SLOTS.p + AFFINE_PARAMS.F
+    return (b[f], b[f + 1], b[f + 2], b[f + 3])
+
+
+@inline
+def law_output(b, at, x, theta, dtheta, torque, phi, dphi):
+    """R - R0 the law commands for the state ``x`` and the measurements (pure).
+
+    PI: ``R_ff + kp*e + ki*I``, ``e = -dtheta - z_gain*y``; affine: (29)-(31) by
+    :func:`~drillstring.model.control.feedback_torque`, plus ``g*(torque + K0)``; none: R_ff.
+    """
+    kind = int(b[at + LAW_SLOTS.kind])
+    p = at + LAW_SLOTS.p
+    R_ff = b[p + FEED_FORWARD_PARAMS.R_ff]
+    if kind == LAW_PI:
+        e = -dtheta - b[p + PI_PARAMS.z_gain] * x[PI_STATE.y]
+        return R_ff + b[p + PI_PARAMS.kp] * e + b[p + PI_PARAMS.ki] * x[PI_STATE.integral]
+    if kind == LAW_AFFINE:
+        phi_ref = x[AFFINE_STATE.phi_ref]
+        if x[AFFINE_STATE.hold] != 0.0:
+            phi_ref = phi - x[AFFINE_STATE.x1]
+        K0 = b[p + AFFINE_PARAMS.K0]
+        r = feedback_torque(
+            0.0, phi, dphi, theta, dtheta, _gain(b, at), K0, R_ff, 0.0, phi_ref,
+            x[AFFINE_STATE.twist_ref],
+        )  # fmt: skip
+        g = b[p + AFFINE_PARAMS.torque_gain]
+        if g != 0.0:  # the string torque's deviation from steady drilling (-K0), fed back
+            r = r + g * (torque + K0)
+        return r
+    return R_ff
+
+
+@inline
+def law_update(b, at, x, theta, dtheta, torque, phi, dphi, Ts, r_cmd, r_lim):
+    """The state one sample period ``Ts`` later, the measurements held over it.
+
+    ``r_cmd`` is what the law commanded at the start of the period and ``r_lim`` what the top
+    drive made of it (its limits; equal when nothing limited it): the anti-windup and the
+    saturation behaviour of the affine law act only when they differ. PI: the integral by
+    forward Euler (back-calculation: plus ``(r_lim - r_cmd)/(ki*tracking_time)``; conditional:
+    only when the error drives the command back into range), both filters discretised exactly
+    for the torque held over the sample.
+    """
+    kind = int(b[at + LAW_SLOTS.kind])
+    p = at + LAW_SLOTS.p
+    if kind == LAW_PI:
+        ki = b[p + PI_PARAMS.ki]
+        integral, z, y = x[PI_STATE.integral], x[PI_STATE.z], x[PI_STATE.y]
+        e = -dtheta - b[p + PI_PARAMS.z_gain] * y
+        aw = int(b[p + PI_PARAMS.anti_windup])
+        if r_lim == r_cmd or ki <= 0.0:
+            integral = integral + Ts * e
+        elif aw == AW_BACK:
+            integral = integral + Ts * (e + (r_lim - r_cmd) / (ki * b[p + PI_PARAMS.tracking_time]))
+        elif aw == AW_COND:
+            # integrate only when the error drives the command back into the range
+            if (r_cmd > r_lim and e < 0.0) or (r_cmd < r_lim and e > 0.0):
+                integral = integral + Ts * e
+        else:
+            integral = integral + Ts * e
+        hp = torque - z
+        a_hp = -math.expm1(-b[p + PI_PARAMS.omega_hp] * Ts)
+        a_lp = -math.expm1(-b[p + PI_PARAMS.omega_lp] * Ts)
+        return (integral, z + a_hp * (torque - z), y + a_lp * (hp - y), 0.0)
+    if kind == LAW_AFFINE:
+        if int(b[p + AFFINE_PARAMS.on_saturation]) != SAT_FREEZE:
+            return x
+        phi_ref, twist_ref = x[AFFINE_STATE.phi_ref], x[AFFINE_STATE.twist_ref]
+        x1, hold = x[AFFINE_STATE.x1], x[AFFINE_STATE.hold]
+        if r_lim != r_cmd:
+            if hold == 0.0:
+                return (phi_ref, twist_ref, phi - phi_ref, 1.0)
+            return x
+        if hold != 0.0:  # the saturation ended: the reference moves so that x1 goes on from x1
+            return (phi - x1, twist_ref, 0.0, 0.0)
+        return x
+    return x
 
 
 _LAW_CLASSES: dict[str, type[Law]] = {

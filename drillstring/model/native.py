@@ -16,13 +16,13 @@ fmu_output`) on its block, as the controller FMU's Python path does.
 
 Every entry point takes ``(io, args, t, h)``: ``io`` is a float64 block shared by the Python
 slave and the front layer (layout: :data:`PLANT` for the plant, the digital controller's block
-:mod:`drillstring.model.digital.layout` for the controller; the four ``IO_*`` slots begin every
-block), ``args`` the addresses of the
-kernel's arrays (:class:`~drillstring.model.kernel.state.KernelState` order, for the plant;
-unused by the controller). A step returns :data:`DONE` (served: the outputs are in ``io``),
-:data:`NOT_STARTED` (nothing changed: the Python path serves the call, with its checks and
-messages) or :data:`RESUME` (``io[IO_RESUME]`` is a kernel status the Python path must finish:
-a full history buffer, a stop of the model, a warning to log).
+:data:`drillstring.model.digital.layout.BLOCK` for the controller; the four ``IO_*`` slots begin
+every block; both laid out by :func:`drillstring.model.tables.block_layout`), ``args`` the
+addresses of the kernel's arrays (:class:`~drillstring.model.kernel.state.KernelState` order,
+for the plant; unused by the controller). A step returns :data:`DONE` (served: the outputs are
+in ``io``), :data:`NOT_STARTED` (nothing changed: the Python path serves the call, with its
+checks and messages) or :data:`RESUME` (``io[IO_RESUME]`` is a kernel status the Python path
+must finish: a full history buffer, a stop of the model, a warning to log).
 
 The entry points are compiled at their first use (a process that never steps an FMU compiles
 nothing). numba caches compiled code keyed by this file alone; the cache of this module is
@@ -33,7 +33,6 @@ Python path only.
 
 from __future__ import annotations
 
-import collections
 import math
 from pathlib import Path
 from typing import Any
@@ -43,10 +42,11 @@ import numpy as np
 from drillstring.model import params as _params
 from drillstring.model import units as _units
 from drillstring.model.digital import block as _block
-from drillstring.model.digital import layout as _layout
+from drillstring.model.digital.layout import BLOCK as _BLOCK
 from drillstring.model.kernel import jit as _jit
 from drillstring.model.kernel import state as S
 from drillstring.model.kernel import stepper as _stepper
+from drillstring.model.tables import block_layout
 
 __all__ = [
     "AVAILABLE",
@@ -56,7 +56,6 @@ __all__ = [
     "PLANT_IO_SIZE",
     "RESUME",
     "controller_functions",
-    "io_layout",
     "plant_functions",
     "plant_io_step",
     "plant_step_from",
@@ -80,30 +79,6 @@ IO_BASE = 4
 # --- the plant's io ---------------------------------------------------------------------------
 
 
-def io_layout(name: str, table: tuple[tuple[str, int], ...]) -> Any:
-    """The offsets of the entries of an io block laid out as ``table``.
-
-    Parameters
-    ----------
-    name : str
-        The name of the layout (of its named-tuple class).
-    table : tuple of (str, int)
-        The block's entries in order: name and size (slots of float64).
-
-    Returns
-    -------
-    namedtuple
-        The offset of each entry by its name, and ``size``, the length of the block (numba
-        reads such a tuple as constants).
-    """
-    offsets, at = [], 0
-    for _, size in table:
-        offsets.append(at)
-        at += size
-    layout = collections.namedtuple(name, [entry for entry, _ in table] + ["size"])
-    return layout(*offsets, at)
-
-
 #: Entries of the io block that every FMU's begins with (the ``IO_*`` slots).
 COMMON_IO = (("stale", 1), ("resume", 1), ("time", 1), ("nsteps", 1))
 N_K = 12
@@ -117,7 +92,7 @@ PLANT_SI_KEYS = (
     *(q.name for q in _units.PLANT_SI), "mode", "stick_events", "bit_bounce", "torsional_stick"
 )  # fmt: skip
 #: The plant's io block, entry by entry.
-PLANT = io_layout(
+PLANT = block_layout(
     "PlantIO",
     (
         *COMMON_IO,
@@ -140,7 +115,7 @@ assert S.OUTPUT_COLUMNS == ("tau", *PLANT_SCALED_KEYS[: S.OUT_SIZE - 1]), "a ker
 
 # --- the controller's io: the block of drillstring.model.digital.layout (its first four entries are
 # the IO_* slots above)
-assert (_layout.B_STALE, _layout.B_RESUME, _layout.B_TIME, _layout.B_NSTEPS) == (
+assert (_BLOCK.stale, _BLOCK.resume, _BLOCK.time, _BLOCK.nsteps) == (
     IO_STALE,
     IO_RESUME,
     IO_TIME,
@@ -233,7 +208,7 @@ def controller_functions() -> tuple[int, int]:
     """(step, outputs) addresses of the controller FMUs' native functions.
 
     The controller's io block is the digital controller's block
-    (:mod:`drillstring.model.digital.layout`); the step is
+    (:data:`drillstring.model.digital.layout.BLOCK`); the step is
     :func:`drillstring.model.digital.block.fmu_step`, the outputs function
     :func:`~drillstring.model.digital.block.fmu_output`, the very functions the controller FMU's
     Python path calls. Both are compiled (or loaded from numba's cache) at the first call.
@@ -393,12 +368,12 @@ if AVAILABLE:
 
     def ctrl_outputs(io_p, args, t, h):
         # ControllerFmu.output_values: the block's fmu_output
-        _block.fmu_output(carray(io_p, (_layout.B_SIZE,)))
+        _block.fmu_output(carray(io_p, (_BLOCK.size,)))
         return DONE
 
     def ctrl_step(io_p, args, t, h):
         # ControllerFmu.advance: the block's fmu_step
-        _block.fmu_step(carray(io_p, (_layout.B_SIZE,)), t, h)
+        _block.fmu_step(carray(io_p, (_BLOCK.size,)), t, h)
         return DONE
 
     _ENTRY_POINTS.update(plant_step=plant_step, ctrl_outputs=ctrl_outputs, ctrl_step=ctrl_step)

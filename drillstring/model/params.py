@@ -95,6 +95,7 @@ __all__ = [
     "load_params",
     "params_from_spec",
     "read_params",
+    "rig_from_spec",
     "save_params",
 ]
 
@@ -942,6 +943,36 @@ def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:
     if path.suffix.lower() in _SUFFIXES or path.exists():
         return load_params(path)
     return get_params(str(spec))
+
+
+def rig_from_spec(spec: str | os.PathLike[str]) -> PhysicalParams | None:
+    """The physical rig of a parameter set named as :func:`params_from_spec` takes it.
+
+    Parameters
+    ----------
+    spec : str or path-like
+        A key of :data:`KNOWN_PARAMS`, or a parameter file.
+
+    Returns
+    -------
+    PhysicalParams or None
+        A physical set (a key of :data:`KNOWN_PHYSICAL`, a physical file) as it is; for a scaled
+        one the known rig whose scaled set it is (:func:`known_rig`), else None.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`params_from_spec`.
+    """
+    if isinstance(spec, str) and spec in KNOWN_PHYSICAL:
+        return KNOWN_PHYSICAL[spec]
+    path = Path(spec)
+    named = isinstance(spec, str) and spec in KNOWN_PARAMS
+    if not named and (path.suffix.lower() in _SUFFIXES or path.exists()):
+        read = read_params(path)
+        if isinstance(read, PhysicalParams):
+            return read
+    return known_rig(params_from_spec(spec))
 
 
 # --------------------------------------------------------------------------------------------

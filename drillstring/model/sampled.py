@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from drillstring.model.digital.controller import DigitalController
-from drillstring.model.digital.layout import B_RHO
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.digital.loop import EXTRA_COLUMNS, ROW_SIZE, run_sampled_from
 from drillstring.model.engine import Engine, EngineOptions, InitialState, Status
 from drillstring.model.experiments import DEFAULT_DT_OUT
@@ -164,7 +164,7 @@ def simulate_sampled(
     block = controller.block(params)
     if not engine.string.is_paper:
         # the motor-torque estimate's inertia: the table node's, rho + kappa/(2N)
-        block[B_RHO] = torsional_chain(engine.string, params.rho).inertia[0]
+        block[BLOCK.rho] = torsional_chain(engine.string, params.rho).inertia[0]
     rows = np.empty((n // every + 2, ROW_SIZE))
     acc = np.array([-math.inf, math.inf, 0.0, 0.0])
     k, i = 0, 0

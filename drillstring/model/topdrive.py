@@ -3,9 +3,29 @@ law (``docs/controllers.md``, "The top drive").
 
 :class:`TopDrive` is the rating in the paper's scaled units (absolute table torque R/C, table
 speed dTheta/dtau, time tau); :func:`top_drive` converts a named SI rating (:class:`Rating`,
-e.g. :data:`TDS_11SA`) on a rig. The compiled model is :mod:`drillstring.model.digital.drive`:
-the torque range, the power limit |R Omega| <= P_max, the speed range, braking (four-quadrant or
-none), and a first-order drive lag or a torque rate limit.
+e.g. :data:`TDS_11SA`) on a rig. Below them, the model compiled (:func:`envelope`,
+:func:`actuate`, :func:`drive_commit`, in the subset numba compiles) on the top drive's section
+of the controller's block (:data:`TOP_DRIVE_SLOTS`): the torque range, the power limit |R Omega|
+<= P_max, the speed range, braking (four-quadrant or none), and a first-order drive lag or a
+torque rate limit.
+
+At a sample instant tau with the table speed Omega = omega0 + dtheta/dtau (absolute, scaled):
+
+1. the envelope [lo, hi] of absolute torques R/C the drive can deliver at Omega
+   (:func:`envelope`);
+2. the limited command: the command R0 + r clipped into the envelope, then into the rate limit
+   ``|R - R_prev| <= rate*dt`` from the torque of the previous sample, dt the period since it;
+3. the applied torque: with a lag of time constant T, ``R = R_prev + (1 - exp(-dt/T))*(R_lim -
+   R_prev)`` (the lag driven by the limited command over the last interval), clipped into the
+   envelope again.
+
+dt is the sample period the previous sample was committed with (the step a master took from
+it), not a difference of times: a host's clock and a communication point that differ by
+rounding give the same torque.
+
+The applied torque is held over the sample like any digital controller's output. Without a top
+drive model (``on`` 0) the command is applied as it is; when nothing limits it the command is
+returned exactly (not R0 + r - R0, which can differ from r by rounding).
 """
 
 from __future__ import annotations
@@ -18,12 +38,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from drillstring.model.digital import layout as L
-from drillstring.model.tables import Parameter, Scales, table_from_si, table_to_si
+from drillstring.model.kernel.jit import jit_for
+from drillstring.model.tables import (
+    Parameter,
+    Scales,
+    block_layout,
+    parameter_slots,
+    table_from_si,
+    table_to_si,
+)
 from drillstring.validation import check_choice, check_real
 
-__all__ = ["BRAKING", "RATINGS", "RPM", "Rating", "TDS_11SA", "TopDrive", "top_drive",
-           "top_drive_from_spec"]  # fmt: skip
+__all__ = ["BRAKING", "RATINGS", "RPM", "TOP_DRIVE_SLOTS", "Rating", "TDS_11SA", "TopDrive",
+           "actuate", "drive_commit", "envelope", "top_drive", "top_drive_from_spec"]  # fmt: skip
 
 #: Braking: "four-quadrant" (torque of either sign at any speed: a drive with braking
 #: resistors or a regenerative supply) or "none" (no torque against the rotation).
@@ -141,18 +168,26 @@ class TopDrive:
         """
         return cls(**table_from_si("TopDrive.from_si", cls.PARAMETERS, values, scales))
 
-    def pack(self, b: np.ndarray) -> None:
-        """Write the limits into the block ``b`` (``TD`` entries) and switch the model on."""
-        t = L.B_TD
-        b[t + L.TD_ON] = 1.0
-        b[t + L.TD_RMIN] = self.R_min
-        b[t + L.TD_RMAX] = self.R_max
-        b[t + L.TD_RATE] = self.rate
-        b[t + L.TD_LAG] = self.lag
-        b[t + L.TD_PMAX] = self.P_max
-        b[t + L.TD_WMIN] = self.omega_min
-        b[t + L.TD_WMAX] = self.omega_max
-        b[t + L.TD_BRAKE] = 1.0 if self.braking == "four-quadrant" else 0.0
+    def pack(self, b: np.ndarray, at: int) -> None:
+        """Write the limits into the controller's block ``b``, whose top-drive section
+        (:data:`TOP_DRIVE_SLOTS`) is at ``at``, and switch the model on."""
+        b[at + TOP_DRIVE_SLOTS.on] = 1.0
+        for p in self.PARAMETERS:
+            if not p.choices:
+                b[at + getattr(TOP_DRIVE_SLOTS, p.name)] = getattr(self, p.name)
+        # 1: four-quadrant, 0: no torque against the rotation
+        b[at + TOP_DRIVE_SLOTS.braking] = 1.0 if self.braking == "four-quadrant" else 0.0
+
+
+#: The top drive's section of the controller's block: its switch (0: no top-drive model, the
+#: command applied as it is), one slot per :attr:`TopDrive.PARAMETERS` entry, then its state:
+#: the applied absolute torque ``R`` at the last committed sample, the time ``t`` of that
+#: sample, ``init`` (1 once a sample has been committed) and its sample period ``dt``.
+TOP_DRIVE_SLOTS = block_layout(
+    "TopDriveSlots",
+    (("on", 1), *parameter_slots(TopDrive.PARAMETERS), ("R", 1), ("t", 1), ("init", 1), ("dt", 1)),
+    state=("R", "t", "init", "dt"),
+)
 
 
 @dataclass(frozen=True)
@@ -284,3 +319,81 @@ def top_drive_from_spec(spec: str, R0: float, scales: Scales | None = None) -> T
         f"top drive {spec!r}: expected a rating ({', '.join(RATINGS)}), a multiple of the "
         "nominal torque ('50R0') or a torque in N m ('52kNm', '52000Nm'), positive"
     )
+
+
+# --------------------------------------------------------------------------------------------
+# the top drive, compiled: on the block ``b`` whose top-drive section (TOP_DRIVE_SLOTS) is at ``at``
+# --------------------------------------------------------------------------------------------
+
+inline = jit_for(__name__, inline=True)
+
+
+@inline
+def envelope(b, at, omega):
+    """(lo, hi): the absolute torques R/C the top drive can deliver at the table speed ``omega``.
+
+    The torque range; the power limit ``|R*omega| <= P_max``; without braking no torque against
+    the rotation (``R >= 0`` while ``omega > 0``, ``R <= 0`` while ``omega < 0``); no torque
+    that drives the table further out of its speed range (``R <= 0`` at or above ``omega_max``,
+    ``R >= 0`` at or below ``omega_min``). Where these exclude each other the upper bound wins.
+    """
+    lo = b[at + TOP_DRIVE_SLOTS.R_min]
+    hi = b[at + TOP_DRIVE_SLOTS.R_max]
+    p_max = b[at + TOP_DRIVE_SLOTS.P_max]
+    w = abs(omega)
+    if p_max < math.inf and w > 0.0:
+        limit = p_max / w
+        hi = min(hi, limit)
+        lo = max(lo, -limit)
+    if b[at + TOP_DRIVE_SLOTS.braking] == 0.0:
+        if omega > 0.0:
+            lo = max(lo, 0.0)
+        elif omega < 0.0:
+            hi = min(hi, 0.0)
+    if omega >= b[at + TOP_DRIVE_SLOTS.omega_max]:
+        hi = min(hi, 0.0)
+    if omega <= b[at + TOP_DRIVE_SLOTS.omega_min]:
+        lo = max(lo, 0.0)
+    if lo > hi:
+        lo = hi
+    return lo, hi
+
+
+@inline
+def actuate(b, at, omega0, R0, r_cmd, dtheta):
+    """(r_lim, r_app, R): the limited command and the applied torque R - R0 for the command
+    ``r_cmd`` = R - R0 at the table speed ``omega0 + dtheta`` (``omega0``, ``R0``: the
+    operating point), and the applied absolute torque R/C (pure: the drive's state is committed
+    by :func:`drive_commit`)."""
+    if b[at + TOP_DRIVE_SLOTS.on] == 0.0:
+        return r_cmd, r_cmd, R0 + r_cmd
+    lo, hi = envelope(b, at, omega0 + dtheta)
+    R_cmd = R0 + r_cmd
+    R = min(max(R_cmd, lo), hi)
+    if b[at + TOP_DRIVE_SLOTS.init] != 0.0:
+        R_prev = b[at + TOP_DRIVE_SLOTS.R]
+        dt = b[at + TOP_DRIVE_SLOTS.dt]
+        rate = b[at + TOP_DRIVE_SLOTS.rate]
+        if rate < math.inf:
+            R = min(max(R, R_prev - rate * dt), R_prev + rate * dt)
+        R_lim = R
+        T = b[at + TOP_DRIVE_SLOTS.lag]
+        if T > 0.0:
+            R = R_prev - math.expm1(-dt / T) * (R - R_prev)
+            R = min(max(R, lo), hi)
+    else:
+        R_lim = R
+    r_lim = r_cmd if R_lim == R_cmd else R_lim - R0
+    r_app = r_cmd if R == R_cmd else R - R0
+    return r_lim, r_app, R
+
+
+@inline
+def drive_commit(b, at, tau, R, Ts):
+    """Commit the sample ``tau`` (period ``Ts``) at which the drive applied the absolute torque
+    ``R`` (nothing without a top-drive model)."""
+    if b[at + TOP_DRIVE_SLOTS.on] != 0.0:
+        b[at + TOP_DRIVE_SLOTS.R] = R
+        b[at + TOP_DRIVE_SLOTS.t] = tau
+        b[at + TOP_DRIVE_SLOTS.dt] = Ts
+        b[at + TOP_DRIVE_SLOTS.init] = 1.0

@@ -4,8 +4,8 @@
  * Warnings, discards and errors always reach the host, info only when logging is on for its
  * category. The Python slave reports problems as log messages (it never raises into pythonfmu):
  * each message's status counts into the status of the call in which it is logged
- * (Component.call_status, see ds_finish in front.c). The message of a discarded step comes with
- * the time the FMU reached, as a double (for fmi2LastSuccessfulTime, see fmi2DoStep in front.c).
+ * (Component.call_status, see ds_finish in machine.c). The message of a discarded step comes with
+ * the time the FMU reached, as a double (for the last successful time, see ds_do_step in machine.c).
  */
 #include "drillstring_fmi2.h"
 
@@ -33,15 +33,31 @@ const char *ds_status_category(fmi2Status status)
 }
 
 /* Forward one message to the host: always for warnings and worse, info only when logging is on
-   for its category. '%' is doubled: hosts format the message as a printf format. */
+   for its category. FMI 2.0: '%' is doubled, hosts format the message as a printf format; FMI 3.0
+   passes the message as it is. */
 void ds_emit(Component *c, fmi2Status status, const char *category, const char *message)
 {
-    if (!c->host.logger) return;
+    if (!c->host.logger && !c->log3) return;
     if (!category || ds_category_index(category) < 0) category = ds_status_category(status);
     if (status == fmi2OK || status == fmi2Pending) {
         const int i = ds_category_index(category), all = ds_category_index("logAll");
         if (!c->logging_on || !(c->category_on[i] || (all >= 0 && c->category_on[all]))) return;
     }
+#ifdef DS_FMI3
+    if (c->log3) {
+        /* the Python slave names the FMI 2.0 call pythonfmu made ("fmi2DoStep: ..."): the host
+           reads the name of its FMI 3.0 call instead; FMI 3.0 has no status fmi2Pending */
+        const int fmi2 = strncmp(message, "fmi2", 4) == 0;
+        const size_t k = fmi2 ? 4 + strspn(message + 4, "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                                         "abcdefghijklmnopqrstuvwxyz") : 0;
+        char *renamed = fmi2 && message[k] == ':' && c->call
+                            ? ds_strf("%s%s", c->call, message + k) : NULL;
+        c->log3(c->host.componentEnvironment, status == fmi2Pending ? fmi2OK : status, category,
+                renamed ? renamed : message);
+        free(renamed);
+        return;
+    }
+#endif
     size_t n = 1;
     for (const char *p = message; *p; ++p) n += (*p == '%') ? 2 : 1;
     char *text = malloc(n);

@@ -505,7 +505,7 @@ static int ensure_python(Component *c, const char *resources)
         return 0;
     }
     if (g_python_failure[0]) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: no Python for this FMU in this process (found "
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": no Python for this FMU in this process (found "
                 "at an earlier instantiation): %s", g_python_failure);
         return -1;
     }
@@ -513,7 +513,7 @@ static int ensure_python(Component *c, const char *resources)
     Runtime *rt = NULL;
     int result = -1;
     if (!err) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": out of memory");
         return -1; /* not remembered */
     }
     if (!(rt = read_runtime(resources, err, ERR_LEN))) goto fail;
@@ -523,12 +523,12 @@ static int ensure_python(Component *c, const char *resources)
     if (!present) {
         where = dlopen(rt->libpython, RTLD_NOW | RTLD_GLOBAL);
         if (!where && rt->bundled) {
-            ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load the FMU's bundled libpython "
+            ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": cannot load the FMU's bundled libpython "
                     "'%s': %s", rt->libpython, dlerror());
             goto done;
         }
         if (!where) {
-            ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load libpython '%s': %s (set "
+            ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": cannot load libpython '%s': %s (set "
                     "DRILLSTRING_FMU_LIBPYTHON to the libpython%s.so of a Python %s with numpy)",
                     rt->libpython, dlerror(), rt->version, rt->version);
             goto done; /* not remembered: the environment may be fixed for the next attempt */
@@ -543,7 +543,7 @@ static int ensure_python(Component *c, const char *resources)
         g_python_started_here = 1;
         for (int i = 0; i < rt->n_sites; ++i)
             if (!ds_is_dir(rt->sites[i]))
-                ds_logf(c, fmi2Warning, "fmi2Instantiate: site-packages folder '%s' does not exist "
+                ds_logf(c, fmi2Warning, DS_FN_INSTANTIATE ": site-packages folder '%s' does not exist "
                         "(%s)", rt->sites[i], rt->bundled ? "unpack the whole FMU"
                                                           : "set DRILLSTRING_FMU_SITE_PACKAGES");
         char *sites = joined_sites(rt);
@@ -560,7 +560,7 @@ static int ensure_python(Component *c, const char *resources)
     goto done;
 fail:
     ds_format(g_python_failure, sizeof g_python_failure, "%s", err);
-    ds_logf(c, fmi2Error, "fmi2Instantiate: %s", err);
+    ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": %s", err);
 done:
     runtime_free(rt);
     free(err);
@@ -582,14 +582,14 @@ static int load_pythonfmu(Component *c)
     if (ds_pf.lib) return 0;
     Dl_info info;
     if (!dladdr((void *)&load_pythonfmu, &info) || !info.dli_fname) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: cannot locate the FMU's own library");
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": cannot locate the FMU's own library");
         return -1;
     }
     const char *slash = strrchr(info.dli_fname, '/');
     const int dir = slash ? (int)(slash - info.dli_fname + 1) : 0;
     char *path = ds_strf("%.*s%s_pythonfmu.so", dir, info.dli_fname, DS_MODEL_IDENTIFIER);
     if (!path) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": out of memory");
         return -1;
     }
     const int ok = load_library(c, path, info.dli_fname);
@@ -604,13 +604,13 @@ static int load_library(Component *c, const char *path, const char *self)
     dlopen(self, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
     void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
     if (!lib) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: cannot load pythonfmu's library %s: %s", path,
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": cannot load pythonfmu's library %s: %s", path,
                 dlerror());
         return -1;
     }
 #define LOAD(field, name)                                                                          \
     if (!(ds_pf.field = (__typeof__(ds_pf.field))dlsym(lib, name))) {                              \
-        ds_logf(c, fmi2Error, "fmi2Instantiate: %s lacks %s", path, name);                         \
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": %s lacks %s", path, name);                         \
         return -1;                                                                                 \
     }
     LOAD(Instantiate, "fmi2Instantiate")
@@ -639,7 +639,7 @@ static int load_library(Component *c, const char *path, const char *self)
 #undef LOAD
     /* after the library's static constructors: runs before its static destructors at exit */
     if (__cxa_atexit(exit_guard, NULL, NULL) != 0) {
-        ds_logf(c, fmi2Error, "fmi2Instantiate: cannot register the exit guard of %s", path);
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": cannot register the exit guard of %s", path);
         return -1;
     }
     ds_pf.lib = lib;
@@ -669,20 +669,20 @@ static char *boot(Component *c, const char *resources)
     PyObject *dir = py.PyUnicode_DecodeFSDefault(resources);
     if (!sys_path || !dir || py.PyList_Insert(sys_path, 0, dir) != 0) {
         py.Py_DecRef(dir);
-        log_python_error(c, "fmi2Instantiate", "cannot put the resources folder on sys.path");
+        log_python_error(c, DS_FN_INSTANTIATE, "cannot put the resources folder on sys.path");
         return NULL;
     }
     py.Py_DecRef(dir);
     PyObject *module = py.PyImport_ImportModule(BOOT_MODULE);
     if (!module) {
-        log_python_error(c, "fmi2Instantiate", "cannot import " BOOT_MODULE);
+        log_python_error(c, DS_FN_INSTANTIATE, "cannot import " BOOT_MODULE);
         return NULL;
     }
     PyObject *result = py.PyObject_CallMethod(module, "prepare", "ssi", resources, DS_ENTRY_MODULE,
                                               !g_python_started_here);
     py.Py_DecRef(module);
     if (!result) {
-        log_python_error(c, "fmi2Instantiate", BOOT_MODULE ".prepare failed");
+        log_python_error(c, DS_FN_INSTANTIATE, BOOT_MODULE ".prepare failed");
         return NULL;
     }
     PyObject *path = py.PyTuple_GetItem(result, 0), *records = py.PyTuple_GetItem(result, 1);
@@ -701,7 +701,7 @@ static char *boot(Component *c, const char *resources)
     }
     const char *p = path ? py.PyUnicode_AsUTF8(path) : NULL; /* None: failed */
     char *out = p ? strdup(p) : NULL;
-    if (p && !out) ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+    if (p && !out) ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": out of memory");
     py.PyErr_Clear();
     py.Py_DecRef(result);
     return out;
@@ -771,7 +771,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     PyObject *sys_path = py.PySys_GetObject("path");
     PyObject *saved = sys_path ? py.PyList_GetSlice(sys_path, 0, PY_SSIZE_T_MAX) : NULL;
     if (saved) for_pythonfmu = boot(c, resources);
-    const int booted = for_pythonfmu && boot_call(c, "fmi2Instantiate", "begin_instance") == 0;
+    const int booted = for_pythonfmu && boot_call(c, DS_FN_INSTANTIATE, "begin_instance") == 0;
     /* pythonfmu 0.7.0 releases a borrowed reference to the entry module's dictionary at each
        instantiation (findClass: Py_DECREF of PyModule_GetDict's result); that dictionary has one
        reference (its module), so it would be freed under the module: lend it one beforehand */
@@ -781,7 +781,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     py.PyGILState_Release(gil);
 
     if (booted && !(uri = ds_strf("file://%s", for_pythonfmu)))
-        ds_logf(c, fmi2Error, "fmi2Instantiate: out of memory");
+        ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": out of memory");
     const int called = uri != NULL;
     if (called)
         c->inner = ds_pf.Instantiate(c->name, fmi2CoSimulation, guid, uri, &c->callbacks, visible,
@@ -789,7 +789,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
     free(uri);
 
     gil = py.PyGILState_Ensure();
-    if (booted) boot_call(c, "fmi2Instantiate", "end_instance");
+    if (booted) boot_call(c, DS_FN_INSTANTIATE, "end_instance");
     if (dict && Py_REFCNT(dict) > refs) py.Py_DecRef(dict); /* not taken: a pythonfmu without
                                                                    that defect, or it failed */
     if (saved) { /* sys.path as it was: pythonfmu and the boot module added to it */
@@ -805,7 +805,7 @@ int ds_python_instantiate(Component *c, const char *resources, fmi2String guid,
 
     if (!c->inner) {
         if (called)
-            ds_logf(c, fmi2Error, "fmi2Instantiate: pythonfmu could not create the slave (see the "
+            ds_logf(c, fmi2Error, DS_FN_INSTANTIATE ": pythonfmu could not create the slave (see the "
                     "message before)");
         return -1;
     }
@@ -821,7 +821,7 @@ void ds_python_free(Component *c)
     /* the slave drops its model and the cycles through itself: pythonfmu's fmi2FreeInstance
        then frees it at once, not at some later run of Python's cyclic garbage collector */
     PyGILState_STATE gil = py.PyGILState_Ensure();
-    boot_call(c, "fmi2FreeInstance", "release");
+    boot_call(c, DS_FN("fmi2FreeInstance", "fmi3FreeInstance"), "release");
     py.PyErr_Clear();
     py.PyGILState_Release(gil);
     ds_pf.FreeInstance(c->inner);
@@ -835,13 +835,13 @@ fmi2Status ds_python_reset(Component *c)
     ds_fast_drop(c);
     /* pythonfmu's fmi2Reset replaces the slave: the old one released, the new one handed over */
     PyGILState_STATE gil = py.PyGILState_Ensure();
-    boot_call(c, "fmi2Reset", "release");
-    const int handed = boot_call(c, "fmi2Reset", "begin_instance") == 0;
+    boot_call(c, DS_FN("fmi2Reset", "fmi3Reset"), "release");
+    const int handed = boot_call(c, DS_FN("fmi2Reset", "fmi3Reset"), "begin_instance") == 0;
     py.PyErr_Clear();
     py.PyGILState_Release(gil);
     const fmi2Status s = ds_finish(c, ds_pf.Reset(c->inner));
     gil = py.PyGILState_Ensure();
-    if (handed) boot_call(c, "fmi2Reset", "end_instance");
+    if (handed) boot_call(c, DS_FN("fmi2Reset", "fmi3Reset"), "end_instance");
     py.PyErr_Clear();
     py.PyGILState_Release(gil);
     pthread_mutex_unlock(&g_lock);

@@ -18,6 +18,13 @@
 #include <stdio.h>
 
 #define STATE_MAGIC 0x44534649325354ULL
+/* the names of the calls, in the messages */
+#define FN_GET DS_FN("fmi2GetFMUstate", "fmi3GetFMUState")
+#define FN_SET DS_FN("fmi2SetFMUstate", "fmi3SetFMUState")
+#define FN_FREE DS_FN("fmi2FreeFMUstate", "fmi3FreeFMUState")
+#define FN_SIZE DS_FN("fmi2SerializedFMUstateSize", "fmi3SerializedFMUStateSize")
+#define FN_SERIALIZE DS_FN("fmi2SerializeFMUstate", "fmi3SerializeFMUState")
+#define FN_DESERIALIZE DS_FN("fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState")
 
 /* An FMU state: pythonfmu's state plus what the layer owns. */
 typedef struct State {
@@ -118,11 +125,11 @@ static int check_state(Component *c, const char *fn, const void *s)
 fmi2Status ds_state_get(Component *c, fmi2FMUstate *FMUstate)
 {
     if (!FMUstate) {
-        ds_logf(c, fmi2Error, "fmi2GetFMUstate: FMUstate is NULL");
+        ds_logf(c, fmi2Error, FN_GET ": FMUstate is NULL");
         return fmi2Error;
     }
     State *s = *FMUstate;
-    if (s && !check_state(c, "fmi2GetFMUstate (to overwrite)", s)) return fmi2Error;
+    if (s && !check_state(c, FN_GET " (to overwrite)", s)) return fmi2Error;
     fmi2FMUstate inner = NULL;
     ds_fast_drop(c);
     const fmi2Status st = ds_finish(c, ds_pf.GetFMUstate(c->inner, &inner));
@@ -136,7 +143,7 @@ fmi2Status ds_state_get(Component *c, fmi2FMUstate *FMUstate)
         s = calloc(1, sizeof *s);
         if (!s) {
             ds_pf.FreeFMUstate(c->inner, &inner);
-            ds_logf(c, fmi2Error, "fmi2GetFMUstate: out of memory");
+            ds_logf(c, fmi2Error, FN_GET ": out of memory");
             return fmi2Error;
         }
         s->magic = STATE_MAGIC;
@@ -152,7 +159,7 @@ fmi2Status ds_state_get(Component *c, fmi2FMUstate *FMUstate)
 
 fmi2Status ds_state_set(Component *c, fmi2FMUstate FMUstate)
 {
-    if (!check_state(c, "fmi2SetFMUstate", FMUstate)) return fmi2Error;
+    if (!check_state(c, FN_SET, FMUstate)) return fmi2Error;
     State *s = FMUstate;
     ds_fast_drop(c);
     const fmi2Status st = ds_finish(c, ds_pf.SetFMUstate(c->inner, s->inner));
@@ -166,7 +173,7 @@ fmi2Status ds_state_set(Component *c, fmi2FMUstate FMUstate)
 fmi2Status ds_state_free(Component *c, fmi2FMUstate *FMUstate)
 {
     if (!FMUstate || !*FMUstate) return fmi2OK;
-    if (!check_state(c, "fmi2FreeFMUstate", *FMUstate)) return fmi2Error;
+    if (!check_state(c, FN_FREE, *FMUstate)) return fmi2Error;
     State *s = *FMUstate;
     const fmi2Status st = ds_finish(c, ds_pf.FreeFMUstate(c->inner, &s->inner));
     state_remove(s);
@@ -190,9 +197,9 @@ static uint64_t checksum(const StateHeader *h, const void *payload)
 
 fmi2Status ds_state_size(Component *c, fmi2FMUstate FMUstate, size_t *size)
 {
-    if (!check_state(c, "fmi2SerializedFMUstateSize", FMUstate)) return fmi2Error;
+    if (!check_state(c, FN_SIZE, FMUstate)) return fmi2Error;
     if (!size) {
-        ds_logf(c, fmi2Error, "fmi2SerializedFMUstateSize: size is NULL");
+        ds_logf(c, fmi2Error, FN_SIZE ": size is NULL");
         return fmi2Error;
     }
     size_t n = 0;
@@ -206,15 +213,15 @@ fmi2Status ds_state_size(Component *c, fmi2FMUstate FMUstate, size_t *size)
 fmi2Status ds_state_serialize(Component *c, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
                               size_t size)
 {
-    if (!check_state(c, "fmi2SerializeFMUstate", FMUstate)) return fmi2Error;
+    if (!check_state(c, FN_SERIALIZE, FMUstate)) return fmi2Error;
     State *s = FMUstate;
     size_t n = 0;
     ds_fast_drop(c);
     fmi2Status st = ds_finish(c, ds_pf.SerializedFMUstateSize(c->inner, s->inner, &n));
     if (st > fmi2Warning) return st;
     if (!serializedState || size != sizeof(StateHeader) + n) {
-        ds_logf(c, fmi2Error, "fmi2SerializeFMUstate: buffer of %zu bytes%s, the state needs %zu "
-                "(fmi2SerializedFMUstateSize)", size, serializedState ? "" : " (NULL)",
+        ds_logf(c, fmi2Error, FN_SERIALIZE ": buffer of %zu bytes%s, the state needs %zu "
+                "(" FN_SIZE ")", size, serializedState ? "" : " (NULL)",
                 sizeof(StateHeader) + n);
         return fmi2Error;
     }
@@ -239,13 +246,13 @@ fmi2Status ds_state_serialize(Component *c, fmi2FMUstate FMUstate, fmi2Byte seri
 fmi2Status ds_state_deserialize(Component *c, const fmi2Byte serializedState[], size_t size,
                                 fmi2FMUstate *FMUstate)
 {
-    const char *fn = "fmi2DeSerializeFMUstate";
+    const char *fn = FN_DESERIALIZE;
     if (!FMUstate || !serializedState) {
         ds_logf(c, fmi2Error, "%s: %s is NULL", fn, FMUstate ? "serializedState" : "FMUstate");
         return fmi2Error;
     }
     State *s = *FMUstate;
-    if (s && !check_state(c, "fmi2DeSerializeFMUstate (to overwrite)", s)) return fmi2Error;
+    if (s && !check_state(c, FN_DESERIALIZE " (to overwrite)", s)) return fmi2Error;
     StateHeader h;
     if (size < sizeof h || memcmp(serializedState, STATE_HEADER_MAGIC, sizeof h.magic) != 0) {
         ds_logf(c, fmi2Error, "%s: %zu bytes that are not a serialized FMU state of a drillstring "

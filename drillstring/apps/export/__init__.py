@@ -1,7 +1,8 @@
 """The build of the drillstring FMUs and SSP packages (``python build_fmus.py`` in a source
 checkout, ``drillstring fmus`` where the package is installed).
 
-Six FMI 2.0 co-simulation FMUs from two scripts (:mod:`drillstring.apps.export.specs`):
+Six FMI 2.0 co-simulation FMUs, and their FMI 3.0 twins (``X3.fmu``, ``--fmi``), from two
+scripts (:mod:`drillstring.apps.export.specs`):
 ``fmu_src/drillstring_plant.py`` (class ``PlantFmu``: ``DrillStringPlant`` and
 ``DrillStringPlantSI``) and ``fmu_src/drillstring_controller.py`` (class ``ControllerFmu``:
 ``TorsionalController``, ``TopDriveController`` with the industrial laws, and their SI
@@ -21,7 +22,10 @@ module (``docs/si_fmus.md``). For each FMU (:func:`~drillstring.apps.export.buil
    ``binaries/linux64/<id>_pythonfmu.so`` and ``binaries/linux64/<id>.so`` is
    ``fmu_src/fmi_front/*.c`` compiled with the system's C compiler against a header generated
    from the final modelDescription.xml; pythonfmu's untested ``win64`` DLL is dropped;
-5. write the archive deterministically and run ``fmpy.validate_fmu``
+5. for the FMI 3.0 twin: its model description from the same declarations
+   (:mod:`~drillstring.apps.export.model_description3`) and the front layer with its FMI 3.0
+   front, beside the same entries (``binaries/x86_64-linux``);
+6. write the archive deterministically and run ``fmpy.validate_fmu``
    (:mod:`~drillstring.apps.export.archive`); any problem fails the build with the list of
    problems.
 

@@ -28,6 +28,10 @@ from drillstring.apps.export.model_description import (
     set_guid,
     xml_bytes,
 )
+from drillstring.apps.export.model_description3 import (
+    fmi3_model_description,
+    fmi3_model_identifier,
+)
 from drillstring.apps.export.python_runtime import python_record
 from drillstring.apps.export.self_contained import self_contained_fmus
 from drillstring.apps.export.specs import (
@@ -63,6 +67,7 @@ from drillstring.orchestration.ssp import SspError, validate_ssp
 
 __all__ = [
     "DEFAULT_OUT",
+    "FMI_VERSIONS",
     "build_fmu",
     "build_fmus",
     "build_fmus_into",
@@ -74,6 +79,12 @@ __all__ = [
 
 #: The default output folder (relative to the working directory).
 DEFAULT_OUT = Path("build")
+#: The FMI versions of the build: every FMU as an FMI 2.0 FMU and as its FMI 3.0 twin
+#: (``DrillStringPlant3.fmu`` beside ``DrillStringPlant.fmu``: the same slave, the front layer's
+#: FMI 3.0 front, :mod:`drillstring.apps.export.model_description3`).
+FMI_VERSIONS = (2, 3)
+#: The binaries folder of each FMI version (Linux x86-64).
+_BINARIES = {2: "binaries/linux64", 3: "binaries/x86_64-linux"}
 
 
 def synthesize_gains(path: Path) -> Path:
@@ -112,15 +123,18 @@ def load_gains(path: Path) -> dict[str, Any]:
 
 def _postprocess(
     raw: Path,
-    dest: Path,
+    out_dir: Path,
     spec: FmuSpec,
     cls: Any,
     starts: dict[str, Any],
     record: dict[str, Any],
     source_date_epoch: int | None,
     work: Path,
-) -> None:
-    """modelDescription.xml, the binaries, the entry module; then a deterministic archive."""
+    fmi: tuple[int, ...],
+) -> dict[str, Path]:
+    """modelDescription.xml, the binaries, the entry module; then a deterministic archive per FMI
+    version in ``fmi`` (the FMI 3.0 twin from the final FMI 2.0 description and the same
+    entries); returns {model identifier: path}."""
     with zipfile.ZipFile(raw) as z:
         entries = {info.filename: z.read(info.filename) for info in z.infolist()}
     root = ET.fromstring(entries.pop("modelDescription.xml"))
@@ -140,18 +154,38 @@ def _postprocess(
     extra += hashlib.sha256(pythonfmu_lib).digest() + " ".join(CFLAGS).encode("utf-8")
     set_guid(root, entries, extra)
 
-    layer = work / f"{spec.model}.so"
-    compile_front_layer(model_header(root, entry), layer, record["include"], work)
-    entries[f"binaries/linux64/{spec.model}.so"] = layer.read_bytes()
-    entries[f"binaries/linux64/{spec.model}_pythonfmu.so"] = pythonfmu_lib
-    entries["modelDescription.xml"] = xml_bytes(root)
-    write_zip(entries, dest, source_date_epoch)
+    roots = {2: (spec.model, root)}
+    if 3 in fmi:
+        model3 = fmi3_model_identifier(spec.model)
+        roots[3] = (model3, fmi3_model_description(root, cls.VARIABLES, starts, model3))
+    written = {}
+    for version in fmi:
+        model, description = roots[version]
+        layer = work / f"{model}.so"
+        compile_front_layer(
+            model_header(description, entry), layer, record["include"], work, fmi=version
+        )
+        files = dict(entries)
+        files[f"{_BINARIES[version]}/{model}.so"] = layer.read_bytes()
+        files[f"{_BINARIES[version]}/{model}_pythonfmu.so"] = pythonfmu_lib
+        files["modelDescription.xml"] = xml_bytes(description)
+        dest = out_dir / f"{model}.fmu"
+        write_zip(files, dest, source_date_epoch)
+        written[model] = dest
+    return written
 
 
 def build_fmu(
-    spec: FmuSpec, out_dir: Path, config: dict[str, Any], source_date_epoch: int | None = None
-) -> Path:
-    """Build, post-process and validate one FMU into ``out_dir``; returns its path."""
+    spec: FmuSpec,
+    out_dir: Path,
+    config: dict[str, Any],
+    source_date_epoch: int | None = None,
+    fmi: tuple[int, ...] = (2,),
+) -> dict[str, Path]:
+    """Build, post-process and validate one FMU into ``out_dir``, as an FMI 2.0 FMU and/or its
+    FMI 3.0 twin (``fmi``); returns {model identifier: path}."""
+    if not fmi or set(fmi) - set(FMI_VERSIONS):
+        raise BuildError(f"FMI versions {fmi!r}: choose from {FMI_VERSIONS}")
     find_compiler()  # before any work: a missing compiler fails at once
     record = python_record()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -174,10 +208,20 @@ def build_fmu(
         text = documentation(cls, cls.VARIABLES, starts, record)
         (docs / "index.html").write_text(text, encoding="utf-8")
         raw = pythonfmu_build(script, work / "raw", docs)
-        dest = out_dir / f"{spec.model}.fmu"
-        _postprocess(raw, dest, spec, cls, starts, record, source_date_epoch, work)
-    validate(dest)
-    return dest
+        written = _postprocess(
+            raw,
+            out_dir,
+            spec,
+            cls,
+            starts,
+            record,
+            source_date_epoch,
+            work,
+            tuple(sorted(set(fmi))),
+        )
+    for dest in written.values():
+        validate(dest)
+    return written
 
 
 def build_fmus(
@@ -185,9 +229,13 @@ def build_fmus(
     gains_path: str | os.PathLike[str] | None = None,
     source_date_epoch: int | None = None,
     self_contained: bool = False,
+    fmi: tuple[int, ...] = FMI_VERSIONS,
 ) -> dict[str, Path]:
     """Build every FMU (plant, LMI and top-drive controller; scaled and SI) and the SSP packages
     into ``out_dir``; returns {model identifier or package name: path}.
+
+    ``fmi``: the FMI versions, (2, 3) by default: every FMU and its FMI 3.0 twin (``X3.fmu``);
+    the SSP packages (FMI 2.0 FMUs) only with 2.
 
     ``gains_path`` defaults to ``drillstring.controller.gains.DEFAULT_GAINS_PATH``;
     ``source_date_epoch`` defaults to the environment variable ``SOURCE_DATE_EPOCH``;
@@ -195,6 +243,9 @@ def build_fmus(
     (:mod:`drillstring.apps.export.self_contained`), and so do the SSP packages made of them.
     """
     out = Path(out_dir)
+    fmi = tuple(sorted(set(fmi)))
+    if not fmi or set(fmi) - set(FMI_VERSIONS):
+        raise BuildError(f"FMI versions {fmi!r}: choose from {FMI_VERSIONS}")
     gains_file = Path(gains_path) if gains_path is not None else DEFAULT_GAINS_PATH
     if not gains_file.is_file():
         synthesize_gains(gains_file)
@@ -219,11 +270,19 @@ def build_fmus(
     )
     if self_contained:
         with tempfile.TemporaryDirectory(prefix="build_fmus_normal_") as tmp:
-            normal = {s.model: build_fmu(s, Path(tmp), c, source_date_epoch) for s, c in jobs}
-            built = self_contained_fmus(normal, out, source_date_epoch)
+            normal: dict[str, Path] = {}
+            for spec, config in jobs:  # the FMI 2.0 FMUs always: they compile the kernel
+                normal.update(build_fmu(spec, Path(tmp), config, source_date_epoch, (2, *fmi)))
+            fmi2 = {spec.model for spec, _ in jobs}
+            wanted = {m: p for m, p in normal.items() if (2 if m in fmi2 else 3) in fmi}
+            warmup = [path for m, path in normal.items() if m in fmi2]
+            built = self_contained_fmus(wanted, out, source_date_epoch, warmup)
     else:
-        built = {s.model: build_fmu(s, out, c, source_date_epoch) for s, c in jobs}
-    built.update(build_packages(out, source_date_epoch))
+        built = {}
+        for spec, config in jobs:
+            built.update(build_fmu(spec, out, config, source_date_epoch, fmi))
+    if 2 in fmi:
+        built.update(build_packages(out, source_date_epoch))
     return built
 
 

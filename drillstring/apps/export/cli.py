@@ -15,6 +15,9 @@ from drillstring.validation import check_out_folder
 
 __all__ = ["export_main"]
 
+#: The values of ``--fmi``: the FMI versions built.
+_FMI_CHOICES = {"2": (2,), "3": (3,), "both": (2, 3)}
+
 
 def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus") -> int:
     """Command line entry point of the build.
@@ -56,7 +59,15 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
         help="bundle the Python runtime and the compiled kernel into every FMU (about 100 MB "
         "each): they run on a Linux x86-64 machine without Python (docs/fmus.md)",
     )
+    ap.add_argument(
+        "--fmi",
+        choices=sorted(_FMI_CHOICES),
+        default=None,
+        help="the FMI versions built: 2 (the FMI 2.0 FMUs and SSP packages), 3 (the FMI 3.0 "
+        "twins, X3.fmu) or both (default; 2 with --self-contained, whose FMUs are 100 MB each)",
+    )
     args = ap.parse_args(argv)
+    fmi = _FMI_CHOICES[args.fmi or ("2" if args.self_contained else "both")]
     try:
         check_out_folder("--out", args.out)
         if args.gains is not None and not args.design and not args.gains.is_file():
@@ -68,7 +79,7 @@ def export_main(argv: Sequence[str] | None = None, prog: str = "drillstring fmus
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
     try:
-        built = build_fmus(args.out, args.gains, self_contained=args.self_contained)
+        built = build_fmus(args.out, args.gains, self_contained=args.self_contained, fmi=fmi)
     except BuildError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1

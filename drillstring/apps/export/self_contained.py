@@ -453,11 +453,25 @@ def make_self_contained(
     return dest
 
 
+def _binaries_folder(z: zipfile.ZipFile) -> str:
+    """The folder of an FMU's Linux x86-64 binaries: FMI 3.0's platform tuple, or FMI 2.0's."""
+    fmi3 = any(n.startswith("binaries/x86_64-linux/") for n in z.namelist())
+    return "binaries/x86_64-linux" if fmi3 else "binaries/linux64"
+
+
 def self_contained_fmus(
-    fmus: Mapping[str, Path], out_dir: Path, source_date_epoch: int | None = None
+    fmus: Mapping[str, Path],
+    out_dir: Path,
+    source_date_epoch: int | None = None,
+    warmup: Sequence[Path] | None = None,
 ) -> dict[str, Path]:
-    """The self-contained forms of the normal FMUs ``fmus`` (model identifier -> path) in
-    ``out_dir``: one runtime bundle and one compiled kernel for all of them.
+    """The self-contained forms of the normal FMUs ``fmus`` (model identifier -> path; FMI 2.0
+    FMUs or their FMI 3.0 twins) in ``out_dir``: one runtime bundle and one compiled kernel for
+    all of them.
+
+    ``warmup``: the FMI 2.0 FMUs of the same build the kernel is compiled by
+    (:func:`compiled_kernel`; default: ``fmus``, which must then be FMI 2.0 FMUs): a twin runs
+    the same slave, so it shares their compiled kernel.
 
     Returns
     -------
@@ -469,14 +483,16 @@ def self_contained_fmus(
         binaries = []
         for model, fmu in fmus.items():
             with zipfile.ZipFile(fmu) as z:
+                folder = _binaries_folder(z)
                 for name in (f"{model}.so", f"{model}_pythonfmu.so"):
                     target = work / "binaries" / model / name
                     target.parent.mkdir(parents=True, exist_ok=True)
-                    target.write_bytes(z.read(f"binaries/linux64/{name}"))
+                    target.write_bytes(z.read(f"{folder}/{name}"))
                     binaries.append(target)
         bundle = stage_runtime(work / "runtime", binaries)
         (work / "warmup").mkdir()
-        compiled = compiled_kernel(list(fmus.values()), work / "warmup")
+        hosts = list(fmus.values()) if warmup is None else list(warmup)
+        compiled = compiled_kernel(hosts, work / "warmup")
         return {
             model: make_self_contained(fmu, out_dir / fmu.name, bundle, compiled, source_date_epoch)
             for model, fmu in fmus.items()

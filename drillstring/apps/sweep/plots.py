@@ -6,13 +6,14 @@ contour of a spectral abscissa computed on its own, finer grid)."""
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Overlay", "cell_edges", "metric_figure", "panel_figure"]
+__all__ = ["Overlay", "cell_edges", "sweep_figure"]
 
 
 @dataclass(frozen=True)
@@ -120,109 +121,7 @@ def _categorical(labels: Sequence[str], palette: Mapping[str, str] | None) -> An
     return ListedColormap(colours or base[:1])
 
 
-def metric_figure(
-    metric: str,
-    kind: str,
-    values: Sequence[Any],
-    axes: Sequence[Any],
-    reference: dict[str, float],
-    title: str,
-    categories: Sequence[str] | None = None,
-    palette: Mapping[str, str] | None = None,
-    axis_labels: Mapping[str, str] | None = None,
-    note: str = "",
-) -> Any:
-    """Figure of one sweep metric: a line plot over one axis or a heat map over two.
-
-    The reference point is marked; failed points are grey in a heat map.
-
-    Parameters
-    ----------
-    metric : str
-        The metric's name (axis or colour-bar label).
-    kind : str
-        Its type in :data:`~drillstring.apps.sweep.metrics.METRICS`; ``"str"`` is drawn as
-        categories, any other as numbers.
-    values : sequence
-        One value per point in point-index order (row-major over ``axes``); None for a failed
-        point of a numeric metric, ``""`` for one of a string metric.
-    axes : sequence of Axis
-        The spec's one or two :class:`~drillstring.apps.sweep.spec.Axis` objects.
-    reference : dict of str to float
-        The reference value of each swept parameter (:meth:`SweepSpec.reference_values`).
-    title : str
-        Figure title.
-    categories : sequence of str, optional
-        Order of a string metric's labels (others found follow, sorted).
-    palette : mapping of str to colour, optional
-        Colours of a string metric's labels (tab10 for the others).
-    axis_labels : mapping of str to str, optional
-        The axes' labels by parameter name (default: the name).
-    note : str
-        A line under the title (e.g. how the model is fed).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The figure, on an Agg canvas, not saved.
-    """
-    z, labels = _encode(values, kind, categories)
-    fig = _figure((6.4, 4.8))
-    ax = fig.add_subplot(1, 1, 1)
-    x_axis = axes[0]
-    x = x_axis.values()
-    if len(axes) == 1:
-        ax.plot(x, z, "o-", ms=3)
-        ax.axvline(reference[x_axis.param], color="k", ls="--", lw=1, label="reference")
-        ax.set_xscale("log" if x_axis.scale == "log" else "linear")
-        ax.set_xlabel(_label(x_axis.param, axis_labels))
-        ax.set_ylabel(metric)
-        if labels is not None:
-            ax.set_yticks(range(len(labels)), labels)
-        ax.legend(loc="best")
-    else:
-        import matplotlib as mpl
-
-        y_axis = axes[1]
-        y = y_axis.values()
-        grid = np.ma.masked_invalid(z.reshape(x.size, y.size).T)
-        if labels is not None:
-            cmap = _categorical(labels, palette)
-            vmin, vmax = -0.5, max(len(labels), 1) - 0.5
-        else:
-            cmap = mpl.colormaps["viridis"].copy()
-            vmin = vmax = None
-        cmap = cmap.with_extremes(bad="lightgrey")
-        mesh = ax.pcolormesh(
-            cell_edges(x, x_axis.scale),
-            cell_edges(y, y_axis.scale),
-            grid,
-            cmap=cmap,
-            vmin=vmin,
-            vmax=vmax,
-            shading="flat",
-        )
-        cbar = fig.colorbar(mesh, ax=ax, label=metric)
-        if labels is not None:
-            cbar.set_ticks(range(len(labels)), labels=labels)
-        ax.set_xscale("log" if x_axis.scale == "log" else "linear")
-        ax.set_yscale("log" if y_axis.scale == "log" else "linear")
-        rx, ry = reference[x_axis.param], reference[y_axis.param]
-        ax.plot([rx], [ry], marker="*", ms=14, mfc="white", mec="black", ls="", label="reference")
-        handles, _ = ax.get_legend_handles_labels()
-        if np.ma.count_masked(grid):
-            from matplotlib.patches import Patch
-
-            handles.append(Patch(facecolor="lightgrey", label="failed / no value"))
-        ax.legend(handles=handles, loc="best", fontsize="small")
-        ax.set_xlabel(_label(x_axis.param, axis_labels))
-        ax.set_ylabel(_label(y_axis.param, axis_labels))
-    ax.set_title(f"{title}\n{note}" if note else title, fontsize="medium")
-    fig.tight_layout()
-    return fig
-
-
-def panel_figure(
+def sweep_figure(
     metric: str,
     kind: str,
     panels: Mapping[str, Sequence[Any]],
@@ -237,38 +136,41 @@ def panel_figure(
     note: str = "",
     overlays: Mapping[str, Sequence[Overlay]] | None = None,
 ) -> Any:
-    """One metric for several runs side by side (one panel each) on one shared colour scale.
+    """Figure of one sweep metric for one or several runs: a line per run over one axis, or a
+    heat map per run (side by side) over two, on one shared colour scale.
 
-    A 2-D sweep gives heat maps with one colour bar, a 1-D sweep one line per panel on shared
-    axes.
+    The reference point is marked; failed points are grey in a heat map.
 
     Parameters
     ----------
     metric : str
-        The metric's name.
+        The metric's name (axis or colour-bar label).
     kind : str
-        Its type (``"str"``: categories shared by all panels, so a colour means one label).
+        Its type in :data:`~drillstring.apps.sweep.metrics.METRICS`; ``"str"`` is drawn as
+        categories shared by all panels (a colour means one label), any other as numbers.
     panels : mapping of str to sequence
-        Each panel's label -> its values in point-index order (as in :func:`metric_figure`).
+        Each run's label (the panel's title; ``""`` for a single unnamed panel) -> its values in
+        point-index order (row-major over ``axes``); None for a failed point of a numeric
+        metric, ``""`` for one of a string metric.
     axes : sequence of Axis
-        The spec's one or two axes.
+        The spec's one or two :class:`~drillstring.apps.sweep.spec.Axis` objects.
     reference : dict of str to float
-        The reference value of each swept parameter.
+        The reference value of each swept parameter (:meth:`SweepSpec.reference_values`).
     title : str
         Figure title.
     log : bool
         Logarithmic colour scale in 2-D (values <= 0 shown grey, as failed), logarithmic y
         axis in 1-D.
     categories : sequence of str, optional
-        Order of a string metric's labels.
+        Order of a string metric's labels (others found follow, sorted).
     palette : mapping of str to colour, optional
-        Colours of a string metric's labels.
+        Colours of a string metric's labels (tab10 for the others).
     axis_labels : mapping of str to str, optional
-        The axes' labels by parameter name.
+        The axes' labels by parameter name (default: the name).
     note : str
-        A line under the title.
+        A line under the title (e.g. how the model is fed).
     overlays : mapping of str to sequence of Overlay, optional
-        Per panel, the fields drawn as their 0 contour (2-D only), with a legend in the panel.
+        Per panel, the fields drawn as their 0 contour (2-D only), with a legend.
 
     Returns
     -------
@@ -277,6 +179,8 @@ def panel_figure(
     """
     import matplotlib as mpl
     from matplotlib.colors import LogNorm, Normalize
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     names = list(panels)
     if kind == "str":
@@ -291,14 +195,15 @@ def panel_figure(
     else:
         order = None
         encoded = {n: _encode(panels[n], kind)[0] for n in names}
+    heading = f"{title}\n{note}" if note else title
     x_axis = axes[0]
     x = x_axis.values()
     if len(axes) == 1:
         fig = _figure((6.4, 4.8))
         ax = fig.add_subplot(1, 1, 1)
         for name in names:
-            ax.plot(x, encoded[name], "o-", ms=3, label=name)
-        ax.axvline(reference[x_axis.param], color="k", ls="--", lw=1)
+            ax.plot(x, encoded[name], "o-", ms=3, label=name or metric)
+        ax.axvline(reference[x_axis.param], color="k", ls="--", lw=1, label="reference")
         ax.set_xscale("log" if x_axis.scale == "log" else "linear")
         if log:
             ax.set_yscale("log")
@@ -307,12 +212,13 @@ def panel_figure(
         if order is not None:
             ax.set_yticks(range(len(order)), order)
         ax.legend(loc="best", fontsize="small")
-        ax.set_title(f"{title}\n{note}" if note else title, fontsize="medium")
+        ax.set_title(heading, fontsize="medium")
         fig.tight_layout()
         return fig
     y_axis = axes[1]
     y = y_axis.values()
-    fig = _figure((3.4 * len(names) + 1.2, 4.2))
+    width = 3.4 * len(names) + 1.2 if len(names) > 1 else 6.4
+    fig = _figure((width, 4.2 if len(names) > 1 else 4.8))
     grid_axes = fig.subplots(1, len(names), sharex=True, sharey=True, squeeze=False)[0]
     if order is not None:
         cmap = _categorical(order, palette)
@@ -329,29 +235,18 @@ def panel_figure(
         cmap = mpl.colormaps["viridis"]
     cmap = cmap.with_extremes(bad="lightgrey")
     mesh = None
-    legend: dict[str, Any] = {}
+    star = {"marker": "*", "mfc": "white", "mec": "black", "ls": ""}
+    legend: dict[str, Any] = {"reference": Line2D([], [], ms=12, label="reference", **star)}
     for ax, name in zip(grid_axes, names, strict=True):
         z = encoded[name]
         if log and order is None:
             z = np.where(z > 0.0, z, math.nan)
         grid = np.ma.masked_invalid(z.reshape(x.size, y.size).T)
-        mesh = ax.pcolormesh(
-            cell_edges(x, x_axis.scale),
-            cell_edges(y, y_axis.scale),
-            grid,
-            cmap=cmap,
-            norm=norm,
-            shading="flat",
-        )
-        ax.plot(
-            [reference[x_axis.param]],
-            [reference[y_axis.param]],
-            marker="*",
-            ms=12,
-            mfc="white",
-            mec="black",
-            ls="",
-        )
+        mesh = ax.pcolormesh(cell_edges(x, x_axis.scale), cell_edges(y, y_axis.scale), grid,
+                             cmap=cmap, norm=norm, shading="flat")  # fmt: skip
+        if np.ma.count_masked(grid):
+            legend["failed"] = Patch(facecolor="lightgrey", label="failed / no value")
+        ax.plot([reference[x_axis.param]], [reference[y_axis.param]], ms=12, **star)
         notes = []
         for overlay in (overlays or {}).get(name, ()):
             handle, text = _draw_overlay(ax, overlay)
@@ -367,16 +262,22 @@ def panel_figure(
         ax.set_title(name, fontsize="medium")
         ax.set_xlabel(_label(x_axis.param, axis_labels))
     grid_axes[0].set_ylabel(_label(y_axis.param, axis_labels))
-    bottom = 0.22 if legend else 0.15
-    # room for the title's and the note's lines (about 0.045 of the 4.2 in height each)
-    lines = 2 + title.count("\n") + (note.count("\n") + 1 if note else 0)
-    top = min(0.8, 0.97 - 0.045 * lines)
-    fig.subplots_adjust(top=top, bottom=bottom, left=0.06, right=0.87, wspace=0.12)
-    cbar = fig.colorbar(mesh, cax=fig.add_axes((0.885, bottom, 0.01, top - bottom)), label=metric)
+    # margins in inches, so that one panel and six keep the same room for labels and legend;
+    # the legend in one row when its labels fit the width (about 12 characters an inch)
+    chars = [len(h.get_label()) + 6 for h in legend.values()]
+    ncol = len(chars) if sum(chars) < 12.0 * width else 1
+    bottom = (0.63 + 0.2 * math.ceil(len(chars) / ncol)) / fig.get_figheight()
+    heading = "\n".join(textwrap.fill(line, int(13.0 * width)) for line in heading.split("\n"))
+    # room for the title's and the note's lines (about 0.19 in each)
+    lines = 2 + heading.count("\n")
+    top = min(0.8, 0.97 - 0.19 * lines / fig.get_figheight())
+    left, right = 0.6 / width, 1.0 - 1.03 / width
+    fig.subplots_adjust(top=top, bottom=bottom, left=left, right=right, wspace=0.12)
+    cax = fig.add_axes((1.0 - 0.91 / width, bottom, 0.08 / width, top - bottom))
+    cbar = fig.colorbar(mesh, cax=cax, label=metric)
     if order is not None:
         cbar.set_ticks(range(len(order)), labels=order)
-    fig.suptitle(f"{title}\n{note}" if note else title, fontsize="medium")
-    if legend:
-        fig.legend(handles=list(legend.values()), loc="lower center", ncol=len(legend),
-                   fontsize="small", frameon=False)  # fmt: skip
+    fig.suptitle(heading, fontsize="medium")
+    fig.legend(handles=list(legend.values()), loc="lower center", ncol=ncol, fontsize="small",
+               frameon=False)  # fmt: skip
     return fig

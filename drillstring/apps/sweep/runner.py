@@ -26,6 +26,9 @@ Output in DIR:
   for the controllers study a panel per controller (a physical base's torques, power, speed and
   times in kN m, kW, rpm and s), its linearised stability boundary overlaid and
   ``plots/boundary.csv`` with the abscissae on the finer grid it was drawn from.
+* for the controllers study, ``by_controller.csv`` (how often each controller ends in each
+  outcome and is the best) and, on a physical base over ``rpm`` and ``W0_kN``, ``map_si.csv``
+  (the results in SI, the unit in each column name): :mod:`drillstring.apps.sweep.tables`.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ from drillstring.apps.sweep.metrics import (
     controller_column,
     si_factor,
 )
-from drillstring.apps.sweep.plots import Overlay, metric_figure, panel_figure
+from drillstring.apps.sweep.plots import Overlay, sweep_figure
 from drillstring.apps.sweep.spec import (
     AXIS_LABELS,
     MAX_POINTS,
@@ -74,13 +77,15 @@ from drillstring.apps.sweep.studies import (
     evaluate_point,
     linear_boundary,
 )
+from drillstring.apps.sweep.tables import write_tables
 from drillstring.controller.lineup import RIG_CONTROLLERS, sensing_note
 from drillstring.fileio import save_figure, write_csv, write_json
+from drillstring.model import laws as model_laws
+from drillstring.model import sensing as model_sensing
+from drillstring.model import timing as model_timing
+from drillstring.model import topdrive as model_topdrive
 from drillstring.model.digital import block as digital_block
-from drillstring.model.digital import drive as digital_drive
-from drillstring.model.digital import lawcore as digital_lawcore
 from drillstring.model.digital import loop as digital_loop
-from drillstring.model.digital import sense as digital_sense
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.laws import SpeedPI
 from drillstring.model.params import REFERENCE, PhysicalParams
@@ -310,7 +315,9 @@ def kernel_warmup() -> dict[str, Any]:
         controller = DigitalController(law, drive, Sensing(torque="motor"))
         simulate_sampled(REFERENCE, controller, 0.01, 1e-3, dt_out=0.01)
         hits = misses = 0
-        for module in (digital_loop, digital_block, digital_drive, digital_lawcore, digital_sense):
+        compiled = (digital_loop, digital_block, model_laws, model_topdrive, model_sensing,
+                    model_timing)  # fmt: skip
+        for module in compiled:
             for obj in vars(module).values():
                 stats = getattr(obj, "stats", None)
                 if hasattr(stats, "cache_hits") and hasattr(stats, "cache_misses"):
@@ -436,6 +443,10 @@ class SweepReport:
     wall_time: float
     plots: list[Path] = field(default_factory=list)
     execution: dict[str, Any] = field(default_factory=dict)
+    #: The controllers study's tables (:func:`~drillstring.apps.sweep.tables.write_tables`):
+    #: the rows of ``by_controller.csv`` and the files by name.
+    by_controller: list[dict[str, Any]] = field(default_factory=list)
+    tables: dict[str, Path] = field(default_factory=dict)
 
     @property
     def complete(self) -> bool:
@@ -605,6 +616,8 @@ def run_sweep(
         wall_time=time.perf_counter() - t0,
         execution=execution,
     )
+    if finished and spec.study == "controllers":
+        report.by_controller, report.tables = write_tables(spec, results, out)
     if plots and finished:
         report.plots = write_plots(spec, done, out / PLOTS)
     write_json(
@@ -662,10 +675,10 @@ def write_plots(spec: SweepSpec, rows: dict[int, list[str]], out_dir: Path) -> l
         raw = [rows[k][col] if k in rows else "" for k in range(spec.n_points)]
         kind = kinds[metric]
         values: list[Any] = raw if kind == "str" else [float(v) if v else None for v in raw]
-        fig = metric_figure(
+        fig = sweep_figure(
             metric,
             kind,
-            values,
+            {"": values},
             spec.axes,
             reference,
             f"{title_base}: {metric}",
@@ -705,7 +718,7 @@ def _boundary_overlays(
     fine: dict[str, np.ndarray] = {}
     x, y = spec.axes[0].values(), spec.axes[1].values()
     xf, yf = x, y
-    model = boundary_model(spec.options["elements"])
+    model = boundary_model(spec.options.elements)
     if len(inputs) == 1:
         A, tc = (float(v) for v in inputs.pop())
         boundary = linear_boundary(spec, DesignInputs(math.nan, math.nan, A=A, taubar_crit=tc))
@@ -731,7 +744,7 @@ def _boundary_overlays(
     open_loop = replace(open_loop, subject="open loop, linearised")
     out = {}
     own_label = f"hatched: unstable in the {model} (not the runs' outcome)"
-    for c in spec.options["controllers"]:
+    for c in spec.options.controllers:
         if c in fine:
             own = Overlay(xf, yf, fine[c], own_label, UNSTABLE, "closed loop, linearised")
         else:
@@ -779,15 +792,15 @@ def _controller_plots(
 ) -> list[Path]:
     kinds = dict(CONTROLLER_METRICS)
     reference = spec.reference_values()
-    drive = spec.options["top_drive"]
-    sensing = textwrap.wrap(sensing_note(spec.options["controllers"]), 120, break_on_hyphens=False)
-    elements = spec.options["elements"]
+    drive = spec.options.top_drive
+    sensing = textwrap.wrap(sensing_note(spec.options.controllers), 120, break_on_hyphens=False)
+    elements = spec.options.elements
     string = (
         "the paper's one-mode string"
         if elements == 1
         else f"the distributed string, {elements} elements"
     )
-    braking = "with braking" if spec.options["braking"] == "four-quadrant" else "without braking"
+    braking = "with braking" if spec.options.braking == "four-quadrant" else "without braking"
     note = "\n".join(
         [
             f"{spec.feed}; {string}; top drive: {drive}, {braking}; grey: a run that stopped "
@@ -805,14 +818,14 @@ def _controller_plots(
     for metric in spec.metrics:
         if metric == "best":
             values = _column(spec, rows, "best")
-            fig = metric_figure(
+            fig = sweep_figure(
                 "best",
                 "str",
-                values,
+                {"": values},
                 spec.axes,
                 reference,
                 f"{title_base}: best controller (of the runs neither stopped nor stalled, the "
-                f"lowest severity; within {spec.options['tie']:g} of it the lowest peak torque)",
+                f"lowest severity; within {spec.options.tie:g} of it the lowest peak torque)",
                 categories=RIG_CONTROLLERS,
                 palette=CONTROLLER_COLORS,
                 axis_labels=AXIS_LABELS,
@@ -822,7 +835,7 @@ def _controller_plots(
             kind = kinds[metric]
             label = metric
             panels: dict[str, list[Any]] = {}
-            for c in spec.options["controllers"]:
+            for c in spec.options.controllers:
                 raw = _column(spec, rows, controller_column(metric, c))
                 if kind == "str":
                     panels[c] = raw
@@ -837,7 +850,7 @@ def _controller_plots(
                 panels[c] = values
             if metric in SETTLED_ONLY:
                 label += " (steady runs only)"
-            fig = panel_figure(
+            fig = sweep_figure(
                 label,
                 kind,
                 panels,
@@ -872,7 +885,8 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
     -------
     argparse.ArgumentParser
         ``spec`` and the options ``--out`` (required), ``--scheduler``, ``--workers``,
-        ``--resume``, ``--retry-failed``, ``--no-plots``, ``--no-progress``.
+        ``--base-dir``, ``--resume``, ``--retry-failed``, ``--no-plots``, ``--no-progress``,
+        ``--max-points``.
     """
     ap = argparse.ArgumentParser(
         prog=prog,
@@ -892,6 +906,13 @@ def build_parser(prog: str = "drillstring sweep") -> argparse.ArgumentParser:
         default=None,
         help="worker processes of the LocalCluster (default: CPU count); 0 runs serially in "
         "this process without Dask",
+    )
+    ap.add_argument(
+        "--base-dir",
+        type=Path,
+        default=None,
+        help="folder the spec's relative file names (base set, gains files) are taken from "
+        "(default: the spec's folder)",
     )
     ap.add_argument("--resume", action="store_true", help="skip the points already in the output")
     ap.add_argument(
@@ -942,7 +963,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         print(f"{prog}: --max-points must be >= 1, got {args.max_points}", file=sys.stderr)
         return 2
     try:
-        spec = load_spec(args.spec, max_points=args.max_points)
+        spec = load_spec(args.spec, max_points=args.max_points, base_dir=args.base_dir)
         report = run_sweep(
             spec,
             args.out,

@@ -16,7 +16,7 @@ TOML (``.toml``) or JSON (``.json``), chosen by suffix. Top-level keys (any othe
     num = 11                       # >= 2
     scale = "linear"               # or "log" (start, stop > 0)
 
-    [options]                      # optional, per study (see OPTION_DEFAULTS)
+    [options]                      # optional, per study (drillstring.apps.sweep.options)
     h = 5e-4
 
 Swept names: with a scaled base, the fields of :class:`~drillstring.model.params.ScaledParams`
@@ -32,8 +32,8 @@ the plots, in ``spec.json`` and ``summary.json``). The axial study sweeps the fa
 quantities ``gammabar``, ``etabar2``, ``taubar_n`` of (18); those not swept are the base set's
 gammabar, etabar^2 and taubar_n0. The controllers study runs the digital controllers of
 :func:`~drillstring.controller.lineup.rig_lineup` chosen by the option ``controllers``
-(default :data:`MAP_CONTROLLERS`) under one top drive (option ``top_drive``) at each point
-(sampled, torsional stick on) and records the severity metrics of
+(default :data:`~drillstring.controller.lineup.MAP_CONTROLLERS`) under one top drive (option
+``top_drive``) at each point (sampled, torsional stick on) and records the severity metrics of
 :mod:`drillstring.analysis.severity`; its natural axes are ``rpm`` and ``W0_kN`` on a physical
 base (``drillstring controllers map``), or the surface speed and the feed (``omega0``/``v0``,
 ``Omega0``/``V0``).
@@ -46,24 +46,31 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 import os
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from drillstring.analysis.limit_cycles import fast_params
-from drillstring.analysis.severity import MIN_WINDOW_PERIODS, SLOWEST_PERIOD, check_window
 from drillstring.apps.sweep.metrics import plottable
+from drillstring.apps.sweep.options import (
+    AxialOptions,
+    ClosedLoopOptions,
+    ControllerOptions,
+    OpenLoopOptions,
+    StudyOptions,
+    option_keys,
+    options_from_table,
+    options_table,
+)
 from drillstring.controller.gains import GainsFile, GainsFileError, read_gains
-from drillstring.controller.lineup import FEEDFORWARD, INDUSTRIAL, RIG_CONTROLLERS
-from drillstring.controller.tuning import IMPEDANCES, SOFT_SPEED_RULES, impedance
+from drillstring.controller.lineup import CONSTRAINED_CONTROLLERS, INDUSTRIAL
+from drillstring.controller.tuning import impedance
 from drillstring.fileio import load_table
-from drillstring.model.control import LATCH_MODES
 from drillstring.model.params import (
     KNOWN_PARAMS,
     KNOWN_PHYSICAL,
@@ -73,32 +80,34 @@ from drillstring.model.params import (
     known_rig,
     read_params,
 )
-from drillstring.model.sampled import sample_count
 from drillstring.model.tables import Scales
-from drillstring.model.topdrive import BRAKING, RPM, top_drive_from_spec
-from drillstring.validation import check_int
+from drillstring.model.topdrive import RPM, top_drive_from_spec
+from drillstring.validation import check_choice, check_int, check_real, check_str, check_table
 
 __all__ = [
     "AXIAL_NAMES",
     "AXIS_LABELS",
-    "CONSTRAINED_CONTROLLERS",
     "FEED_FOR_WOB",
     "FEED_IMPOSED",
-    "MAP_CONTROLLERS",
-    "MAP_WINDOW",
     "MAX_POINTS",
-    "OPTION_DEFAULTS",
     "PHYSICAL_DERIVED",
     "STUDIES",
+    "STUDY_OPTIONS",
     "Axis",
-    "SweepOptions",
     "SweepSpec",
     "SweepSpecError",
     "load_spec",
     "spec_from_dict",
 ]
 
-STUDIES = ("open-loop", "closed-loop", "axial", "controllers")
+#: The options of each study (the keys of the spec's ``[options]``, their defaults and checks).
+STUDY_OPTIONS: dict[str, type] = {
+    "open-loop": OpenLoopOptions,
+    "closed-loop": ClosedLoopOptions,
+    "axial": AxialOptions,
+    "controllers": ControllerOptions,
+}
+STUDIES = tuple(STUDY_OPTIONS)
 #: The largest grid a spec may describe unless the caller allows more (``drillstring sweep
 #: --max-points``): 10 000 points, a 100 x 100 map, is some 4 hours of one core at 1.5 s per
 #: full-model point; every point is validated on load and its row kept in memory, so a grid of
@@ -124,125 +133,13 @@ AXIS_LABELS = {
 FEED_IMPOSED = "feed: imposed rate of penetration (hook speed)"
 #: ... and, with a W0_kN axis, that speed is the one whose nominal weight on bit is W0.
 FEED_FOR_WOB = "feed: imposed rate of penetration (hook speed) chosen for the nominal WOB"
-#: The controllers a map runs by default (of :data:`~drillstring.controller.lineup.
-#: RIG_CONTROLLERS`): the constrained LMI law with mud-pulse telemetry too (it ends in reverse
-#: rotation early, 4 % of a point's time; the observer's row, a full run, is left to the option).
-MAP_CONTROLLERS = ("stiff-pi", "soft-speed", "z-torque", "lmi", "lmi-constrained", "lmi-telemetry")
-#: The late window of the controllers study's metrics (scaled time): :data:`~drillstring.
-#: analysis.severity.MIN_WINDOW_PERIODS` periods of the slowest oscillation it classifies
-#: (:data:`~drillstring.analysis.severity.SLOWEST_PERIOD`, the stick-slip): 35.
-MAP_WINDOW = MIN_WINDOW_PERIODS * SLOWEST_PERIOD
-#: The controllers with the input-constrained gain (option ``gains_constrained``).
-CONSTRAINED_CONTROLLERS = ("lmi-constrained", "lmi-telemetry", "lmi-observer")
 AXIAL_NAMES = ("gammabar", "etabar2", "taubar_n")
 TOP_KEYS = ("study", "base", "sweep", "tau_end", "options", "metrics")
 AXIS_KEYS = ("param", "start", "stop", "num", "scale")
 
-#: Options each study accepts, with their defaults (``None``: the library default is used).
-OPTION_DEFAULTS: dict[str, dict[str, Any]] = {
-    # h: engine step; dphi0: initial dphi/dtau (paper: -2.5); dt_out: output sampling
-    "open-loop": {"h": 5e-4, "dphi0": -2.5, "dt_out": 1e-2},
-    # gains: "design" (LMI (33) at each point) or a gains file; feedforward: R_ff of the file
-    # ("file") or -K0 of (27) at the point ("point"); window/tol: convergence criterion
-    "closed-loop": {
-        "h": 5e-4,
-        "dphi0": -2.5,
-        "dt_out": 1e-2,
-        "gains": "design",
-        "gain_max": None,
-        "feedforward": "file",
-        "window": 10.0,
-        "tol": 0.05,
-    },
-    # drillstring.analysis.limit_cycles.limit_cycle: step, kick, period budget, lambda/vbar0
-    "axial": {"h": 1e-2, "kick": 0.05, "max_periods": 400, "lam_over_vbar0": 50.0},
-    # controllers: which of RIG_CONTROLLERS to run (default MAP_CONTROLLERS); top_drive: the
-    # drive of every controller (a spec of top_drive_from_spec, or "none"); Ts: sample period
-    # of the laws; dphi0_rel: dphi/dtau(0) as a fraction of omega0 (Fig. 5: -0.5); t_on/latch:
-    # switch-on of every law; window: late window of the metrics (the trend test compares it
-    # with the window before, both after t_on); min_periods: the periods of the slowest
-    # oscillation (the stick-slip, SLOWEST_PERIOD) the window must hold (0 for a quick run that
-    # is not to be classified); gains, gain_max, feedforward: the paper-style LMI gain as in the
-    # closed-loop study (feedforward "point": K0 and R_ff of the point, shared by every law);
-    # gains_constrained: the input-constrained design's gains file (F fixed, K0 and R_ff as
-    # feedforward says); tie: severity difference treated as equal when ranking;
-    # vibration_tol: severity below which a run is steady; on_invalid: bit bouncing;
-    # impedance, soft_speed, z_matching: the industrial rules' choices (Tuning: the string
-    # impedance "lumped" or "pipe" of the point's rig, SoftSpeed's "two-mass" or "impedance"
-    # rule, Z-Torque's fraction of full matching); elements: the drill pipe's elements (1: the
-    # paper's one-mode model; N > 1 the point's rig's pipe as N elements, the controllers
-    # measuring the torque at its top, the linear abscissa on the same string); braking: the
-    # drive's braking ("four-quadrant", or "none": the torque range [0, R_max])
-    "controllers": {
-        "controllers": MAP_CONTROLLERS,
-        "top_drive": "tds-11sa",
-        "elements": 1,
-        "braking": "four-quadrant",
-        "h": 5e-4,
-        "Ts": 1e-3,
-        "dt_out": 1e-2,
-        "dphi0_rel": -0.5,
-        "t_on": 0.0,
-        "latch": "angle",
-        "window": MAP_WINDOW,
-        "min_periods": MIN_WINDOW_PERIODS,
-        "gains": "design",
-        "gains_constrained": None,
-        "gain_max": None,
-        "feedforward": "point",
-        "tie": 0.02,
-        "vibration_tol": 0.05,
-        "on_invalid": "stop",
-        "impedance": "lumped",
-        "soft_speed": "two-mass",
-        "z_matching": 1.0,
-    },
-}
-
 
 class SweepSpecError(ValueError):
     """An invalid sweep description: unknown or missing key, bad value, unreadable file."""
-
-
-# --------------------------------------------------------------------------------------------
-# value checks (style of drillstring.model.params)
-# --------------------------------------------------------------------------------------------
-
-
-def _real(where: str, value: Any, *, lower: float | None = None, strict: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise SweepSpecError(f"{where} must be a real number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise SweepSpecError(f"{where} must be finite, got {value!r}")
-    if lower is not None and ((strict and not x > lower) or (not strict and not x >= lower)):
-        raise SweepSpecError(f"{where} must be {'>' if strict else '>='} {lower:g}, got {value!r}")
-    return x
-
-
-def _int(where: str, value: Any, *, lower: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise SweepSpecError(f"{where} must be an integer >= {lower}, got {value!r}")
-    if int(value) < lower:
-        raise SweepSpecError(f"{where} must be an integer >= {lower}, got {value!r}")
-    return int(value)
-
-
-def _str(where: str, value: Any, choices: tuple[str, ...] | None = None) -> str:
-    if not isinstance(value, str):
-        raise SweepSpecError(f"{where} must be a string, got {value!r}")
-    if choices is not None and value not in choices:
-        raise SweepSpecError(f"{where} must be one of {', '.join(choices)}, got {value!r}")
-    return value
-
-
-def _table(where: str, value: Any, known: tuple[str, ...]) -> dict[str, Any]:
-    if not isinstance(value, Mapping):
-        raise SweepSpecError(f"{where} must be a table/object, got {value!r}")
-    for key in value:
-        if key not in known:
-            raise SweepSpecError(f"unknown key {key!r} in {where} (known keys: {', '.join(known)})")
-    return dict(value)
 
 
 # --------------------------------------------------------------------------------------------
@@ -291,57 +188,6 @@ class Axis:
 
 
 @dataclass(frozen=True)
-class SweepOptions:
-    """Study options (see :data:`OPTION_DEFAULTS`); ``gains_file`` is the loaded gains file,
-    ``constrained_file`` the loaded gains file of the input-constrained design."""
-
-    values: tuple[tuple[str, Any], ...]
-    gains_file: Any = field(default=None, compare=False)  # GainsFile | None
-    constrained_file: Any = field(default=None, compare=False)  # GainsFile | None
-
-    def __getitem__(self, key: str) -> Any:
-        return dict(self.values)[key]
-
-    def get(self, key: str, default: Any = None) -> Any:
-        """An option's value, like :meth:`dict.get`.
-
-        Parameters
-        ----------
-        key : str
-            The option name.
-        default : object
-            Returned when the study has no such option.
-
-        Returns
-        -------
-        object
-            The value (a default of :data:`OPTION_DEFAULTS` where the file gave none).
-        """
-        return dict(self.values).get(key, default)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The options as a JSON-able dict (compared on ``--resume``).
-
-        Returns
-        -------
-        dict
-            Every option by name; with a gains file also ``gains_F``, ``gains_K0`` and
-            ``gains_params_sha256`` (with a constrained one ``gains_constrained_F``, ...), so
-            that a changed file does not pass as the same spec.
-        """
-        out = dict(self.values)
-        for prefix, gains in (
-            ("gains", self.gains_file),
-            ("gains_constrained", self.constrained_file),
-        ):
-            if gains is not None:
-                out[f"{prefix}_F"] = list(gains.F)
-                out[f"{prefix}_K0"] = gains.K0
-                out[f"{prefix}_params_sha256"] = gains.params_sha256
-        return out
-
-
-@dataclass(frozen=True)
 class SweepSpec:
     """A validated sweep: see the module docstring. Points are numbered row-major:
     ``index = i*num_1 + j`` for the axis-0 index i and the axis-1 index j."""
@@ -351,7 +197,7 @@ class SweepSpec:
     base_label: str
     axes: tuple[Axis, ...]
     tau_end: float | None
-    options: SweepOptions
+    options: StudyOptions
     metrics: tuple[str, ...]
     source: str = "sweep spec"
 
@@ -508,9 +354,7 @@ class SweepSpec:
         direct = {k: v for k, v in values.items() if k not in PHYSICAL_DERIVED}
         rig = self.base.replace(**direct) if direct else self.base
         if "rpm" in values:
-            rpm = values["rpm"]
-            if not (math.isfinite(rpm) and rpm > 0.0):
-                raise ParameterError(f"rpm = {rpm!r} must be a finite number > 0")
+            rpm = check_real("rpm", values["rpm"], lower=0.0, error=ParameterError)
             rig = rig.replace(Omega0=rpm * RPM)
         if "W0_kN" in values:
             rig = rig.replace(V0=rig.hook_speed_for_weight(1e3 * values["W0_kN"]))
@@ -605,7 +449,8 @@ class SweepSpec:
         -------
         dict
             ``study``, ``base`` (``kind`` and every field), ``base_label``, ``sweep`` (the
-            axes), ``tau_end``, ``options`` (:meth:`SweepOptions.to_dict`), ``metrics``.
+            axes), ``tau_end``, ``options`` (:func:`~drillstring.apps.sweep.options.
+            options_table`), ``metrics``.
         """
         kind = "physical" if isinstance(self.base, PhysicalParams) else "scaled"
         return {
@@ -614,7 +459,7 @@ class SweepSpec:
             "base_label": self.base_label,
             "sweep": [a.to_dict() for a in self.axes],
             "tau_end": self.tau_end,
-            "options": self.options.to_dict(),
+            "options": options_table(self.options),
             "metrics": list(self.metrics),
             **({"feed": self.feed} if self.study in FULL_MODEL_STUDIES else {}),
         }
@@ -652,12 +497,12 @@ def _base(value: Any, base_dir: Path) -> tuple[ScaledParams | PhysicalParams, st
                 f"base: give one of 'name', 'file' or an inline set, got keys {sorted(data)}"
             )
         if "name" in data:
-            name = _str("base.name", data["name"])
+            name = check_str("base.name", data["name"], error=SweepSpecError)
             if name not in KNOWN_PARAMS:
                 known = ", ".join(sorted(KNOWN_PARAMS))
                 raise SweepSpecError(f"base.name must be one of {known}, got {name!r}")
             return KNOWN_PARAMS[name], name
-        return from_file(_str("base.file", data["file"]))
+        return from_file(check_str("base.file", data["file"], error=SweepSpecError))
     kind = data.pop("kind", None)
     if kind not in ("scaled", "physical"):
         raise SweepSpecError(
@@ -675,19 +520,21 @@ def _base(value: Any, base_dir: Path) -> tuple[ScaledParams | PhysicalParams, st
 
 def _axis(k: int, value: Any, allowed: tuple[str, ...]) -> Axis:
     where = f"sweep[{k}]"
-    data = _table(where, value, AXIS_KEYS)
+    data = check_table(where, value, AXIS_KEYS, error=SweepSpecError)
     for key in ("param", "start", "stop", "num"):
         if key not in data:
             raise SweepSpecError(f"{where}: missing key {key!r}")
-    param = _str(f"{where}.param", data["param"])
+    param = check_str(f"{where}.param", data["param"], error=SweepSpecError)
     if param == "lam":
         param = "lambda"
     if param not in allowed:
         raise SweepSpecError(f"{where}.param must be one of {', '.join(allowed)}, got {param!r}")
-    start = _real(f"{where}.start", data["start"])
-    stop = _real(f"{where}.stop", data["stop"])
-    num = _int(f"{where}.num", data["num"], lower=2)
-    scale = _str(f"{where}.scale", data.get("scale", "linear"), SCALES)
+    start = check_real(f"{where}.start", data["start"], error=SweepSpecError)
+    stop = check_real(f"{where}.stop", data["stop"], error=SweepSpecError)
+    num = check_int(f"{where}.num", data["num"], lower=2, error=SweepSpecError)
+    scale = check_choice(
+        f"{where}.scale", data.get("scale", "linear"), SCALES, error=SweepSpecError
+    )
     if scale == "log" and not (start > 0 and stop > 0):
         raise SweepSpecError(
             f"{where}: a log scale needs start > 0 and stop > 0, got start={start!r}, stop={stop!r}"
@@ -697,80 +544,38 @@ def _axis(k: int, value: Any, allowed: tuple[str, ...]) -> Axis:
     return Axis(param=param, start=start, stop=stop, num=num, scale=scale)
 
 
-def _options(study: str, value: Any, base_dir: Path) -> SweepOptions:
-    defaults = OPTION_DEFAULTS[study]
-    data = _table(f"options (study {study!r})", value, tuple(defaults))
-    out = dict(defaults)
-    gains_file = None
-    for key, v in data.items():
-        where = f"options.{key}"
-        if key in ("h", "dt_out", "window", "tol", "kick", "lam_over_vbar0", "gain_max", "Ts"):
-            out[key] = _real(where, v, lower=0.0)
-        elif key in ("tie", "vibration_tol", "min_periods", "z_matching"):
-            out[key] = _real(where, v, lower=0.0, strict=False)
-        elif key in ("dphi0", "t_on"):
-            out[key] = _real(where, v)
-        elif key == "dphi0_rel":
-            out[key] = _real(where, v, lower=-1.0)
-        elif key == "max_periods":
-            out[key] = _int(where, v, lower=1)
-        elif key == "elements":
-            out[key] = _int(where, v, lower=1)
-        elif key == "braking":
-            out[key] = _str(where, v, BRAKING)
-        elif key == "feedforward":
-            out[key] = _str(where, v, FEEDFORWARD)
-        elif key == "latch":
-            out[key] = _str(where, v, LATCH_MODES)
-        elif key == "on_invalid":
-            out[key] = _str(where, v, ("stop", "continue"))
-        elif key == "impedance":
-            out[key] = _str(where, v, IMPEDANCES)
-        elif key == "soft_speed":
-            out[key] = _str(where, v, SOFT_SPEED_RULES)
-        elif key == "gains":
-            out[key] = _str(where, v)
-        elif key == "gains_constrained":
-            out[key] = None if v is None else _str(where, v)
-        elif key == "top_drive":
-            out[key] = _str(where, v).strip().lower()
-        elif key == "controllers":
-            out[key] = _controllers(where, v)
-    if study in FULL_MODEL_STUDIES and out["h"] > out["dt_out"]:
-        raise SweepSpecError(
-            f"options.h = {out['h']!r} must not exceed options.dt_out = {out['dt_out']!r}"
+def _options(study: str, value: Any, base_dir: Path) -> StudyOptions:
+    cls = STUDY_OPTIONS[study]
+    data = check_table(f"options (study {study!r})", value, option_keys(cls), error=SweepSpecError)
+    try:
+        options = options_from_table(cls, data)
+    except ValueError as exc:
+        raise SweepSpecError(str(exc)) from None
+    loaded: dict[str, Any] = {}
+    if study in ("closed-loop", "controllers") and options.gains != "design":
+        loaded["gains_file"], loaded["gains"] = _gains_file(
+            "options.gains", options.gains, base_dir
         )
     if study == "controllers":
-        _check_sampling(out)
-    if study == "closed-loop" and out["dphi0"] == 0.0:
-        raise SweepSpecError(
-            "options.dphi0 must be nonzero for the closed-loop study (convergence is measured "
-            "relative to the initial deviation), got 0.0"
-        )
-    if study in ("closed-loop", "controllers") and out["gains"] != "design":
-        gains_file, out["gains"] = _gains_file("options.gains", out["gains"], base_dir)
-    constrained_file = None
-    if study == "controllers":
-        wanted = [c for c in out["controllers"] if c in CONSTRAINED_CONTROLLERS]
-        if out["gains_constrained"] is not None:
-            constrained_file, out["gains_constrained"] = _gains_file(
-                "options.gains_constrained", out["gains_constrained"], base_dir
+        wanted = [c for c in options.controllers if c in CONSTRAINED_CONTROLLERS]
+        if options.gains_constrained is not None:
+            constrained, loaded["gains_constrained"] = _gains_file(
+                "options.gains_constrained", options.gains_constrained, base_dir
             )
-            if constrained_file.constraint is None:
+            if constrained.constraint is None:
                 raise SweepSpecError(
-                    f"options.gains_constrained = {out['gains_constrained']!r} holds no "
+                    f"options.gains_constrained = {loaded['gains_constrained']!r} holds no "
                     "input-constrained design (its 'constraint' record is null; drillstring "
                     "design --torque-limit DRIVE writes one)"
                 )
+            loaded["constrained_file"] = constrained
         elif wanted:
             raise SweepSpecError(
                 f"options.controllers has {', '.join(wanted)}: options.gains_constrained must "
                 "name the input-constrained design's gains file (drillstring design "
                 "--torque-limit DRIVE writes gains_constrained.json)"
             )
-    return SweepOptions(
-        values=tuple(out.items()), gains_file=gains_file, constrained_file=constrained_file
-    )
+    return replace(options, **loaded) if loaded else options
 
 
 def _gains_file(where: str, name: str, base_dir: Path) -> tuple[GainsFile, str]:
@@ -786,7 +591,7 @@ def _gains_file(where: str, name: str, base_dir: Path) -> tuple[GainsFile, str]:
 def _check_top_drive(spec: SweepSpec) -> None:
     """The option ``top_drive`` at the base point: "none" or a spec that
     :func:`~drillstring.model.topdrive.top_drive_from_spec` accepts on the base's rig."""
-    value = spec.options["top_drive"]
+    value = spec.options.top_drive
     if value == "none":
         return
     scales = spec.base if isinstance(spec.base, PhysicalParams) else known_rig(spec.base)
@@ -800,39 +605,18 @@ def _check_top_drive(spec: SweepSpec) -> None:
             else ""
         )
         raise SweepSpecError(f"options.top_drive = {value!r}: {exc}{hint}") from None
-    if scales is None and "lmi-telemetry" in spec.options["controllers"]:
+    if scales is None and "lmi-telemetry" in spec.options.controllers:
         raise SweepSpecError(
             "options.controllers has lmi-telemetry, whose frames are timed in seconds: the "
             f"base {spec.base_label!r} is a scaled set of no known rig (give a physical base)"
         )
-    industrial = [c for c in spec.options["controllers"] if c in INDUSTRIAL]
-    if spec.options["impedance"] == "pipe" and industrial:
+    industrial = [c for c in spec.options.controllers if c in INDUSTRIAL]
+    if spec.options.tuning.impedance == "pipe" and industrial:
         if scales is None:
             raise SweepSpecError(
                 "options.impedance = 'pipe' needs the rig's drill pipe: the base "
                 f"{spec.base_label!r} is a scaled set of no known rig (give a physical base)"
             )
-
-
-def _controllers(where: str, value: Any) -> tuple[str, ...]:
-    """A non-empty list of distinct names of RIG_CONTROLLERS, in RIG_CONTROLLERS' order."""
-    if not isinstance(value, list | tuple) or not value:
-        raise SweepSpecError(f"{where} must be a non-empty list of names, got {value!r}")
-    for k, name in enumerate(value):
-        _str(f"{where}[{k}]", name, RIG_CONTROLLERS)
-    if len(set(value)) != len(value):
-        raise SweepSpecError(f"{where} lists a controller twice: {list(value)!r}")
-    return tuple(c for c in RIG_CONTROLLERS if c in value)
-
-
-def _check_sampling(out: dict[str, Any]) -> None:
-    """The controllers study's grids: h <= Ts, dt_out a multiple of Ts."""
-    if out["h"] > out["Ts"]:
-        raise SweepSpecError(f"options.h = {out['h']!r} must not exceed options.Ts = {out['Ts']!r}")
-    try:
-        sample_count(out["dt_out"], out["Ts"], "options.dt_out")
-    except ValueError as exc:
-        raise SweepSpecError(str(exc)) from None
 
 
 def spec_from_dict(
@@ -880,11 +664,11 @@ def _spec_from_dict(
     data: Mapping[str, Any], source: str, base_dir: Path, max_points: int
 ) -> SweepSpec:
 
-    data = _table("top level", data, TOP_KEYS)
+    data = check_table("top level", data, TOP_KEYS, error=SweepSpecError)
     for key in ("study", "base", "sweep"):
         if key not in data:
             raise SweepSpecError(f"missing key {key!r}")
-    study = _str("study", data["study"], STUDIES)
+    study = check_choice("study", data["study"], STUDIES, error=SweepSpecError)
     base, label = _base(data["base"], base_dir)
 
     if study == "axial":
@@ -924,29 +708,15 @@ def _spec_from_dict(
     else:
         if "tau_end" not in data:
             raise SweepSpecError(f"missing key 'tau_end' (run length of the {study} study)")
-        tau_end = _real("tau_end", data["tau_end"], lower=0.0)
+        tau_end = check_real("tau_end", data["tau_end"], lower=0.0, error=SweepSpecError)
     options = _options(study, data.get("options", {}), base_dir)
-    if study in ("closed-loop", "controllers") and options["window"] > tau_end:
-        raise SweepSpecError(
-            f"options.window = {options['window']!r} exceeds tau_end = {tau_end!r}"
-        )
+    if study == "closed-loop" and options.window > tau_end:
+        raise SweepSpecError(f"options.window = {options.window!r} exceeds tau_end = {tau_end!r}")
     if study == "controllers":
         try:
-            sample_count(tau_end, options["Ts"], "tau_end")
+            options.check_run(tau_end)
         except ValueError as exc:
             raise SweepSpecError(str(exc)) from None
-        try:
-            check_window(options["window"], periods=options["min_periods"], where="options.window")
-        except ValueError as exc:
-            raise SweepSpecError(
-                f"{exc} (options.min_periods = {options['min_periods']!r})"
-            ) from None
-        if not 0.0 <= options["t_on"] <= tau_end - 2.0 * options["window"]:
-            raise SweepSpecError(
-                f"options.t_on = {options['t_on']!r} must lie in [0, tau_end - 2 window] = "
-                f"[0, {tau_end - 2.0 * options['window']!r}]: the metrics' window and the one "
-                "before it (the trend test) follow the switch-on"
-            )
 
     known = plottable(study)
     raw_metrics = data.get("metrics", list(known))
@@ -980,20 +750,20 @@ def _check_points(spec: SweepSpec) -> None:
         try:
             if spec.study == "axial":
                 g, e2, tb = spec.axial_point(index)
-                fast_params(g, e2, tb, spec.options["lam_over_vbar0"])
+                fast_params(g, e2, tb, spec.options.lam_over_vbar0)
             elif spec.study == "controllers":
                 spec.point_params(index)
-                pipe = spec.options["impedance"] == "pipe"
-                if pipe and any(c in INDUSTRIAL for c in spec.options["controllers"]):
+                pipe = spec.options.tuning.impedance == "pipe"
+                if pipe and any(c in INDUSTRIAL for c in spec.options.controllers):
                     try:  # the pipe of the point's string (an axis may change C or I1)
                         impedance("pipe", spec.point_scales(index))
                     except ValueError as exc:
                         raise ValueError(f"options.impedance = 'pipe': {exc}") from None
             else:
                 p = spec.point_params(index)
-                if p.omega0 + spec.options["dphi0"] <= 0.0:
+                if p.omega0 + spec.options.dphi0 <= 0.0:
                     raise ValueError(
-                        f"omega0 + dphi0 = {p.omega0 + spec.options['dphi0']!r} <= 0: the bit "
+                        f"omega0 + dphi0 = {p.omega0 + spec.options.dphi0!r} <= 0: the bit "
                         "would start in torsional stick"
                     )
         except ValueError as exc:
@@ -1001,13 +771,21 @@ def _check_points(spec: SweepSpec) -> None:
             raise SweepSpecError(f"sweep point {index} ({values}) is invalid: {exc}") from None
 
 
-def load_spec(path: str | os.PathLike[str], *, max_points: int = MAX_POINTS) -> SweepSpec:
+def load_spec(
+    path: str | os.PathLike[str],
+    *,
+    max_points: int = MAX_POINTS,
+    base_dir: str | os.PathLike[str] | None = None,
+) -> SweepSpec:
     """Read and validate a sweep file (.toml or .json, chosen by suffix).
 
     Parameters
     ----------
     path : path
-        The file; relative names in it are taken from its folder.
+        The file.
+    base_dir : path, optional
+        The folder relative names in it (base set, gains files) are taken from (default: the
+        file's).
     max_points : int
         The largest grid accepted (default :data:`MAX_POINTS`).
 
@@ -1035,5 +813,8 @@ def load_spec(path: str | os.PathLike[str], *, max_points: int = MAX_POINTS) -> 
     if not isinstance(data, dict):
         raise SweepSpecError(f"sweep spec {str(path)!r}: top level must be a table/object")
     return spec_from_dict(
-        data, source=f"sweep spec {str(path)!r}", base_dir=path.parent, max_points=max_points
+        data,
+        source=f"sweep spec {str(path)!r}",
+        base_dir=path.parent if base_dir is None else base_dir,
+        max_points=max_points,
     )

@@ -19,7 +19,8 @@ in this process.
   input-constrained LMI law), every one under the same top drive, on the full model with
   torsional stick from dphi/dtau(0) = ``dphi0_rel*omega0``: the severity metrics of
   :mod:`drillstring.analysis.severity` over the late window, the linearised closed loop's
-  spectral abscissa, and the best controller.
+  spectral abscissa, and the best controller. Its runs are :func:`evaluate_controllers`, which
+  also runs the Fig. 6-like comparison (:mod:`drillstring.apps.controllers`).
 
 A and taubar_crit of (22) depend on (gammabar, etabar^2) only; :func:`axial_design` computes them
 once per distinct pair (the sweep runs it as a separate task that the point tasks depend on).
@@ -28,6 +29,7 @@ once per distinct pair (the sweep runs it as a separate task that the point task
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -36,30 +38,38 @@ import numpy as np
 from drillstring.analysis.limit_cycles import design_inputs, limit_cycle
 from drillstring.analysis.severity import Severity, best_controller, severity_metrics
 from drillstring.apps.sweep.metrics import CONTROLLER_METRICS, controller_column
-from drillstring.apps.sweep.spec import CONSTRAINED_CONTROLLERS, Axis, SweepOptions, SweepSpec
+from drillstring.apps.sweep.options import (
+    AxialOptions,
+    ClosedLoopOptions,
+    ControllerOptions,
+    OpenLoopOptions,
+)
+from drillstring.apps.sweep.spec import Axis, SweepSpec
 from drillstring.controller.averaged import (
     AveragedModel,
     averaged_model,
     linearised_ode_matrix,
     open_loop_roots,
 )
-from drillstring.controller.lineup import LmiGain, Tuning, lmi_gain, rig_lineup
+from drillstring.controller.lineup import CONSTRAINED_CONTROLLERS, LmiGain, lmi_gain, rig_lineup
 from drillstring.controller.string_spectrum import string_abscissa
 from drillstring.controller.synthesis import SynthesisInfeasible
 from drillstring.controller.tuning import linear_closed_loop
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
-from drillstring.model.engine import EngineOptions
+from drillstring.model.engine import EngineOptions, InitialState
 from drillstring.model.params import PhysicalParams, ScaledParams
 from drillstring.model.pipe import StringParams, string_of_rig
-from drillstring.model.sampled import simulate_sampled
+from drillstring.model.sampled import SampledResult, simulate_sampled
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.tables import Scales
 from drillstring.model.topdrive import TopDrive, top_drive_from_spec
+from drillstring.validation import check_int
 
 __all__ = [
     "OPEN_LOOP",
     "DesignInputs",
+    "LawRun",
     "LinearBoundary",
     "axial_design",
     "axial_metrics",
@@ -67,15 +77,16 @@ __all__ = [
     "closed_loop_metrics",
     "controllers_metrics",
     "design_key",
+    "evaluate_controllers",
     "evaluate_point",
     "linear_abscissa",
     "linear_boundary",
+    "lineup_at",
     "map_top_drive",
     "open_loop_metrics",
-    "point_controllers",
+    "point_gains",
     "point_string",
     "rightmost_nonzero_root",
-    "study_tuning",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -191,14 +202,16 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
     return complex(r[k].real, abs(r[k].imag))
 
 
-def _run(params: Any, tau_end: float, control: Any, opts: SweepOptions) -> SimulationResult:
+def _run(
+    params: Any, tau_end: float, control: Any, opts: OpenLoopOptions | ClosedLoopOptions
+) -> SimulationResult:
     return simulate(
         params,
         tau_end,
         control=control,
-        initial={"dphi": opts["dphi0"]},
-        dt_out=opts["dt_out"],
-        options=EngineOptions(h=opts["h"], torsional_stick=False, on_invalid="stop"),
+        initial={"dphi": opts.dphi0},
+        dt_out=opts.dt_out,
+        options=EngineOptions(h=opts.h, torsional_stick=False, on_invalid="stop"),
         progress=False,
     )
 
@@ -220,7 +233,7 @@ def _outcome(result: SimulationResult) -> dict[str, Any]:
 
 
 def open_loop_metrics(
-    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+    params: Any, design: DesignInputs, tau_end: float, opts: OpenLoopOptions
 ) -> dict[str, Any]:
     """Open-loop metrics at one point (see the module docstring).
 
@@ -232,7 +245,7 @@ def open_loop_metrics(
         Its axial design inputs.
     tau_end : float
         Run length (scaled).
-    opts : SweepOptions
+    opts : OpenLoopOptions
         ``h``, ``dphi0``, ``dt_out`` of the open-loop study.
 
     Returns
@@ -265,7 +278,7 @@ def open_loop_metrics(
 
 
 def closed_loop_metrics(
-    params: Any, design: DesignInputs, tau_end: float, opts: SweepOptions
+    params: Any, design: DesignInputs, tau_end: float, opts: ClosedLoopOptions
 ) -> dict[str, Any]:
     """Closed-loop metrics at one point (see the module docstring).
 
@@ -277,7 +290,7 @@ def closed_loop_metrics(
         Its axial design inputs.
     tau_end : float
         Run length (scaled).
-    opts : SweepOptions
+    opts : ClosedLoopOptions
         Options of the closed-loop study (``gains``, ``feedforward``, ``gain_max``, ``h``,
         ``dphi0``, ``dt_out``, ``window``, ``tol``).
 
@@ -298,9 +311,7 @@ def closed_loop_metrics(
     """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    gain = lmi_gain(
-        model, opts.gains_file, feedforward=opts["feedforward"], gain_max=opts["gain_max"]
-    )
+    gain = lmi_gain(model, opts.gains_file, feedforward=opts.feedforward, gain_max=opts.gain_max)
     law = AffineFeedback(F=gain.F, K0=gain.K0, R_ff=gain.R_ff)
     res = _run(params, tau_end, law, opts)
     out = {
@@ -312,11 +323,11 @@ def closed_loop_metrics(
         **_outcome(res),
     }
     if res.status.ok:
-        last = res.tau >= res.tau[-1] - opts["window"] - 1e-9
+        last = res.tau >= res.tau[-1] - opts.window - 1e-9
         dphi = res.dphi[last]
         out["dphi_amplitude"] = float(np.max(np.abs(dphi)))
         out["ripple"] = float(np.ptp(dphi))
-        out["converged"] = int(out["dphi_amplitude"] < opts["tol"] * abs(opts["dphi0"]))
+        out["converged"] = int(out["dphi_amplitude"] < opts.tol * abs(opts.dphi0))
     else:
         out.update(dphi_amplitude=math.nan, ripple=math.nan, converged=0)
     return out
@@ -419,65 +430,24 @@ def linear_abscissa(
     return _abscissa(linear_closed_loop(model, controller.law))
 
 
-def _gains_at(
-    model: AveragedModel, opts: SweepOptions, names: tuple[str, ...], roots: bool = True
-) -> tuple[LmiGain, LmiGain | None, str]:
-    """The paper-style and the constrained LMI gains at a point, and the design error."""
-    error = ""
-    gains = opts.gains_file
-    K0, R_ff = (
-        (gains.K0, gains.R_ff)
-        if gains is not None and opts["feedforward"] == "file"
-        else (model.K0, model.R_ff)
-    )
-    paper = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=K0, R_ff=R_ff, abscissa=math.nan)
-    if "lmi" in names:
-        try:
-            paper = lmi_gain(
-                model,
-                gains,
-                feedforward=opts["feedforward"],
-                gain_max=opts["gain_max"],
-                roots=roots,
-            )
-        except SynthesisInfeasible as exc:
-            error = _first_line(exc)
-    constrained = None
-    if any(c in CONSTRAINED_CONTROLLERS for c in names):
-        constrained = lmi_gain(
-            model, opts.constrained_file, feedforward=opts["feedforward"], roots=roots
-        )
-    return paper, constrained, error
-
-
-def point_controllers(
-    params: ScaledParams,
+def point_gains(
     model: AveragedModel,
-    opts: SweepOptions,
-    scales: Scales | None,
+    opts: ControllerOptions,
     names: tuple[str, ...] | None = None,
     roots: bool = True,
-) -> tuple[dict[str, DigitalController], LmiGain, LmiGain | None, str]:
-    """The digital controllers of the controllers study at one point.
+) -> tuple[LmiGain, LmiGain | None, tuple[str, ...], str]:
+    """The LMI gains of the controllers study at one point, and the controllers they allow.
 
-    :func:`~drillstring.controller.lineup.rig_lineup` of the option ``controllers`` (or
-    ``names``), every one under the top drive of the option ``top_drive``
-    (:func:`map_top_drive`), the industrial rules' choices of the options ``impedance``,
-    ``soft_speed`` and ``z_matching`` (:func:`study_tuning`), the paper-style LMI gain from
-    ``gains`` (or designed at the point) and the constrained one from ``gains_constrained``,
-    their K0 and R_ff as ``feedforward`` says. A failed design at the point leaves ``lmi`` out
-    (the error is returned).
+    The paper-style LMI gain from the option ``gains`` (or designed at the point) and the
+    constrained one from ``gains_constrained``, their K0 and R_ff as ``feedforward`` says. A
+    failed design at the point leaves ``lmi`` out (the error is returned).
 
     Parameters
     ----------
-    params : ScaledParams
-        The point.
     model : AveragedModel
-        Its averaged model.
-    opts : SweepOptions
+        The point's averaged model.
+    opts : ControllerOptions
         The controllers study's options.
-    scales : PhysicalParams or None
-        The point's rig (:meth:`~drillstring.apps.sweep.spec.SweepSpec.point_scales`).
     names : tuple of str, optional
         A subset of the option's controllers.
     roots : bool
@@ -485,48 +455,159 @@ def point_controllers(
 
     Returns
     -------
-    controllers : dict
-        Name -> DigitalController.
     paper, constrained : LmiGain
-        The gains (``constrained`` None when no constrained law is run).
+        The gains (``constrained`` None when no constrained law is run; ``paper`` without a
+        design carries the point's feed-forward only).
+    names : tuple of str
+        The controllers that can run (``lmi`` left out when its design failed).
     error : str
         The design error of ``lmi`` ("" when none).
     """
-    names = tuple(opts["controllers"] if names is None else names)
-    paper, constrained, error = _gains_at(model, opts, names, roots)
-    wanted = tuple(c for c in names if not (c == "lmi" and error))
-    controllers = rig_lineup(
+    names = tuple(opts.controllers if names is None else names)
+    error = ""
+    gains = opts.gains_file
+    K0, R_ff = (
+        (gains.K0, gains.R_ff)
+        if gains is not None and opts.feedforward == "file"
+        else (model.K0, model.R_ff)
+    )
+    paper = LmiGain(F=(0.0, 0.0, 0.0, 0.0), K0=K0, R_ff=R_ff, abscissa=math.nan)
+    if "lmi" in names:
+        try:
+            paper = lmi_gain(
+                model, gains, feedforward=opts.feedforward, gain_max=opts.gain_max, roots=roots
+            )
+        except SynthesisInfeasible as exc:
+            error = _first_line(exc)
+    constrained = None
+    if any(c in CONSTRAINED_CONTROLLERS for c in names):
+        constrained = lmi_gain(
+            model, opts.constrained_file, feedforward=opts.feedforward, roots=roots
+        )
+    return paper, constrained, tuple(c for c in names if not (c == "lmi" and error)), error
+
+
+@dataclass(frozen=True)
+class LawRun:
+    """One controller's run at a point (:func:`evaluate_controllers`): the controller, its run
+    and the run's severity metrics."""
+
+    controller: DigitalController
+    result: SampledResult
+    severity: Severity
+
+
+def lineup_at(
+    params: ScaledParams,
+    model: AveragedModel,
+    paper: LmiGain,
+    constrained: LmiGain | None,
+    opts: ControllerOptions,
+    scales: Scales | None,
+    names: tuple[str, ...] | None = None,
+) -> dict[str, DigitalController]:
+    """:func:`~drillstring.controller.lineup.rig_lineup` of ``names`` (default: the option
+    ``controllers``), every one under the top drive of the options (:func:`map_top_drive`)
+    with their sample period, tuning and switch-on.
+
+    Parameters
+    ----------
+    params : ScaledParams
+        The point.
+    model : AveragedModel
+        Its averaged model.
+    paper, constrained : LmiGain
+        The two LMI designs (``constrained`` None: its laws cannot be asked for).
+    opts : ControllerOptions
+        How the controllers run.
+    scales : PhysicalParams or None
+        The point's rig, for a drive rated in SI units and the telemetry's seconds.
+    names : tuple of str, optional
+        The controllers.
+
+    Returns
+    -------
+    dict
+        Name -> DigitalController.
+    """
+    return rig_lineup(
         params,
         model,
         paper=paper,
         constrained=constrained,
-        top_drive=map_top_drive(opts["top_drive"], params, scales, opts["braking"]),
+        top_drive=map_top_drive(opts.top_drive, params, scales, opts.braking),
         scales=scales if scales is not None else _NO_RIG,
-        Ts=opts["Ts"],
-        tuning=study_tuning(opts),
-        t_on=opts["t_on"],
-        latch=opts["latch"],
-        names=wanted,
+        Ts=opts.Ts,
+        tuning=opts.tuning,
+        t_on=opts.t_on,
+        latch=opts.latch,
+        names=tuple(opts.controllers if names is None else names),
     )
-    return controllers, paper, constrained, error
 
 
-def study_tuning(opts: SweepOptions) -> Tuning:
-    """The industrial rules' choices of the controllers study (options ``impedance``,
-    ``soft_speed``, ``z_matching``; the pipe of ``"pipe"`` is the point's rig's).
+def evaluate_controllers(
+    params: ScaledParams,
+    model: AveragedModel,
+    paper: LmiGain,
+    constrained: LmiGain | None,
+    opts: ControllerOptions,
+    *,
+    tau_end: float,
+    initial: InitialState | Mapping[str, float],
+    scales: Scales | None,
+    string: StringParams | None = None,
+    names: tuple[str, ...] | None = None,
+) -> dict[str, LawRun]:
+    """Every controller of the lineup run from the same state, and its severity metrics: the one
+    evaluation of the controllers study's points and of the Fig. 6-like comparison.
+
+    Each controller of :func:`lineup_at` runs as a
+    :class:`~drillstring.model.digital.controller.DigitalController` in the sampled loop
+    (:func:`~drillstring.model.sampled.simulate_sampled`) from ``initial`` with the
+    torsional-stick model on; the metrics are those of
+    :func:`~drillstring.analysis.severity.severity_metrics` over the late ``window`` of the
+    options (the bit speed averaged over the axial cycle, the trend test against the window
+    before, the drive's effort from the switch-on ``t_on``). ``docs/controllers.md``, "Maps" and
+    "Fig. 6-like comparison".
 
     Parameters
     ----------
-    opts : SweepOptions
-        The controllers study's options.
+    params : ScaledParams
+        The point's parameter set.
+    model : AveragedModel
+        Its averaged model (29)-(31).
+    paper, constrained : LmiGain
+        The paper-style and the input-constrained LMI gains (:func:`~drillstring.controller.
+        lineup.lmi_gain`); ``paper.R_ff`` is every law's feed-forward (31).
+    opts : ControllerOptions
+        Which controllers, under which drive, sampled how, switched on when, measured how.
+    tau_end : float
+        Run length (scaled), a multiple of ``opts.Ts``.
+    initial : mapping
+        The engine's initial perturbation (``{"dphi": ...}``).
+    scales : PhysicalParams, optional
+        The point's rig, for a top drive rated in SI units and the telemetry's seconds.
+    string : StringParams, optional
+        The drill pipe (None: the paper's one-mode model).
+    names : tuple of str, optional
+        The controllers (default: ``opts.controllers``).
 
     Returns
     -------
-    Tuning
+    dict
+        Name -> :class:`LawRun`, in the order of ``names``.
     """
-    return Tuning(
-        impedance=opts["impedance"], soft_speed=opts["soft_speed"], z_matching=opts["z_matching"]
-    )
+    controllers = lineup_at(params, model, paper, constrained, opts, scales, names)
+    engine = EngineOptions(h=opts.h, torsional_stick=True, on_invalid=opts.on_invalid)
+    out = {}
+    for name, controller in controllers.items():
+        result = simulate_sampled(params, controller, tau_end, opts.Ts, initial=initial,
+                                  options=engine, dt_out=opts.dt_out, string=string)  # fmt: skip
+        severity = severity_metrics(
+            result, opts.window, t_from=opts.t_on, vibration_tol=opts.vibration_tol
+        )
+        out[name] = LawRun(controller, result, severity)
+    return out
 
 
 @dataclass(frozen=True)
@@ -594,15 +675,12 @@ def linear_boundary(
     if spec.study != "controllers" or len(spec.axes) != 2:
         raise ValueError("the linearised boundary is drawn for a 2-D controllers sweep")
     if refine is None:
-        refine = 4 if spec.options["elements"] == 1 else 1
-    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
-        raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
+        refine = 4 if spec.options.elements == 1 else 1
+    refine = check_int("refine", refine, lower=1)
     design.check()
     opts = spec.options
     if names is None:
-        names = tuple(
-            c for c in opts["controllers"] if not (c == "lmi" and opts.gains_file is None)
-        )
+        names = tuple(c for c in opts.controllers if not (c == "lmi" and opts.gains_file is None))
     fine = [
         Axis(a.param, a.start, a.stop, refine * (a.num - 1) + 1, a.scale).values()
         for a in spec.axes
@@ -616,14 +694,13 @@ def linear_boundary(
             params = spec.params_at(values)
             scales = spec.physical_at(values) if physical else spec.point_scales(0)
             model = averaged_model(params, design.A, design.taubar_crit)
-            string = point_string(scales, opts["elements"])
+            string = point_string(scales, opts.elements)
             out[OPEN_LOOP][i, j] = linear_abscissa(model, None, string)
-            controllers = point_controllers(params, model, opts, scales, names, roots=False)[0]
+            paper, constrained, wanted, _ = point_gains(model, opts, names, roots=False)
+            controllers = lineup_at(params, model, paper, constrained, opts, scales, wanted)
             for name, c in controllers.items():
                 out[name][i, j] = linear_abscissa(model, c, string)
-    return LinearBoundary(
-        x=fine[0], y=fine[1], abscissa=out, model=boundary_model(opts["elements"])
-    )
+    return LinearBoundary(x=fine[0], y=fine[1], abscissa=out, model=boundary_model(opts.elements))
 
 
 @dataclass(frozen=True)
@@ -642,23 +719,18 @@ def controllers_metrics(
     params: Any,
     design: DesignInputs,
     tau_end: float,
-    opts: SweepOptions,
+    opts: ControllerOptions,
     scales: Scales | None = None,
 ) -> dict[str, Any]:
     """Severity of every controller at one point (see the module docstring); the controllers
     not selected by the option ``controllers`` get no values.
 
-    Each controller of :func:`point_controllers` runs as a
-    :class:`~drillstring.model.digital.controller.DigitalController` in the sampled loop
-    (:func:`~drillstring.model.sampled.simulate_sampled`) from dphi/dtau(0) =
-    ``dphi0_rel*omega0`` with the torsional-stick model on; the metrics are those of
-    :func:`~drillstring.analysis.severity.severity_metrics` over the late ``window`` (the bit
-    speed averaged over the axial cycle, the trend test against the window before, the drive's
-    effort from the switch-on) and the linearised closed loop's spectral abscissa
-    (:func:`linear_abscissa`). A failed LMI design (no admissible gain at the point) is
-    recorded in ``lmi_design_error`` with the outcome "no_design" for the LMI law; the other
-    laws still run, with the point's feed-forward R_ff = -K0 (31). See
-    ``docs/controllers.md``, "Maps".
+    The controllers run by :func:`evaluate_controllers` from dphi/dtau(0) =
+    ``dphi0_rel*omega0``, on the point's rig's pipe as ``elements`` elements; each also gets
+    the linearised closed loop's spectral abscissa (:func:`linear_abscissa`). A failed LMI
+    design (no admissible gain at the point) is recorded in ``lmi_design_error`` with the
+    outcome "no_design" for the LMI law; the other laws still run, with the point's
+    feed-forward R_ff = -K0 (31). See ``docs/controllers.md``, "Maps".
 
     Parameters
     ----------
@@ -668,10 +740,8 @@ def controllers_metrics(
         Its axial design inputs.
     tau_end : float
         Run length (scaled), a multiple of ``Ts``.
-    opts : SweepOptions
-        Options of the controllers study (``controllers``, ``top_drive``, ``Ts``,
-        ``dphi0_rel``, ``t_on``, ``latch``, ``window``, ``gains``, ``gains_constrained``,
-        ``feedforward``, ``tie``, ``vibration_tol``, ...).
+    opts : ControllerOptions
+        Options of the controllers study.
     scales : PhysicalParams, optional
         The point's rig, for a top drive rated in SI units and the telemetry's seconds.
 
@@ -691,10 +761,14 @@ def controllers_metrics(
     """
     design.check()
     model = averaged_model(params, design.A, design.taubar_crit)
-    names = tuple(opts["controllers"])
-    controllers, paper, constrained, error = point_controllers(params, model, opts, scales)
-    string = point_string(scales, opts["elements"])
-    options = EngineOptions(h=opts["h"], torsional_stick=True, on_invalid=opts["on_invalid"])
+    names = tuple(opts.controllers)
+    paper, constrained, wanted, error = point_gains(model, opts)
+    string = point_string(scales, opts.elements)
+    runs = evaluate_controllers(
+        params, model, paper, constrained, opts, tau_end=tau_end,
+        initial={"dphi": opts.dphi0_rel * params.omega0}, scales=scales, string=string,
+        names=wanted,
+    )  # fmt: skip
     run_lmi = "lmi" in names
     out: dict[str, Any] = {
         "A": design.A,
@@ -712,31 +786,19 @@ def controllers_metrics(
     }
     found: dict[str, Severity] = {}
     for name in names:
-        if name not in controllers:  # the LMI design failed at the point
+        if name not in runs:  # the LMI design failed at the point
             nan = math.nan
             sev = Severity(nan, nan, nan, nan, False, "no_design", nan)
             linear = nan
         else:
-            res = simulate_sampled(
-                params,
-                controllers[name],
-                tau_end,
-                opts["Ts"],
-                initial={"dphi": opts["dphi0_rel"] * params.omega0},
-                options=options,
-                dt_out=opts["dt_out"],
-                string=string,
-            )
-            sev = severity_metrics(
-                res, opts["window"], t_from=opts["t_on"], vibration_tol=opts["vibration_tol"]
-            )
-            linear = linear_abscissa(model, controllers[name], string)
+            sev = runs[name].severity
+            linear = linear_abscissa(model, runs[name].controller, string)
         found[name] = sev
         values = {**sev.to_dict(), "linear_abscissa": linear}
         for metric, kind in CONTROLLER_METRICS:
             value = values[metric]
             out[controller_column(metric, name)] = int(value) if kind == "flag" else value
-    out["best"] = best_controller(found, tie=opts["tie"])
+    out["best"] = best_controller(found, tie=opts.tie)
     return out
 
 
@@ -745,14 +807,14 @@ def _first_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text[0] if text else ''}"
 
 
-def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepOptions) -> dict:
+def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: AxialOptions) -> dict:
     """Limit cycle of the fast model (18) at one (gammabar, etabar^2, taubar_n) (Figs. 3-4).
 
     Parameters
     ----------
     gammabar, etabar2, taubar_n : float
         Fast-model damping, stiffness and delay of (18).
-    opts : SweepOptions
+    opts : AxialOptions
         ``lam_over_vbar0``, ``h``, ``kick``, ``max_periods`` of the axial study.
 
     Returns
@@ -767,10 +829,10 @@ def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: SweepO
         gammabar,
         etabar2,
         taubar_n,
-        lam_over_vbar0=opts["lam_over_vbar0"],
-        h=opts["h"],
-        kick=opts["kick"],
-        max_periods=opts["max_periods"],
+        lam_over_vbar0=opts.lam_over_vbar0,
+        h=opts.h,
+        kick=opts.kick,
+        max_periods=opts.max_periods,
         n_samples=0,
     )
     return {

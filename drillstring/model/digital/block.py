@@ -8,10 +8,10 @@ compiled sampled loop; a Python caller):
 * :func:`commit` -- the same sample, then the state one period later: the law's update, the
   top drive's torque, the sensing (telemetry frames, observer, torque estimate), diagnostics.
 
-The controller's own timing (``docs/controllers.md``, "Timing of a real drive"): with a period P
-> 0 (``TM_PERIOD``) the law computes at the first sample at or after each multiple of P, its
-state advanced by P, its command held until its next computation; with a latency L
-(``TM_LATENCY``) that command reaches the drive at the first sample at or after its computation
+The controller's own timing (``docs/controllers.md``, "Timing of a real drive";
+:mod:`drillstring.model.timing`): with a period P > 0 the law computes at the first sample at or
+after each multiple of P, its state advanced by P, its command held until its next computation;
+with a latency L that command reaches the drive at the first sample at or after its computation
 + L, until then the drive keeps the command that arrived before (the feed-forward R_ff before
 the first). The sensing and the top drive act at every sample of the host. P = 0 is the law at
 every sample of the host, the code of before.
@@ -19,57 +19,31 @@ every sample of the host, the code of before.
 The switch-on (``docs/model.md``, "Bumpless switch-on"): before ``t_on``, or with the controller
 disabled, only the law's feed-forward R_ff acts; at the first sample at or after ``t_on`` the
 law starts from the measurements there. :func:`fmu_output` and :func:`fmu_step` are the same two
-functions on an FMU's connectors (``IN``, ``OUT``, ``TIME`` of the block), in the FMU's unit
-system (``SI``: the SI connectors converted with the rig scales of the block, eqs. (15)-(16)).
+functions on an FMU's connectors (``inputs``, ``output``, ``time`` of the block), in the FMU's
+unit system (``si``: the SI connectors converted with the rig scales of the block, eqs.
+(15)-(16)).
+
+Each part's compiled code runs on its section of the block (:mod:`drillstring.model.laws`,
+:mod:`drillstring.model.topdrive`, :mod:`drillstring.model.sensing`,
+:mod:`drillstring.model.timing`); each takes the block and the offset of the part's section
+in it (:data:`~drillstring.model.digital.layout.BLOCK`).
 """
 
 from __future__ import annotations
 
-import math
-
-from drillstring.model.digital.drive import actuate
-from drillstring.model.digital.lawcore import law_output, law_start, law_state, law_update
-from drillstring.model.digital.layout import (
-    B_ACTIVE,
-    B_C,
-    B_ENABLED,
-    B_IN,
-    B_LP,
-    B_LX,
-    B_NSAMPLES,
-    B_NSAT,
-    B_OMEGA0_SI,
-    B_OUT,
-    B_R0_SI,
-    B_RAPP,
-    B_RCMD,
-    B_SAT,
-    B_SI,
-    B_TD,
-    B_TDX,
-    B_TIME,
-    B_TM,
-    B_TMX,
-    B_TON,
-    B_TSTAR,
-    LP_RFF,
-    TD_ON,
-    TDX_DT,
-    TDX_INIT,
-    TDX_R,
-    TDX_T,
-    TM_LATENCY,
-    TM_PERIOD,
-    TMX_CMD,
-    TMX_HASCMD,
-    TMX_HASLAW,
-    TMX_LAW,
-    TMX_NEXT,
-    TMX_NP,
-    TMX_PEND,
-)
-from drillstring.model.digital.sense import sense_commit, sensed
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.kernel.jit import jit_for
+from drillstring.model.laws import (
+    feed_forward,
+    law_keep,
+    law_output,
+    law_start,
+    law_state,
+    law_update,
+)
+from drillstring.model.sensing import sense_commit, sensed
+from drillstring.model.timing import TIMING_SLOTS, at_drive, held_command, law_due, timing_commit
+from drillstring.model.topdrive import actuate, drive_commit
 
 jit = jit_for(__name__)
 inline = jit_for(__name__, inline=True)
@@ -80,64 +54,53 @@ __all__ = ["commit", "fmu_output", "fmu_step", "sample"]
 @inline
 def _started(b, tau):
     """True when the law acts at ``tau``: enabled, and started or due to start."""
-    return b[B_ENABLED] != 0.0 and (b[B_ACTIVE] != 0.0 or tau >= b[B_TON])
+    return b[BLOCK.enabled] != 0.0 and (b[BLOCK.active] != 0.0 or tau >= b[BLOCK.t_on])
 
 
 @inline
 def _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
     """The law's command R - R0 at ``tau`` (the feed-forward alone before it has started)."""
+    w = BLOCK.law
     if _started(b, tau):
-        if b[B_ACTIVE] != 0.0:
-            x = law_state(b)
+        if b[BLOCK.active] != 0.0:
+            x = law_state(b, w)
         else:
-            x = law_start(b, theta, dtheta, torque_s, phi_s, dphi_s)
-        return law_output(b, x, theta, dtheta, torque_s, phi_s, dphi_s)
-    return b[B_LP + LP_RFF]
-
-
-@inline
-def _near(t):
-    """The tolerance of "at or after" a time ``t`` (rounding of a host's clock)."""
-    return 1e-9 * max(1.0, abs(t))
+            x = law_start(b, w, theta, dtheta, torque_s, phi_s, dphi_s)
+        return law_output(b, w, x, theta, dtheta, torque_s, phi_s, dphi_s)
+    return feed_forward(b, w)
 
 
 @inline
 def _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
     """With the controller's own period: (due, r_law, r_cmd), whether the law computes at
     ``tau``, its command (computed now or held), and the command at the drive."""
-    nxt = b[B_TMX + TMX_NEXT]
-    due = tau >= nxt - _near(nxt)
+    m = BLOCK.timing
+    r_ff = feed_forward(b, BLOCK.law)
+    due = law_due(b, m, tau)
     if due:
         r_law = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
-    elif b[B_TMX + TMX_HASLAW] != 0.0:
-        r_law = b[B_TMX + TMX_LAW]
     else:
-        r_law = b[B_LP + LP_RFF]
-    if b[B_TM + TM_LATENCY] <= 0.0:
-        return due, r_law, r_law
-    r_cmd = b[B_TMX + TMX_CMD] if b[B_TMX + TMX_HASCMD] != 0.0 else b[B_LP + LP_RFF]
-    now = tau + _near(tau)
-    for i in range(int(b[B_TMX + TMX_NP])):
-        at = B_TMX + TMX_PEND + 2 * i
-        if b[at] <= now:
-            r_cmd = b[at + 1]
-    return due, r_law, r_cmd
+        r_law = held_command(b, m, r_ff)
+    return due, r_law, at_drive(b, m, tau, r_law, r_ff)
 
 
 @inline
 def _sample(b, tau, phi, dphi, theta, dtheta, top):
     """:func:`sample`'s numbers and (due, r_law, r_law_lim): whether the law computes at
     ``tau`` and its command before and after the drive's limits (the anti-windup's)."""
-    phi_s, dphi_s, torque_s = sensed(b, tau, phi, dphi, theta, dtheta, top)
-    if b[B_TM + TM_PERIOD] <= 0.0:
+    phi_s, dphi_s, torque_s = sensed(b, BLOCK.sensing, b[BLOCK.rho], tau, phi, dphi, theta,
+                                     dtheta, top)  # fmt: skip
+    d = BLOCK.top_drive
+    omega0, R0 = b[BLOCK.omega0], b[BLOCK.R0]
+    if b[BLOCK.timing + TIMING_SLOTS.period] <= 0.0:
         r_cmd = _law_command(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
-        r_lim, r_app, R = actuate(b, tau, r_cmd, dtheta)
+        r_lim, r_app, R = actuate(b, d, omega0, R0, r_cmd, dtheta)
         return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, True, r_cmd, r_lim
     due, r_law, r_cmd = _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s)
-    r_lim, r_app, R = actuate(b, tau, r_cmd, dtheta)
+    r_lim, r_app, R = actuate(b, d, omega0, R0, r_cmd, dtheta)
     r_law_lim = r_lim
     if r_law != r_cmd:  # on its way: the limits the drive would put on it now
-        r_law_lim = actuate(b, tau, r_law, dtheta)[0]
+        r_law_lim = actuate(b, d, omega0, R0, r_law, dtheta)[0]
     return r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim
 
 
@@ -164,65 +127,29 @@ def commit(b, tau, phi, dphi, theta, dtheta, top, Ts):
     """
     out = _sample(b, tau, phi, dphi, theta, dtheta, top)
     r_app, r_cmd, r_lim, R, phi_s, dphi_s, torque_s, due, r_law, r_law_lim = out
-    period = b[B_TM + TM_PERIOD]
+    w = BLOCK.law
+    period = b[BLOCK.timing + TIMING_SLOTS.period]
     if due and _started(b, tau):
-        if b[B_ACTIVE] != 0.0:
-            x = law_state(b)
+        if b[BLOCK.active] != 0.0:
+            x = law_state(b, w)
         else:
-            x = law_start(b, theta, dtheta, torque_s, phi_s, dphi_s)
+            x = law_start(b, w, theta, dtheta, torque_s, phi_s, dphi_s)
         dt = Ts if period <= 0.0 else period
-        x = law_update(b, x, theta, dtheta, torque_s, phi_s, dphi_s, dt, r_law, r_law_lim)
-        for i in range(4):
-            b[B_LX + i] = x[i]
-        b[B_ACTIVE] = 1.0
+        x = law_update(b, w, x, theta, dtheta, torque_s, phi_s, dphi_s, dt, r_law, r_law_lim)
+        law_keep(b, w, x)
+        b[BLOCK.active] = 1.0
     if period > 0.0:
-        _commit_timing(b, tau, due, r_law, period)
-    if b[B_TD + TD_ON] != 0.0:
-        b[B_TDX + TDX_R] = R
-        b[B_TDX + TDX_T] = tau
-        b[B_TDX + TDX_DT] = Ts
-        b[B_TDX + TDX_INIT] = 1.0
-    sense_commit(b, tau, phi, dphi, theta, dtheta, top, r_app, Ts)
-    b[B_RCMD] = r_cmd
-    b[B_RAPP] = r_app
+        timing_commit(b, BLOCK.timing, tau, due, r_law)
+    drive_commit(b, BLOCK.top_drive, tau, R, Ts)
+    sense_commit(b, BLOCK.sensing, b[BLOCK.rho], tau, phi, dphi, theta, dtheta, top, r_app, Ts)
+    b[BLOCK.r_cmd] = r_cmd
+    b[BLOCK.r_app] = r_app
     saturated = r_lim != r_cmd
-    b[B_SAT] = 1.0 if saturated else 0.0
+    b[BLOCK.saturated] = 1.0 if saturated else 0.0
     if saturated:
-        b[B_NSAT] += 1.0
-    b[B_NSAMPLES] += 1.0
+        b[BLOCK.n_sat] += 1.0
+    b[BLOCK.n_samples] += 1.0
     return r_app
-
-
-@inline
-def _commit_timing(b, tau, due, r_law, period):
-    """The timing's state after the sample ``tau``: the arrived commands taken off the queue,
-    the law's new command held and put on it, the law's next computation."""
-    m = B_TMX
-    latency = b[B_TM + TM_LATENCY]
-    if latency > 0.0:
-        now = tau + _near(tau)
-        n = int(b[m + TMX_NP])
-        k = 0
-        while k < n and b[m + TMX_PEND + 2 * k] <= now:
-            b[m + TMX_CMD] = b[m + TMX_PEND + 2 * k + 1]
-            b[m + TMX_HASCMD] = 1.0
-            k += 1
-        for i in range(n - k):
-            b[m + TMX_PEND + 2 * i] = b[m + TMX_PEND + 2 * (i + k)]
-            b[m + TMX_PEND + 2 * i + 1] = b[m + TMX_PEND + 2 * (i + k) + 1]
-        b[m + TMX_NP] = n - k
-    if due:
-        b[m + TMX_LAW] = r_law
-        b[m + TMX_HASLAW] = 1.0
-        b[m + TMX_NEXT] = (math.floor(tau / period + 1e-9) + 1.0) * period
-        if latency > 0.0:
-            n = int(b[m + TMX_NP])
-            b[m + TMX_PEND + 2 * n] = tau + latency
-            b[m + TMX_PEND + 2 * n + 1] = r_law
-            b[m + TMX_NP] = n + 1
-        else:
-            b[m + TMX_CMD] = r_law
-            b[m + TMX_HASCMD] = 1.0
 
 
 @inline
@@ -232,16 +159,17 @@ def _fmu_inputs(b, t):
     SI: tau = t/t*, phi = Phi - Omega0 t, dphi = t* (dPhi/dt - Omega0), theta = Theta - Omega0 t
     - R0/C (the table angle leads the bit by the nominal twist R0/C), dtheta = t* (dTheta/dt -
     Omega0) (``drillstring.model.units``)."""
-    a, v, c, w = b[B_IN], b[B_IN + 1], b[B_IN + 2], b[B_IN + 3]
-    if b[B_SI] == 0.0:
+    i = BLOCK.inputs
+    a, v, c, w = b[i], b[i + 1], b[i + 2], b[i + 3]
+    if b[BLOCK.si] == 0.0:
         return t, a, v, c, w
-    ts = b[B_TSTAR]
-    W = b[B_OMEGA0_SI]
+    ts = b[BLOCK.t_star]
+    W = b[BLOCK.omega0_si]
     return (
         t / ts,
         a - W * t,
         (v - W) * ts,
-        c - W * t - b[B_R0_SI] / b[B_C],
+        c - W * t - b[BLOCK.R0_si] / b[BLOCK.C],
         (w - W) * ts,
     )
 
@@ -249,18 +177,18 @@ def _fmu_inputs(b, t):
 @inline
 def _fmu_torque(b, r):
     """The FMU's output of the applied torque deviation ``r``: R - R0, or R [N m] in SI."""
-    if b[B_SI] == 0.0:
+    if b[BLOCK.si] == 0.0:
         return r
-    return b[B_R0_SI] + b[B_C] * r
+    return b[BLOCK.R0_si] + b[BLOCK.C] * r
 
 
 @jit
 def fmu_output(b):
-    """The FMU's output at its time and inputs, into ``OUT`` (pure)."""
-    tau, phi, dphi, theta, dtheta = _fmu_inputs(b, b[B_TIME])
+    """The FMU's output at its time and inputs, into ``output`` (pure)."""
+    tau, phi, dphi, theta, dtheta = _fmu_inputs(b, b[BLOCK.time])
     # an FMU has the four angle and speed inputs: the one-mode string's twist
     r_app = sample(b, tau, phi, dphi, theta, dtheta, theta - phi)[0]
-    b[B_OUT] = _fmu_torque(b, r_app)
+    b[BLOCK.output] = _fmu_torque(b, r_app)
 
 
 @jit
@@ -268,6 +196,6 @@ def fmu_step(b, t, h):
     """The FMU's communication step from ``t`` by ``h`` (the FMU's units): commit the sample at
     ``t`` with its inputs and the period ``h``; the time becomes ``t + h``."""
     tau, phi, dphi, theta, dtheta = _fmu_inputs(b, t)
-    Ts = h / b[B_TSTAR] if b[B_SI] != 0.0 else h
+    Ts = h / b[BLOCK.t_star] if b[BLOCK.si] != 0.0 else h
     commit(b, tau, phi, dphi, theta, dtheta, theta - phi, Ts)
-    b[B_TIME] = t + h
+    b[BLOCK.time] = t + h

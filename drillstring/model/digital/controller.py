@@ -6,8 +6,9 @@ loop :func:`drillstring.model.sampled.simulate_sampled`, a Python caller): a
 (its limits; None: the command is applied as it is) and a
 :class:`~drillstring.model.sensing.Sensing` (default: exact measurements). :meth:`~
 DigitalController.block` writes all of it into the block the compiled code runs
-(:mod:`drillstring.model.digital.layout`); :class:`Running` is a controller in operation for a
-Python caller, one sample at a time, on the same compiled functions.
+(:data:`~drillstring.model.digital.layout.BLOCK`), each part into its section;
+:class:`Running` is a controller in operation for a Python caller, one sample at a time, on the
+same compiled functions.
 """
 
 from __future__ import annotations
@@ -16,13 +17,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drillstring.model.digital import layout as L
 from drillstring.model.digital.block import commit, sample
-from drillstring.model.laws import Law
+from drillstring.model.digital.layout import BLOCK, slot_names, state_offsets
+from drillstring.model.laws import AFFINE_STATE, LAW_SLOTS, Law
 from drillstring.model.params import ScaledParams
-from drillstring.model.sensing import Sensing
+from drillstring.model.sensing import SENSING_SLOTS, Sensing
 from drillstring.model.timing import Timing
-from drillstring.model.topdrive import TopDrive
+from drillstring.model.topdrive import TOP_DRIVE_SLOTS, TopDrive
 from drillstring.validation import check_real
 
 __all__ = ["DigitalController", "OperatingPoint", "Running", "check_block"]
@@ -108,26 +109,27 @@ class DigitalController:
         Returns
         -------
         ndarray
-            float64 of :data:`~drillstring.model.digital.layout.B_SIZE`, scaled connectors.
+            float64 of ``BLOCK.size`` (:data:`~drillstring.model.digital.layout.BLOCK`),
+            scaled connectors.
         """
         if isinstance(point, ScaledParams):
             point = OperatingPoint.of(point)
         if not isinstance(point, OperatingPoint):
             raise TypeError(f"point must be an OperatingPoint or ScaledParams, got {point!r}")
-        b = np.zeros(L.B_SIZE)
-        b[L.B_RESUME] = -1.0
-        b[L.B_TSTAR] = 1.0
-        b[L.B_C] = 1.0
-        b[L.B_ENABLED] = 1.0 if self.enabled else 0.0
-        b[L.B_TON] = self.law.t_on
-        b[L.B_OMEGA0] = point.omega0
-        b[L.B_R0] = point.R0
-        b[L.B_RHO] = point.rho
-        self.law.pack(b)
+        b = np.zeros(BLOCK.size)
+        b[BLOCK.resume] = -1.0
+        b[BLOCK.t_star] = 1.0
+        b[BLOCK.C] = 1.0
+        b[BLOCK.enabled] = 1.0 if self.enabled else 0.0
+        b[BLOCK.t_on] = self.law.t_on
+        b[BLOCK.omega0] = point.omega0
+        b[BLOCK.R0] = point.R0
+        b[BLOCK.rho] = point.rho
+        self.law.pack(b, BLOCK.law)
         if self.top_drive is not None:
-            self.top_drive.pack(b)
-        self.sensing.pack(b)
-        self.timing.pack(b)
+            self.top_drive.pack(b, BLOCK.top_drive)
+        self.sensing.pack(b, BLOCK.sensing)
+        self.timing.pack(b, BLOCK.timing)
         return b
 
     def start(self, point: OperatingPoint | ScaledParams) -> Running:
@@ -181,42 +183,48 @@ class Running:
 
     @property
     def law_state(self) -> tuple[float, ...]:
-        """The law's state (``LX``), meaningful once :attr:`active`."""
-        return tuple(self.block[L.B_LX : L.B_LX + L.N_LX].tolist())
+        """The law's state (its section's ``x``), meaningful once :attr:`active`."""
+        x = BLOCK.law + LAW_SLOTS.x
+        return tuple(self.block[x : x + LAW_SLOTS.size - LAW_SLOTS.x].tolist())
 
     @property
     def active(self) -> bool:
         """True once the law has been switched on."""
-        return bool(self.block[L.B_ACTIVE] != 0.0)
+        return bool(self.block[BLOCK.active] != 0.0)
 
     @property
     def saturated(self) -> bool:
         """True when the top drive limited the command of the last committed sample."""
-        return bool(self.block[L.B_SAT] != 0.0)
+        return bool(self.block[BLOCK.saturated] != 0.0)
 
     @property
     def commanded(self) -> float:
         """The law's command R - R0 of the last committed sample."""
-        return float(self.block[L.B_RCMD])
+        return float(self.block[BLOCK.r_cmd])
 
 
-#: Entries of the block that change while the controller runs besides its state
-#: (:data:`~drillstring.model.digital.layout.STATE_SLOTS`): an FMU's io entries and connectors.
-_RUNTIME_SLOTS = ("STALE", "RESUME", "TIME", "NSTEPS", "IN", "OUT")
+#: Entries of the block that change while the controller runs besides its state: an FMU's io
+#: entries and connectors.
+_RUNTIME = ("stale", "resume", "time", "nsteps", "inputs", "output")
+_SIZES = dict(BLOCK.SLOTS)
+_SENSING = BLOCK.sensing
 #: Entries that are 0 or 1, and counts (non-negative integers), by offset in the block.
-_FLAGS = (L.B_STALE, L.B_ACTIVE, L.B_LX + L.AF_HOLD, L.B_TDX + L.TDX_INIT, L.B_SNX + L.SNX_PREV,
-          L.B_SNX + L.SNX_OBS, L.B_SAT)  # fmt: skip
-_COUNTS = (L.B_NSTEPS, L.B_SNX + L.SNX_K, L.B_NSAT, L.B_NSAMPLES)
-
-
-def _slots(names: tuple[str, ...]) -> np.ndarray:
-    sizes = dict(L.SLOTS)
-    return np.concatenate([np.arange(L.OFFSETS[n], L.OFFSETS[n] + sizes[n]) for n in names])
-
-
-_CHANGING = np.union1d(_slots(L.STATE_SLOTS), _slots(_RUNTIME_SLOTS))
-_FIXED = np.setdiff1d(np.arange(L.B_SIZE), _CHANGING)
-_NAME_AT = [name for name, size in L.SLOTS for _ in range(size)]
+_FLAGS = (
+    BLOCK.stale,
+    BLOCK.active,
+    BLOCK.law + LAW_SLOTS.x + AFFINE_STATE.hold,
+    BLOCK.top_drive + TOP_DRIVE_SLOTS.init,
+    _SENSING + SENSING_SLOTS.prev,
+    _SENSING + SENSING_SLOTS.observing,
+    BLOCK.saturated,
+)
+_COUNTS = (BLOCK.nsteps, _SENSING + SENSING_SLOTS.taken, BLOCK.n_sat, BLOCK.n_samples)
+_CHANGING = np.union1d(
+    state_offsets(),
+    np.concatenate([np.arange(getattr(BLOCK, n), getattr(BLOCK, n) + _SIZES[n]) for n in _RUNTIME]),
+)
+_FIXED = np.setdiff1d(np.arange(BLOCK.size), _CHANGING)
+_NAME_AT = slot_names()
 
 
 def check_block(saved: object, reference: np.ndarray) -> None:
@@ -225,21 +233,22 @@ def check_block(saved: object, reference: np.ndarray) -> None:
     entries (telemetry frames by their count), so a block that was not saved by the controller
     (forged bytes behind a recomputed checksum) must never reach it.
 
-    Checked: a float64 array of ``B_SIZE`` entries; its parameter entries (law, top drive,
+    Checked: a float64 array of ``BLOCK.size`` entries; its parameter entries (law, top drive,
     sensing, operating point, unit system, switch-on) bit for bit those of ``reference``; its
     state and connector entries finite, its flags 0 or 1, its counts non-negative integers, and
-    ``RESUME`` -1 or a non-negative integer.
+    ``resume`` -1 or a non-negative integer.
 
     Raises
     ------
     ValueError
-        Naming the entry (by its slot in :data:`~drillstring.model.digital.layout.SLOTS`).
+        Naming the entry (by its name in :data:`~drillstring.model.digital.layout.BLOCK`, a
+        part's as ``part.entry``).
     """
     if not isinstance(saved, np.ndarray) or saved.dtype != np.float64:
         kind = getattr(saved, "dtype", type(saved).__name__)
         raise ValueError(f"the controller block is {kind}, not float64")
-    if saved.shape != (L.B_SIZE,):
-        raise ValueError(f"the controller block holds {saved.size} entries, not {L.B_SIZE}")
+    if saved.shape != (BLOCK.size,):
+        raise ValueError(f"the controller block holds {saved.size} entries, not {BLOCK.size}")
     differ = _FIXED[saved[_FIXED].view(np.int64) != reference[_FIXED].view(np.int64)]
     if differ.size:
         k = int(differ[0])
@@ -256,8 +265,8 @@ def check_block(saved: object, reference: np.ndarray) -> None:
         if saved[k] not in (0.0, 1.0):
             raise ValueError(f"the controller block's entry {_NAME_AT[k]} (block[{k}]) is "
                              f"{float(saved[k])!r}, neither 0 nor 1")  # fmt: skip
-    for k in (*_COUNTS, L.B_RESUME):
+    for k in (*_COUNTS, BLOCK.resume):
         x = float(saved[k])
-        if not (x.is_integer() and (x >= 0.0 or (k == L.B_RESUME and x == -1.0))):
+        if not (x.is_integer() and (x >= 0.0 or (k == BLOCK.resume and x == -1.0))):
             raise ValueError(f"the controller block's entry {_NAME_AT[k]} (block[{k}]) is {x!r}, "
                              "not a count")  # fmt: skip

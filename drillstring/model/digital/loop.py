@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 from drillstring.model.digital.block import commit
-from drillstring.model.digital.layout import B_OMEGA0, B_R0, B_RAPP, B_SAT
+from drillstring.model.digital.layout import BLOCK
 from drillstring.model.kernel.coordinates import to_perturbation
 from drillstring.model.kernel.jit import jit_for
 from drillstring.model.kernel.state import (
@@ -73,12 +73,12 @@ def _run(s, b, k, n, Ts, every, rows, i, acc, keep_events):
         else:
             top = P[P_KT] * (Y[Y_THETA] - s.chain[Z_NOW, 0])
         hold(s, commit(b, tau, phi, dphi, theta, dtheta, top, Ts))
-        R = b[B_RAPP] + b[B_R0]
-        power = abs(R * (b[B_OMEGA0] + dtheta))
+        R = b[BLOCK.r_app] + b[BLOCK.R0]
+        power = abs(R * (b[BLOCK.omega0] + dtheta))
         acc[0] = max(acc[0], R)
         acc[1] = min(acc[1], R)
         acc[2] = max(acc[2], power)
-        acc[3] += b[B_SAT]
+        acc[3] += b[BLOCK.saturated]
         if k % every == 0 or k == n:
             write_sample(s, rows[i])
             rows[i, X_RMAX] = acc[0]

@@ -22,14 +22,17 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 _KERNEL = Path(__file__).resolve().parent
-_DIGITAL = _KERNEL.parent / "digital"
+_MODEL = _KERNEL.parent
+_DIGITAL = _MODEL / "digital"
 #: The source files of everything numba compiles: the kernel, the law (29)-(31) and the digital
-#: controller (its sampled loop runs the kernel).
+#: controller (its parts, the tables their slots are laid out from, its assembly; its sampled
+#: loop runs the kernel).
 COMPILED_SOURCES = (
     *sorted(_KERNEL.glob("*.py")),
-    _KERNEL.parent / "control.py",
-    *(_DIGITAL / f"{name}.py" for name in ("layout", "lawcore", "drive", "sense", "block", "loop")),
-)
+    *(_MODEL / f"{name}.py" for name in ("control", "tables", "laws", "topdrive", "sensing",
+                                         "timing")),
+    *(_DIGITAL / f"{name}.py" for name in ("layout", "block", "loop")),
+)  # fmt: skip
 _STAMP = "drillstring-kernel-sources.sha256"
 
 F = TypeVar("F", bound=Callable[..., Any])
