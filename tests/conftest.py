@@ -310,8 +310,9 @@ def first_use(_background: Callable[[str], Future]) -> tl.FirstUse:
 
 @pytest.fixture(scope="session")
 def self_contained(_background: Callable[[str], Future]) -> tl.Built:
-    """The session's scaled plant and LMI controller made self-contained
-    (:func:`fmu_testlib.self_contained_units`), as a :class:`fmu_testlib.Built`."""
+    """The session's scaled plant and LMI controller (and the plant's FMI 3.0 twin, in its
+    ``out``) made self-contained (:func:`fmu_testlib.self_contained_units`), as a
+    :class:`fmu_testlib.Built`."""
     return _background("self_contained").result()
 
 
