@@ -1,10 +1,13 @@
 # drillstring: `make demo` runs the main job, `make test` runs lint + the whole suite,
 # `make test-fast` the tests that need no FMU build and no host (markers in pyproject.toml).
+# `make test` runs on PYTEST_WORKERS processes (pytest-xdist; the tests of a file that share a
+# module's fixture on one of them, the session's builds made once for all: tests/conftest.py).
 # Both use one virtual environment, .venv, created with `python3 -m venv` on first use and
 # reinstalled (editable, with the test extra: numba and the FMI hosts too) only when
 # pyproject.toml changes.
 
 PYTHON ?= python3
+PYTEST_WORKERS ?= 2
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
@@ -22,7 +25,7 @@ $(STAMP): pyproject.toml
 test: venv
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadgroup
 
 test-fast: venv
 	$(BIN)/pytest -q -m "not fmu and not slow"

@@ -16,12 +16,22 @@ next one import another copy of the package.
 ``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
 by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
 copies the package into its cache and compiles numba's kernel there, once for all of them; the
-test of the first compilation reads that run. The build, the first use and the self-contained
-FMUs (``self_contained``) run in one thread beside the tests from the session's first test on
-(``_background``): they are subprocesses, about 3 minutes of one core that the tests before their
-first user no longer wait for. Tests that use ``clean_home``, ``first_use``, ``self_contained`` or
-``other_gains`` are marked ``slow`` here (they need that compilation or a build of their own),
-and every user of a build ``fmu``; the markers are described in ``pyproject.toml``.
+test of the first compilation reads that run. The build, then the first use and the
+self-contained FMUs (``self_contained``) side by side, run in two threads beside the tests from
+the session's first test on (``_background``): they are subprocesses, about 3 minutes of one core
+that the tests before their first user no longer wait for; the tests are ordered so that those
+that need none of them run first. Tests that use ``clean_home``, ``first_use``,
+``self_contained`` or ``other_gains`` are marked ``slow`` here (they need that compilation or a
+build of their own), and every user of a build ``fmu``; the markers are described in
+``pyproject.toml``.
+
+``make test`` runs the suite in two processes (pytest-xdist, ``--dist loadgroup``: the tests
+that share a module's fixture on one worker, see ``pytest_collection_modifyitems``). Each
+worker is a session of its own, so the session's builds and first runs (``built``,
+``first_use``, ``self_contained``, ``other_gains``, ``small_fmus``) are made by the first
+worker that asks, under a file lock in a folder the workers share, and loaded by the others
+(:func:`_once`); the kernel is compiled into numba's cache by one worker while the other waits
+(``_kernel_compiled``). Without ``-n`` everything runs in this process as before.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty folder
@@ -47,14 +57,22 @@ the default place only.
 
 from __future__ import annotations
 
+import fcntl
 import os
+import pickle
 import tempfile
+import traceback
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
+from typing import TypeVar
 
 import fmu_testlib as tl
 import pytest
+
+from drillstring.model.simulate import warm_up
+
+T = TypeVar("T")
 
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
 SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
@@ -62,16 +80,54 @@ SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
 FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the xdist_group marks
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
     :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
-    module that forgot it out of ``make test-fast``)."""
+    module that forgot it out of ``make test-fast``). Then the order: the files whose tests need
+    no build first, those that need the session's build next, those with a test of a compilation
+    in a clean HOME or a build of its own last, so that the builds run beside the tests that do
+    not wait for them (``_background``); within a group the files with more tests first (the
+    longer ones, as a rule: two workers end together when the short files come last), the tests
+    of a file in their collection order. Under pytest-xdist (``--dist loadgroup``) the tests of
+    a file that share a fixture of the module stay together on one worker (the fixture is made
+    once), every other test goes to the first worker free (a file of long independent runs,
+    ``test_ssp.py``'s, is shared out)."""
+
+    def group(item: pytest.Item) -> int:
+        names = set(getattr(item, "fixturenames", ()))
+        return 2 if SLOW_FIXTURES & names else 1 if FMU_FIXTURES & names else 0
+
     for item in items:
         names = set(getattr(item, "fixturenames", ()))
         if SLOW_FIXTURES & names:
             item.add_marker(pytest.mark.slow)
         if FMU_FIXTURES & names:
             item.add_marker(pytest.mark.fmu)
+    # a file's place is that of its last group (the tests of a file that share a module's
+    # fixture run together under pytest-xdist); the sort is stable
+    last: dict[Path, int] = {}
+    count: dict[Path, int] = {}
+    for item in items:
+        last[item.path] = max(last.get(item.path, 0), group(item))
+        count[item.path] = count.get(item.path, 0) + 1
+    items.sort(key=lambda item: (last[item.path], -count[item.path]))
+    if config.pluginmanager.hasplugin("xdist"):
+        for item in items:
+            if _shares_a_module_fixture(item):
+                item.add_marker(pytest.mark.xdist_group(name=item.nodeid.split("::")[0]))
+
+
+def _shares_a_module_fixture(item: pytest.Item) -> bool:
+    """Whether ``item`` uses a fixture made once per module (or class, or package)."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return False
+    return any(
+        d.scope in ("module", "class", "package")
+        for defs in info.name2fixturedefs.values()
+        for d in defs
+    )
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -108,37 +164,86 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
 BACKGROUND = ("built", "first_use", "self_contained")
 
 
+def _shared_folder(tmp_path_factory: pytest.TempPathFactory) -> Path | None:
+    """The folder the workers of one ``pytest -n`` run share (``None`` without pytest-xdist):
+    beside the workers' own base folders, named by the run's id, which every worker of the run
+    gets and no other run has."""
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
+    if run is None:
+        return None
+    folder = tmp_path_factory.getbasetemp().parent / f"shared-{run}"
+    folder.mkdir(exist_ok=True)
+    return folder
+
+
+def _once(shared: Path | None, name: str, local: Path, make: Callable[[Path], T]) -> T:
+    """``make(folder)``, once per run: without pytest-xdist in ``local``; under pytest-xdist the
+    first worker to take the lock ``name.lock`` of the ``shared`` folder makes it in
+    ``shared/name`` and leaves it there pickled (or its failure), the others wait for that lock
+    and load it, so each build and first run costs its minutes once, not once per worker."""
+    if shared is None:
+        return make(local)
+    with open(shared / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
+        done, failed = shared / f"{name}.pickle", shared / f"{name}.failed"
+        if failed.exists():
+            raise AssertionError(f"{name} failed in another worker:\n{failed.read_text()}")
+        if not done.exists():
+            (shared / name).mkdir(exist_ok=True)
+            try:
+                value = make(shared / name)
+            except BaseException:
+                failed.write_text(traceback.format_exc())
+                raise
+            partial = done.with_suffix(".partial")
+            partial.write_bytes(pickle.dumps(value))
+            partial.replace(done)
+        return pickle.loads(done.read_bytes())
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _background(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory, _session_folders
 ) -> Iterator[Callable[[str], Future]]:
-    """The session's builds and first runs, started at the session's first test, in one thread
+    """The session's builds and first runs, started at the session's first test, in two threads
     beside the tests, as far as the collected tests need them (none for ``make test-fast``): the
     FMU build, the first use in a clean HOME (a numba compilation) and the self-contained FMUs
     (a second compilation, for a generic CPU) are subprocesses that take about 3 minutes of one
     core, which the tests before their first user (the model, analysis and controller tiers) no
-    longer wait for. The subprocesses get the environment as it is now (``_session_folders``'),
-    so no test's monkeypatching reaches them. Yields ``start(name) -> Future`` of
-    :data:`BACKGROUND`'s work (started on first call if no collected test needed it)."""
+    longer wait for. Under pytest-xdist each is made once for all workers (:func:`_once`). The
+    subprocesses get the environment as it is now (``_session_folders``'), so no test's
+    monkeypatching reaches them. Yields ``start(name) -> Future`` of :data:`BACKGROUND`'s work
+    (started on first call if no collected test needed it)."""
     environ = dict(os.environ)
-    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="session-background")
+    shared = _shared_folder(tmp_path_factory)
+    # two threads: the first use and the self-contained FMUs, both after the build, run side by
+    # side (each a numba compilation of one core), so their users wait for the longer alone
+    pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="session-background")
     futures: dict[str, Future] = {}
 
     def start(name: str) -> Future:
         if name not in futures:
-            root = tmp_path_factory.mktemp(name)  # in this thread: the factory is not thread-safe
             if name == "built":
-                futures[name] = pool.submit(tl.built_fmus, root, environ)
+
+                def make(root: Path) -> tl.Built:
+                    return tl.built_fmus(root, environ)
+
             elif name == "first_use":
-                built, env = start("built"), tl.clean_env(root / "home")
-                futures[name] = pool.submit(lambda: tl.first_use(built.result(), root, env))
+                built = start("built")
+
+                def make(root: Path) -> tl.FirstUse:
+                    return tl.first_use(built.result(), root, tl.clean_env(root / "home"))
+
             elif name == "self_contained":
                 built = start("built")
-                futures[name] = pool.submit(
-                    lambda: tl.self_contained_units(built.result(), root, environ)
-                )
+
+                def make(root: Path) -> tl.Built:
+                    return tl.self_contained_units(built.result(), root, environ)
+
             else:
                 raise KeyError(name)
+            local = tmp_path_factory.mktemp(name)  # in this thread: the factory is not thread-safe
+            futures[name] = pool.submit(_once, shared, name, local, make)
         return futures[name]
 
     needed = {n for item in request.session.items for n in getattr(item, "fixturenames", ())}
@@ -147,6 +252,19 @@ def _background(
             start(name)
     yield start
     pool.shutdown(wait=True, cancel_futures=True)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _kernel_compiled(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Under pytest-xdist, the kernel compiled into numba's cache by one worker while the others
+    wait for it and then load it (:func:`drillstring.model.simulate.warm_up`): in a fresh
+    checkout each worker would otherwise compile the same kernel, a minute of a core each."""
+    shared = _shared_folder(tmp_path_factory)
+    if shared is None:
+        return
+    with open(shared / "kernel.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        warm_up()
 
 
 @pytest.fixture(scope="session")
@@ -159,14 +277,24 @@ def built(_background: Callable[[str], Future]) -> tl.Built:
 @pytest.fixture(scope="session")
 def other_gains(built: tl.Built, tmp_path_factory: pytest.TempPathFactory) -> tl.OtherGains:
     """The session's plant and a controller built from other gains than the session's."""
-    return tl.other_gains_fmus(built, tmp_path_factory.mktemp("other_gains"))
+    return _once(
+        _shared_folder(tmp_path_factory),
+        "other_gains",
+        tmp_path_factory.mktemp("other_gains"),
+        lambda root: tl.other_gains_fmus(built, root),
+    )
 
 
 @pytest.fixture(scope="session")
 def small_fmus(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """The master's small test FMUs (integrator, gain, oscillator of ``tests/fmus/``), built once
     for test_master, test_native_loop and test_crosscheck."""
-    return tl.build_small_fmus(tmp_path_factory.mktemp("small_fmus"))
+    return _once(
+        _shared_folder(tmp_path_factory),
+        "small_fmus",
+        tmp_path_factory.mktemp("small_fmus"),
+        tl.build_small_fmus,
+    )
 
 
 @pytest.fixture(autouse=True)
@@ -182,8 +310,9 @@ def first_use(_background: Callable[[str], Future]) -> tl.FirstUse:
 
 @pytest.fixture(scope="session")
 def self_contained(_background: Callable[[str], Future]) -> tl.Built:
-    """The session's scaled plant and LMI controller made self-contained
-    (:func:`fmu_testlib.self_contained_units`), as a :class:`fmu_testlib.Built`."""
+    """The session's scaled plant and LMI controller (and the plant's FMI 3.0 twin, in its
+    ``out``) made self-contained (:func:`fmu_testlib.self_contained_units`), as a
+    :class:`fmu_testlib.Built`."""
     return _background("self_contained").result()
 
 

@@ -785,18 +785,25 @@ _SELF_CONTAINED = (
     "import json, sys; from pathlib import Path; "
     "from drillstring.apps.export.self_contained import self_contained_fmus; "
     "fmus = {m: Path(f) for m, f in json.loads(sys.argv[1]).items()}; "
-    "self_contained_fmus(fmus, Path(sys.argv[2]))"
+    "warmup = [Path(f) for f in json.loads(sys.argv[3])]; "
+    "self_contained_fmus(fmus, Path(sys.argv[2]), warmup=warmup)"
 )
 
 
 def self_contained_units(built: Built, root: Path, environ: Mapping[str, str]) -> Built:
     """``built`` with its plant and controller replaced by their self-contained forms
     (:func:`drillstring.apps.export.self_contained.self_contained_fmus`, in a subprocess run in
-    the environment ``environ``), written to and unpacked in ``root``."""
+    the environment ``environ``), written to and unpacked in ``root``. The plant's FMI 3.0 twin
+    is made self-contained in the same call (``out/DrillStringPlant3.fmu``): one runtime bundle
+    and one kernel compiled by the FMI 2.0 plant and controller for all three, as
+    ``build_fmus.py --self-contained`` makes them."""
     out = root / "build"
     fmus = {u.model: str(u.fmu) for u in (built.plant, built.controller)}
+    twin = fmi3_model_identifier(built.plant.model)
+    fmus[twin] = str(built.out / f"{twin}.fmu")
+    warmup = [str(u.fmu) for u in (built.plant, built.controller)]
     proc = subprocess.run(
-        [sys.executable, "-c", _SELF_CONTAINED, json.dumps(fmus), str(out)],
+        [sys.executable, "-c", _SELF_CONTAINED, json.dumps(fmus), str(out), json.dumps(warmup)],
         capture_output=True,
         text=True,
         env=dict(environ),

@@ -819,28 +819,14 @@ def test_c_host_runs_the_fmi3_plant_in_a_clean_environment(built, tmp_path, clea
     assert np.array_equal(rows, _fmi2_reference(built, tmp_path))
 
 
-_SELF_CONTAINED3 = (
-    "import sys; from pathlib import Path; "
-    "from drillstring.apps.export.self_contained import self_contained_fmus; "
-    "self_contained_fmus({sys.argv[1]: Path(sys.argv[2])}, Path(sys.argv[3]), "
-    "warmup=[Path(sys.argv[4])])"
-)
-
-
 @pytest.mark.slow
-def test_self_contained_fmi3_plant_runs_where_no_python_is(built, tmp_path):
-    """The twin made self-contained (its kernel compiled by the FMI 2.0 plant's warm-up) runs in
-    the C host in isolation (``tests/isolation.py``: no Python installation, no checkout, no
-    cache) with bogus overrides of the Python it would use: the FMI 2.0 plant's numbers."""
-    model = f"{tl.PLANT}3"
-    out = tmp_path / "sc"
-    proc = subprocess.run(
-        [sys.executable, "-c", _SELF_CONTAINED3, model, str(twin(built, tl.PLANT)), str(out)]
-        + [str(built.plant.fmu)],
-        capture_output=True, text=True, cwd=tmp_path, timeout=1800,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    fmu = out / f"{model}.fmu"
+def test_self_contained_fmi3_plant_runs_where_no_python_is(built, self_contained, tmp_path):
+    """The twin made self-contained with the session's self-contained FMUs (conftest's
+    ``self_contained``: one bundle, its kernel compiled by the FMI 2.0 plant's and controller's
+    warm-up) runs in the C host in isolation (``tests/isolation.py``: no Python installation, no
+    checkout, no cache) with bogus overrides of the Python it would use: the FMI 2.0 plant's
+    numbers."""
+    fmu = twin(self_contained, tl.PLANT)
     with zipfile.ZipFile(fmu) as z:
         assert b"self-contained 1" in z.read("resources/drillstring_fmu_python.cfg")
     work = tmp_path / "isolated"

@@ -11,7 +11,8 @@
   SI parameters (``law_from_si``), compared in SI;
 * the top-drive FMU takes the LMI controller's place in the LMI loop's package
   (``Master.from_ssp(..., fmus={"controller": ...})``);
-* Ecos runs the SI package's ``fig6-z-torque`` SSD like the master with Ecos's coupling;
+* (Ecos running the SI package's ``fig6-z-torque`` SSD like the master: tests/test_ssp.py, which
+  runs every SSD of the four packages in the master, Ecos and libcosim);
 * the packages' SSDs carry the tunings; the FMUs' start values, ranges and ModelStructure;
 * the FMU's law on hand-computed numbers, its FMU state across the switch-on.
 """
@@ -50,7 +51,6 @@ from drillstring.orchestration.closed_loop import (
     run_cosim,
 )
 from drillstring.orchestration.connections import declared_start_values
-from drillstring.orchestration.hosts import run_ecos
 from drillstring.orchestration.loop_ssp import (
     TOPDRIVE_DEFAULT,
     TOPDRIVE_PARAMETERS,
@@ -390,32 +390,6 @@ def test_disabled_or_z_gain_zero(built):
     finally:
         off.free()
         pi.free()
-
-
-def test_ecos_runs_the_si_topdrive_package_like_the_master(built):
-    """An independent host: Ecos (its Python API, on the ``fig6-z-torque`` SSD laid out as a
-    folder, its set named) runs the SI package's Z-Torque experiment past the switch-on at
-    23.06 s and agrees with the master under Ecos's coupling (simple exchange, accumulated
-    time) to 1e-9 relative, as the LMI package does (tests/test_ssp.py); measured 0.0."""
-    ssp = built.si.topdrive_ssp
-    stop = 24.0
-    with kept_sys_path(), Master.from_ssp(ssp, variant="fig6-z-torque") as m:
-        ref = m.run(stop, H, progress=False, exchange="simple", grid="sum")
-    assert ref.completed
-    # the plant's signals, which integrate the torque the plant was given, as tests/test_ssp.py
-    # compares the LMI package: the controller output Ecos records is read at another point of
-    # its step than the master's, while the plants and the controllers' inputs agree exactly
-    names = [f"plant.{q}" for q in (*tl.FEEDBACK_SI, *AXIAL)]
-    got = run_ecos(ssp, "fig6-z-torque", stop, H, names, variant="fig6-z-torque")
-    assert len(got) == len(ref.time) - 1
-    assert np.max(np.abs(got["time"] - ref.time[1:])) == 0.0
-    worst = {
-        n: float(np.max(np.abs(got[n] - ref[n][1:])) / np.max(np.abs(ref[n][1:]))) for n in names
-    }
-    print("Ecos vs master, DrillStringTopDriveSI.ssp, fig6-z-torque:", max(worst.values()))
-    assert max(worst.values()) <= 1e-9, worst
-    after = ref.time > SC.time(FIG6.t_on)
-    assert np.ptp(ref["controller.table_torque"][after]) > 10.0
 
 
 def test_cosim_command_runs_a_variant(built, tmp_path, capsys):
