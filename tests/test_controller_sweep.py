@@ -59,6 +59,7 @@ from drillstring.controller.lineup import (
 )
 from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import Experiment
+from drillstring.model.kernel.jit import numba_available
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, get_physical
 from drillstring.model.sampled import simulate_sampled
 from drillstring.model.topdrive import TDS_11SA, top_drive
@@ -147,11 +148,19 @@ def serial_map(paper_gains, constrained_gains, tmp_path_factory):
 
 @pytest.mark.slow  # a local Dask cluster of worker processes
 def test_controller_map_on_dask_equals_the_serial_run(serial_map, tmp_path):
+    """The suite's one Dask-equals-serial run (the runner is the same for every study; a failed
+    point is a row the point function writes in either mode, tests/test_sweep.py)."""
     spec, serial = serial_map
     assert spec.options.controllers == MAP_CONTROLLERS
     report = run_sweep(spec, tmp_path, workers=2, progress=False)
     assert report.complete and serial.complete and report.n_failed == 0
     a, b = _rows(serial.results), _rows(report.results)
+    assert [int(r["index"]) for r in b] == list(range(len(a)))  # sorted, every point once
+    # the workers loaded the compiled kernel from numba's cache instead of compiling it
+    workers = report.execution["workers"]
+    assert len(workers) == 2
+    if numba_available():
+        assert all(w["cache_misses"] == 0 and w["cache_hits"] > 0 for w in workers.values())
     outcomes = set()
     for ra, rb in zip(a, b, strict=True):
         ra.pop("seconds"), rb.pop("seconds")

@@ -756,6 +756,36 @@ def test_ecos_api_fmi3_closed_loop_equals_fmi2(built):
     assert np.ptp(r2[:, -1]) > 0.1  # the feedback acted
 
 
+def _ecos_cli_plant(built: tl.Built, clean_home: Path, folder: Path, suffix: str) -> tuple:
+    """``drillstring ecos simulate --path X.fmu`` (Ecos's command line, as a user types it) on
+    the plant alone, from Fig. 5's initial speed to tau = 2, in a clean environment."""
+    folder.mkdir()
+    fmu = shutil.copyfile(built.out / f"{tl.PLANT}{suffix}.fmu", folder / "plant.fmu")
+    env = tl.clean_env(clean_home, TMPDIR=str(folder))
+    env["PATH"] = f"{Path(sys.executable).parent}:{env['PATH']}"
+    command = ["drillstring", "ecos", "simulate", "--path", str(fmu), "--stepSize", "0.01"]
+    proc = tl.run_clean([*command, "--stopTime", "2"], env, folder)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    (csv,) = folder.glob("*.csv")
+    return tl.read_ecos_csv(csv)
+
+
+def test_ecos_command_line_runs_the_fmi3_plant_like_the_fmi2_plant(built, clean_home, tmp_path):
+    """``ecos simulate`` (the command line, not only the Python API) on the FMI 3.0 plant: every
+    column the FMI 2.0 plant's run writes is the same in its CSV (as Ecos prints it,
+    ``std::to_string``: 6 decimals; the Python API's test compares the doubles), and the plant
+    moves."""
+    h2, d2 = _ecos_cli_plant(built, clean_home, tmp_path / "fmi2", "")
+    h3, d3 = _ecos_cli_plant(built, clean_home, tmp_path / "fmi3", "3")
+    shared = [name for name in h2 if name in h3]
+    assert len(shared) > len(tl.RECORD_PLANT), (h2, h3)
+    assert d2.shape[0] == d3.shape[0] > 150
+    for name in shared:
+        assert np.array_equal(d2[:, h2.index(name)], d3[:, h3.index(name)]), name
+    phi = [name for name in shared if name.endswith("::phi[REAL]") or name.endswith("::phi")]
+    assert phi and np.ptp(d2[:, h2.index(phi[0])]) > 0
+
+
 def test_docs_carry_the_fmi3_rows():
     """docs/fmus.md's table of the FMI 3.0 rows names every row of :data:`ROWS` with its status
     and the start of its message."""

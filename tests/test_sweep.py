@@ -33,7 +33,6 @@ from drillstring.apps.sweep.studies import (
 from drillstring.controller.averaged import averaged_model, delay_roots
 from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
 from drillstring.model.engine import EngineOptions
-from drillstring.model.kernel.jit import numba_available
 from drillstring.model.params import REFERENCE, PhysicalParams, save_params
 from drillstring.model.simulate import simulate
 
@@ -73,28 +72,20 @@ def serial_3x3(tmp_path_factory):
     return spec, report
 
 
-@pytest.mark.slow  # a local Dask cluster of worker processes
-def test_dask_local_cluster_equals_serial(serial_3x3, tmp_path):
-    spec, serial = serial_3x3
-    report = run_sweep(spec, tmp_path, workers=2, progress=False)
-    # every point has its row; not complete: omega0 = 25 fails (below)
-    assert report.finished and serial.finished and not report.complete
-    a, b = rows_of(serial.results), rows_of(report.results)
-    assert [int(r["index"]) for r in b] == list(range(9))  # sorted, every point once
-    for ra, rb in zip(a, b, strict=True):
-        ra.pop("seconds"), rb.pop("seconds")
-        assert ra == rb  # bit-identical metrics, point by point
-    failed = [r for r in b if r["error"]]
+def test_a_real_sweep_keeps_its_failed_points(serial_3x3):
+    """The 3 x 3 plane run serially: every point has its row, sorted; omega0 = 25 fails with
+    the reason (taubar_n0 below the critical delay) and the sweep is finished but not complete;
+    the six other points ran to the end."""
+    _, report = serial_3x3
+    assert report.finished and not report.complete
+    rows = rows_of(report.results)
+    assert [int(r["index"]) for r in rows] == list(range(9))
+    failed = [r for r in rows if r["error"]]
     assert [float(r["omega0"]) for r in failed] == [25.0] * 3
     assert all("taubar_n0" in r["error"] for r in failed)
-    ok = [r for r in b if not r["error"]]
-    assert len(ok) == 6 and all(r["status"] == "ok" and float(r["tau_reached"]) == 5.0 for r in ok)
-    # the workers loaded the compiled kernel from numba's cache instead of compiling it
-    workers = report.execution["workers"]
-    assert len(workers) == 2
-    if numba_available():
-        assert all(w["cache_misses"] == 0 and w["cache_hits"] > 0 for w in workers.values())
-    assert (tmp_path / "plots" / "root_real.png").stat().st_size > 1000
+    ok = [r for r in rows if not r["error"]]
+    assert len(ok) == 6
+    assert all(r["status"] == "ok" and float(r["tau_reached"]) == 5.0 for r in ok)
 
 
 def test_open_loop_root_is_a_characteristic_root(serial_3x3):
