@@ -6,14 +6,18 @@ forger: anyone can recompute it. Behind it, every array of a restored state is c
 the instance's layout before anything is overwritten (``Engine.check_state`` for the plant,
 ``check_block`` for the controllers, the lifecycle's fields in ``drillstring_fmu_support``).
 
-Each case runs in a subprocess (this file is also its driver: ``python test_fmu_forged_states.py
-CASE FMU FOLDER``), so a forged state that crashes the host (it did: SIGSEGV or SIGABRT from a
-history cut to 3 columns) is a failing test, not the end of the suite. The driver steps an
-instance, forges its own serialized state, deserializes and sets it, then steps on; a reference
-instance takes the same path without the forged state. The test asserts the status of
-fmi2SetFMUstate, the message, and that the outputs after the refusal are bit for bit the
-reference's. The same forging code with no change must give a state that is accepted (so each
-refusal comes from the change, not from the forging).
+The cases run in subprocesses (this file is also their driver: ``python
+test_fmu_forged_states.py FMU FOLDER CASE...``), so a forged state that crashes the host (it did:
+SIGSEGV or SIGABRT from a history cut to 3 columns) is a failing test, not the end of the suite.
+One subprocess runs the cases of one FMU in order, each on fresh instances, and prints each
+case's result as it finishes; a host that dies fails the case it was in, and the cases after it
+run on in a new subprocess (the FMU loaded once per subprocess, not once per case: the load and
+the import were most of a case's seconds). For each case the driver steps an instance, forges
+its own serialized state, deserializes and sets it, then steps on; a reference instance takes
+the same path without the forged state. The test asserts the status of fmi2SetFMUstate, the
+message, and that the outputs after the refusal are bit for bit the reference's. The same
+forging code with no change must give a state that is accepted (so each refusal comes from the
+change, not from the forging).
 """
 
 from __future__ import annotations
@@ -228,9 +232,8 @@ def _cases() -> dict[str, tuple[str, Callable[..., tuple[dict[str, Any], bytes]]
 # ------------------------------------------------------------------------------------------------
 
 
-def _drive(case: str, fmu: str, folder: str) -> dict[str, Any]:
+def _drive(case: str, unit: tl.Unit) -> dict[str, Any]:
     kind, forge, _ = _cases()[case]
-    unit = tl._unit(Path(fmu).stem, Path(fmu), Path(folder))
     outputs = [n for n, c in unit.causality.items() if c == "output"]
 
     def start(name: str) -> tl.Slave:
@@ -256,7 +259,7 @@ def _drive(case: str, fmu: str, folder: str) -> dict[str, Any]:
             rows.append([float(x).hex() for x in s.get(*outputs)])
         return rows
 
-    s = start("forged")
+    s = start(f"forged {case}")
     state = s.fmu.getFMUstate()
     data = s.fmu.serializeFMUstate(state)
     s.fmu.freeFMUstate(state)
@@ -272,14 +275,54 @@ def _drive(case: str, fmu: str, folder: str) -> dict[str, Any]:
     if deserialized == tl.OK:
         s.fmu.freeFMUstate(handle)
     after = go_on(s)
-    ref = start("reference")
+    ref = start(f"reference {case}")
+    reference = go_on(ref)
+    for instance in (s, ref):  # the next case starts on fresh instances
+        instance.fmu.fmi2FreeInstance(instance.fmu.component)
     return {
         "deserialized": deserialized,
         "status": status,
         "messages": messages,
         "after": after,
-        "reference": go_on(ref),
+        "reference": reference,
     }
+
+
+#: What the driver puts before each case's result on its standard output.
+RESULT = "forged-state result: "
+
+
+def _run_cases(fmu: Path, root: Path, cases: list[str]) -> dict[str, dict[str, Any]]:
+    """The result of each of ``cases`` (of one FMU) as the driver reports it, with ``host``: the
+    exit status of a host that died in that case (0: it lived on to the next case or exited 0
+    after it) and ``stderr``, the end of that host's. One subprocess runs them in order; where it
+    dies, the case it was in has no result but the status, and the cases after it run in a new
+    subprocess."""
+    results: dict[str, dict[str, Any]] = {}
+    rest = list(cases)
+    while rest:
+        folder = root / f"host-{len(results)}"
+        run = subprocess.run(
+            [sys.executable, __file__, str(fmu), str(folder), *rest],
+            capture_output=True,
+            text=True,
+            timeout=600,
+            cwd=Path(__file__).parent,
+        )
+        done = [json.loads(line[len(RESULT) :]) for line in run.stdout.splitlines()
+                if line.startswith(RESULT)]  # fmt: skip
+        for i, r in enumerate(done):
+            assert r.pop("case") == rest[i], (r, rest)
+            last = i == len(done) - 1 and len(done) == len(rest)
+            r.update(host=run.returncode if last else 0, stderr=run.stderr[-3000:])
+            results[rest[i]] = r
+        rest = rest[len(done) :]
+        if rest:  # the host died in this case
+            results[rest.pop(0)] = {
+                "host": run.returncode or "no result",
+                "stderr": run.stderr[-3000:],
+            }
+    return results
 
 
 # ------------------------------------------------------------------------------------------------
@@ -289,19 +332,27 @@ def _drive(case: str, fmu: str, folder: str) -> dict[str, Any]:
 CASES = _cases()
 
 
+@pytest.fixture(scope="module")
+def forged(built, tmp_path_factory) -> Callable[[str], dict[str, Any]]:
+    """The result of a case (:func:`_run_cases`), the cases of its FMU run on first use."""
+    runs: dict[str, dict[str, dict[str, Any]]] = {}
+
+    def result(case: str) -> dict[str, Any]:
+        kind = CASES[case][0]
+        if kind not in runs:
+            unit = built.plant if kind == "plant" else built.controller
+            root = tmp_path_factory.mktemp(f"forged-{kind}")
+            runs[kind] = _run_cases(unit.fmu, root, [c for c in CASES if CASES[c][0] == kind])
+        return runs[kind][case]
+
+    return result
+
+
 @pytest.mark.parametrize("case", list(CASES))
-def test_forged_state(built, case, tmp_path):
-    kind, _, message = CASES[case]
-    unit = built.plant if kind == "plant" else built.controller
-    run = subprocess.run(
-        [sys.executable, __file__, case, str(unit.fmu), str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=Path(__file__).parent,
-    )
-    assert run.returncode == 0, f"the host died (status {run.returncode}): {run.stderr[-3000:]}"
-    r = json.loads(run.stdout.strip().splitlines()[-1])
+def test_forged_state(forged, case):
+    message = CASES[case][2]
+    r = forged(case)
+    assert r["host"] == 0, f"the host died in this case (status {r['host']}): {r['stderr']}"
     assert r["deserialized"] == OK, r["messages"]  # the envelope is intact: the checks are behind
     if message is None:
         assert r["status"] == OK, r["messages"]
@@ -312,5 +363,7 @@ def test_forged_state(built, case, tmp_path):
 
 
 if __name__ == "__main__":
-    print(json.dumps(_drive(*sys.argv[1:4])))
-    sys.stdout.flush()
+    fmu, folder = Path(sys.argv[1]), Path(sys.argv[2])
+    unit = tl._unit(fmu.stem, fmu, folder)
+    for case in sys.argv[3:]:
+        print(RESULT + json.dumps({"case": case, **_drive(case, unit)}), flush=True)
