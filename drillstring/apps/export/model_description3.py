@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import re
 import uuid
 from collections.abc import Sequence
 from types import SimpleNamespace
@@ -36,7 +37,13 @@ from drillstring.apps.export.model_description import (
 from drillstring.apps.export.specs import BuildError
 from drillstring.model.units import SCALED_TIME
 
-__all__ = ["FMI3_SUFFIX", "TIME_VARIABLE", "fmi3_model_description", "fmi3_model_identifier"]
+__all__ = [
+    "FMI3_SUFFIX",
+    "TIME_VARIABLE",
+    "fmi3_model_description",
+    "fmi3_model_identifier",
+    "fmi3_words",
+]
 
 #: The FMI 3.0 twin of an FMU ``X`` is ``X3`` (``DrillStringPlant3.fmu``).
 FMI3_SUFFIX = "3"
@@ -113,6 +120,17 @@ def _fmi3_time_base(variables: Sequence[Any]) -> str:
     if cut >= 0:  # FMI 3.0 gives it one: the unit of the variable time
         sentence = sentence[:cut] + ' (the unit of the variable time is "1").'
     return sentence
+
+
+#: A status named in a declaration's text, as FMI 2.0 names it.
+_FMI2_STATUS = re.compile(r"\bfmi2(OK|Warning|Discard|Error|Fatal)\b")
+
+
+def fmi3_words(text: str) -> str:
+    """A declaration's text in the twin's words: the status FMI 2.0 calls ``fmi2Discard`` is
+    ``fmi3Discard`` (and so on) for the FMI 3.0 front, which returns that status for the same
+    cause."""
+    return _FMI2_STATUS.sub(r"fmi3\1", text)
 
 
 def fmi3_model_description(
@@ -196,11 +214,17 @@ def fmi3_model_description(
         for name, var in sorted(enumerations.items()):
             enum = ET.SubElement(types, "EnumerationType", name=name)
             for i, (item, desc) in enumerate(var.items):
-                ET.SubElement(enum, "Item", name=item, value=str(i + 1), description=desc)
+                ET.SubElement(
+                    enum, "Item", name=item, value=str(i + 1), description=fmi3_words(desc)
+                )
     for tag in ("LogCategories", "DefaultExperiment"):
         node = fmi2_root.find(tag)
         if node is not None:
-            root.append(copy.deepcopy(node))
+            node = copy.deepcopy(node)
+            for element in node.iter():
+                if element.get("description") is not None:
+                    element.set("description", fmi3_words(element.get("description", "")))
+            root.append(node)
 
     model_variables = ET.SubElement(root, "ModelVariables")
     time_vr = max(vr.values()) + 1
@@ -215,7 +239,7 @@ def fmi3_model_description(
             "variability": var.variability,
         }
         if sv.get("description") is not None:
-            attrib["description"] = sv.get("description", "")
+            attrib["description"] = fmi3_words(sv.get("description", ""))
         if var.initial is not None:
             attrib["initial"] = var.initial
         if var.type == "Enumeration":
