@@ -30,6 +30,7 @@ __all__ = [
     "scaled_time",
     "set_guid",
     "time_base",
+    "type_attributes",
     "unit_definitions",
     "xml_bytes",
 ]
@@ -97,6 +98,39 @@ def time_base(variables: Sequence[Any]) -> str:
     )
 
 
+def type_attributes(var: Any, starts: dict[str, Any]) -> dict[str, str]:
+    """What a variable's declaration says of its type, in the schema's order: declared type,
+    unit and display unit (Reals), min and max, and the exact start value (not for outputs,
+    which are ``calculated``). The same in FMI 2.0 (the type element) and FMI 3.0 (the variable).
+
+    Parameters
+    ----------
+    var : drillstring_fmu_support.Variable
+        The variable's declaration.
+    starts : dict
+        The start values by name.
+
+    Returns
+    -------
+    dict
+        Attribute -> text.
+    """
+    attrib: dict[str, str] = {}
+    if var.type == "Enumeration":
+        attrib["declaredType"] = var.type_name
+    if var.type == "Real":
+        attrib["unit"] = var.unit
+        if var.display_unit is not None:
+            attrib["displayUnit"] = var.display_unit
+    if var.min is not None:
+        attrib["min"] = format_bound(var.min, var.type)
+    if var.max is not None:
+        attrib["max"] = format_bound(var.max, var.type)
+    if var.causality != "output":
+        attrib["start"] = format_start(starts[var.name], var.type)
+    return {k: attrib[k] for k in _ATTRIBUTE_ORDER if k in attrib}
+
+
 def fix_model_description(root: ET.Element, variables: Sequence[Any], starts: dict[str, Any]):
     """Types, units, ranges, exact start values, the time base in the ``description`` and the
     true ModelStructure (module docstring)."""
@@ -120,22 +154,9 @@ def fix_model_description(root: ET.Element, variables: Sequence[Any], starts: di
             sv.attrib.pop("initial", None)
         else:
             sv.set("initial", var.initial)
-        attrib: dict[str, str] = {}
         if var.type == "Enumeration":
-            attrib["declaredType"] = var.type_name
             enumerations[var.type_name] = var
-        if var.type == "Real":
-            attrib["unit"] = var.unit
-            if var.display_unit is not None:
-                attrib["displayUnit"] = var.display_unit
-        if var.min is not None:
-            attrib["min"] = format_bound(var.min, var.type)
-        if var.max is not None:
-            attrib["max"] = format_bound(var.max, var.type)
-        if var.causality != "output":
-            attrib["start"] = format_start(starts[var.name], var.type)
-        ordered = {k: attrib[k] for k in _ATTRIBUTE_ORDER if k in attrib}
-        ET.SubElement(sv, var.type, ordered)
+        ET.SubElement(sv, var.type, type_attributes(var, starts))
 
     position = list(root).index(root.find("CoSimulation")) + 1
     root.insert(position, unit_definitions(variables))

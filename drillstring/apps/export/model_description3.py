@@ -27,10 +27,9 @@ from typing import Any
 from xml.etree import ElementTree as ET
 
 from drillstring.apps.export.model_description import (
-    format_bound,
-    format_start,
     scaled_time,
     time_base,
+    type_attributes,
     unit_definitions,
     xml_bytes,
 )
@@ -242,18 +241,7 @@ def fmi3_model_description(
             attrib["description"] = fmi3_words(sv.get("description", ""))
         if var.initial is not None:
             attrib["initial"] = var.initial
-        if var.type == "Enumeration":
-            attrib["declaredType"] = var.type_name
-        if var.type == "Real":
-            attrib["unit"] = var.unit
-            if var.display_unit is not None:
-                attrib["displayUnit"] = var.display_unit
-        if var.min is not None:
-            attrib["min"] = format_bound(var.min, var.type)
-        if var.max is not None:
-            attrib["max"] = format_bound(var.max, var.type)
-        if var.causality != "output":
-            attrib["start"] = format_start(starts[var.name], var.type)
+        attrib.update(type_attributes(var, starts))
         ordered = {k: attrib[k] for k in _ATTRIBUTE_ORDER if k in attrib}
         ET.SubElement(model_variables, _FMI3_TYPE[var.type], ordered)
     for a in arrays:
