@@ -43,7 +43,6 @@ states are written there).
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -63,9 +62,11 @@ from drillstring.controller.synthesis import (
     ALPHA_GRID,
     LMI_MARGIN,
     REFINE_POINTS,
+    SOLVED,
     SOLVERS,
     SynthesisInfeasible,
     lmi32,
+    solve_program,
 )
 from drillstring.controller.tuning import OMEGA_S
 from drillstring.model.control import LATCH_MODES
@@ -108,7 +109,6 @@ DEFAULT_DECAY = math.log(2.0) / (HALF_LIFE_PERIODS * 2.0 * math.pi / OMEGA_S)
 #: Default tolerance of the bisection on the braking limit (:func:`least_braking`), units of C
 #: (0.05 C = 11.8 N m on the reference rig; ``drillstring design`` bisects to 0.01 kN m).
 BRAKING_TOL = 0.05
-_OK = ("optimal", "optimal_inaccurate")
 #: Relative slack of the state and torque constraints inside the LMI program.
 _SLACK = 1e-6
 
@@ -330,18 +330,8 @@ def solve_constrained_lmi(
     if u_max is not None:
         cons.append(mu <= (u_max * (1.0 - _SLACK)) ** 2)
     problem = cp.Problem(cp.Minimize(mu[0, 0]), cons)
-    tried = "none"
-    for name in solvers:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # "solution may be inaccurate": checked by us
-                problem.solve(solver=name)
-        except cp.error.SolverError:
-            continue
-        tried = name
-        break
-    status = str(problem.status)
-    if status not in _OK or S.value is None:
+    tried, status, _ = solve_program(problem, solvers)
+    if status not in SOLVED or S.value is None:
         return tried, status, None, None, None
     Sv = 0.5 * (S.value + S.value.T)
     F = np.linalg.solve(Sv, np.asarray(X.value, dtype=float).T).reshape(-1)

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,7 +50,7 @@ from drillstring.analysis.severity import severity_metrics
 from drillstring.controller.averaged import AveragedModel, averaged_model
 from drillstring.controller.gains import GainsFile, GainsFileError
 from drillstring.controller.string_spectrum import string_abscissa, string_closed_loop
-from drillstring.controller.synthesis import LMI_MARGIN, SOLVERS
+from drillstring.controller.synthesis import LMI_MARGIN, SOLVED, solve_program
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
@@ -94,7 +93,6 @@ DECAY_FRACTION = 0.9
 #: The string torque the law measures on the chain (the rig's: the motor torque less rho times
 #: the table's acceleration; :data:`~drillstring.controller.string_spectrum.TORQUE_SIGNALS`).
 TORQUE = "motor"
-_OK = ("optimal", "optimal_inaccurate")
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,15 +176,8 @@ def _lyapunov(Abar: NDArray[np.float64], sigma: float) -> NDArray[np.float64] | 
     P = cp.Variable((n, n), symmetric=True)
     L = Abar.T @ P + P @ Abar + (2.0 * sigma + LMI_MARGIN) * P
     problem = cp.Problem(cp.Minimize(cp.trace(P)), [P >> np.eye(n), 0.5 * (L + L.T) << 0])
-    for name in SOLVERS:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                problem.solve(solver=name)
-        except cp.error.SolverError:
-            continue
-        break
-    if str(problem.status) not in _OK or P.value is None:
+    _, status, _ = solve_program(problem)
+    if status not in SOLVED or P.value is None:
         return None
     return 0.5 * (P.value + P.value.T)
 

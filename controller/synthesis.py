@@ -57,6 +57,7 @@ __all__ = [
     "GAIN_MAX",
     "LMI_MARGIN",
     "REFINE_POINTS",
+    "SOLVED",
     "SOLVERS",
     "AlphaAttempt",
     "Certificate",
@@ -68,6 +69,7 @@ __all__ = [
     "evaluate_gain",
     "lmi32",
     "razumikhin_certificate",
+    "solve_program",
     "solve_synthesis_lmi",
     "synthesize",
     "to_gains_file",
@@ -85,7 +87,8 @@ GAIN_MAX = 4.0e3
 SOLVERS: tuple[str, ...] = ("CLARABEL", "SCS")
 #: Options per solver (SCS: cap the iterations; its answer is checked independently anyway).
 _SOLVER_OPTIONS: dict[str, dict[str, object]] = {"SCS": {"max_iters": 5000}}
-_OK = ("optimal", "optimal_inaccurate")
+#: The statuses whose answer is used (then checked independently, never trusted).
+SOLVED = ("optimal", "optimal_inaccurate")
 
 
 class SynthesisInfeasible(RuntimeError):
@@ -262,8 +265,8 @@ def _check_alpha(alpha: float) -> float:
     return a
 
 
-def _solve(
-    problem: cp.Problem, solvers: Sequence[str]
+def solve_program(
+    problem: cp.Problem, solvers: Sequence[str] = SOLVERS
 ) -> tuple[str, str, tuple[tuple[str, str], ...]]:
     """Solve with the first solver; the next one is only tried if a solver raises an error.
 
@@ -325,8 +328,8 @@ def solve_synthesis_lmi(
     D = cp.bmat([[S, np.zeros((n, n))], [np.zeros((n, n)), S]])
     cons = [S >> np.eye(n), 0.5 * (M + M.T) + margin * D << 0]
     problem = cp.Problem(cp.Minimize(cp.norm(X, 2)), cons)
-    solver, status, tried = _solve(problem, solvers)
-    if status not in _OK or S.value is None or X.value is None:
+    solver, status, tried = solve_program(problem, solvers)
+    if status not in SOLVED or S.value is None or X.value is None:
         return LmiSolution(alpha, solver, status, tried)
     Sv = 0.5 * (S.value + S.value.T)
     Xv = np.asarray(X.value, dtype=float)
@@ -378,8 +381,8 @@ def razumikhin_certificate(
     D = cp.bmat([[P, np.zeros((n, n))], [np.zeros((n, n)), P]])
     cons = [P >> np.eye(n), 0.5 * (M + M.T) + margin * D << 0]
     problem = cp.Problem(cp.Minimize(cp.trace(P)), cons)
-    solver, status, _ = _solve(problem, solvers)
-    if status not in _OK or P.value is None:
+    solver, status, _ = solve_program(problem, solvers)
+    if status not in SOLVED or P.value is None:
         return None, solver, status
     return 0.5 * (P.value + P.value.T), solver, status
 
