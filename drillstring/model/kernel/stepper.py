@@ -473,7 +473,12 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
     return ST_OK, hint, best_ev, best, far, trials, located
 
 
-@inline
+# Compiled on its own, not inlined into advance as the hot path's smaller functions are: numba
+# inlines at its IR level by copying the callee's whole variable scope once per block, so
+# inlining this (everything below it already inlined) made the kernel's first compilation about
+# 4x longer (a clean-HOME first use of an FMU, an in-memory compile on a read-only machine); the
+# call costs the reference counting of its arrays, about 14 % per step (docs/benchmarks.md).
+@jit
 def step(P, C, H, I, X, Y, K, D, Z, frozen, tol, h, t_end, ext):
     """One step to t_end = tau + h, or to the first event inside it.
 
