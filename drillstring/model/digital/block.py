@@ -84,7 +84,10 @@ def _timed(b, tau, theta, dtheta, torque_s, phi_s, dphi_s):
     return due, r_law, at_drive(b, m, tau, r_law, r_ff)
 
 
-@inline
+# compiled once, not inlined into its two callers: numba's IR inlining of this much took 30 s of
+# the controller's first compilation (see drillstring.model.kernel.stepper's step); one call
+# per sample
+@jit
 def _sample(b, tau, phi, dphi, theta, dtheta, top):
     """:func:`sample`'s numbers and (due, r_law, r_law_lim): whether the law computes at
     ``tau`` and its command before and after the drive's limits (the anti-windup's)."""

@@ -425,7 +425,7 @@ def refresh(s: KernelState, ext) -> int:
     return ST_OK
 
 
-@inline
+@jit
 def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
     """An RK4 step of size h from ``start`` = (tau, y0, dy/dtau, diagnostics) to t_end, cut at
     the first event inside it.
@@ -473,11 +473,12 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
     return ST_OK, hint, best_ev, best, far, trials, located
 
 
-# Compiled on its own, not inlined into advance as the hot path's smaller functions are: numba
-# inlines at its IR level by copying the callee's whole variable scope once per block, so
-# inlining this (everything below it already inlined) made the kernel's first compilation about
-# 4x longer (a clean-HOME first use of an FMU, an in-memory compile on a read-only machine); the
-# call costs the reference counting of its arrays, about 14 % per step (docs/benchmarks.md).
+# ``step`` and ``attempt`` are compiled on their own, not inlined as the hot path's smaller
+# functions are: numba inlines at its IR level by copying the callee's whole variable scope once
+# per block, so inlining these two (everything below them inlined) made the kernel's first
+# compilation 2-3x longer (a clean-HOME first use of an FMU, an in-memory compile on a read-only
+# machine); the calls cost the reference counting of their arrays, 10-18 % per smooth step
+# (docs/benchmarks.md).
 @jit
 def step(P, C, H, I, X, Y, K, D, Z, frozen, tol, h, t_end, ext):
     """One step to t_end = tau + h, or to the first event inside it.
