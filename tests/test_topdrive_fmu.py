@@ -5,7 +5,7 @@
   equals its law of :mod:`drillstring.model.laws` in the monolithic sampled loop
   (:func:`~drillstring.model.sampled.simulate_sampled`, Ts = H) on a Fig. 6-like run: torsional
   stick-slip from dphi0 = -4.9 with the torsional-stick model on, the law switched on at
-  tau = 25. The laws are built here from the tuning rules (``controller_lineup``), not from the
+  tau = 25. The laws are built here from the tuning rules (``industrial_lineup``), not from the
   FMU's parameters. The same for the LMI controller FMU and the sampled paper's law;
 * the SI FMU in the SI package against the same sampled loop of the law converted back from its
   SI parameters (``law_from_si``), compared in SI;
