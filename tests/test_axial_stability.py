@@ -27,7 +27,7 @@ from drillstring.analysis.axial_stability import (
     unstable_root_count,
 )
 from drillstring.analysis.figures import write_stability_diagram
-from drillstring.analysis.spectrum import quasi_polynomial_roots
+from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.params import REFERENCE
 
 
@@ -161,10 +161,12 @@ def test_reference_set_is_unstable() -> None:
     assert int(np.sum(roots.real > 0)) == unstable_root_count(g, e2, tau0) > 0
 
 
-def test_axial_roots_agree_with_companion_quasi_polynomial_and_satisfy_21() -> None:
+def test_axial_roots_agree_with_companion_form_and_satisfy_21() -> None:
     g, e2, tau = 0.4, 0.8, 7.5
     r1 = axial_roots(g, e2, tau, re_min=-0.3)
-    r2 = quasi_polynomial_roots([1.0, g, e2 + 1.0], [(tau, [1.0])], re_min=-0.3)
+    # (21) as y'' = -g y' - (e2 + 1) y + y(t - tau), in companion form x = (y, y')
+    companion = [[0.0, 1.0], [-(e2 + 1.0), -g]]
+    r2 = dde_roots(companion, [(tau, [[0.0, 0.0], [1.0, 0.0]])], re_min=-0.3)
     assert r1.size == r2.size >= 4
     assert np.max(np.abs(r1 - r2)) < 1e-12
     for s in r1:
