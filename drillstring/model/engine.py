@@ -663,18 +663,6 @@ class Engine:
         s = self._s
         return HistoryView(s.history, int(s.ints[S.I_HSTART]), int(s.ints[S.I_HEND]))
 
-    def perturbation(self) -> np.ndarray:
-        """[u, du, phi, dphi, theta, dtheta] at the current time.
-
-        Returns
-        -------
-        ndarray
-            Shape (6,): the scaled perturbations u, phi, theta of (9)-(10) from the nominal motion
-            and their tau-derivatives (``docs/model.md``, "Coordinates").
-        """
-        s = self._s
-        return np.array(to_perturbation(s.params, self.tau, *s.y))
-
     def total_state(self) -> np.ndarray:
         """[U, V, Phi, W, Theta, Wt] (total scaled coordinates) at the current time.
 

@@ -13,7 +13,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from drillstring.model.kernel.hermite import interpolate
 from drillstring.model.kernel.state import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
 from drillstring.model.params import ScaledParams
 
@@ -201,30 +200,3 @@ class HistoryView:
             "W": self._H[H_W],
             "discontinuity": self._H[H_FLAG] > 0.0,
         }
-
-    def evaluate(self, tau: float) -> tuple[float, float, float, float]:
-        """(U, V, Phi, W) at a past time by the kernel's Hermite interpolation.
-
-        Parameters
-        ----------
-        tau : float
-            A time within the stored nodes, ``self.tau[0] <= tau <= self.tau[-1]``.
-
-        Returns
-        -------
-        tuple of 4 float
-            U and Phi by cubic Hermite interpolation of the neighbouring nodes' values and slopes
-            V and W; V and W as the interpolant's derivatives (total scaled coordinates,
-            ``docs/model.md``, "Coordinates").
-
-        Raises
-        ------
-        ValueError
-            ``tau`` is outside the stored history.
-        """
-        out = np.zeros(4)
-        if not interpolate(self._H, 0, self._H.shape[1], float(tau), out):
-            raise ValueError(
-                f"tau = {tau!r} is outside the stored history [{self.tau[0]}, {self.tau[-1]}]"
-            )
-        return float(out[0]), float(out[1]), float(out[2]), float(out[3])
