@@ -210,21 +210,6 @@ class GainEvaluation:
     certificate: Certificate | None
     attempts: tuple[tuple[float, str, str], ...]
 
-    @property
-    def stable_nominal(self) -> bool:
-        """Closed-loop spectral abscissa < 0 at tau_n0."""
-        return self.abscissa_nominal < 0.0
-
-    @property
-    def stable_sweep(self) -> bool:
-        """Closed-loop spectral abscissa < 0 at every delay of the sweep."""
-        return bool(np.all(self.abscissa < 0.0))
-
-    @property
-    def has_certificate(self) -> bool:
-        """A Razumikhin certificate (32) was found on the alpha grid."""
-        return self.certificate is not None
-
 
 # ------------------------------------------------------------------------------------------------
 # LMIs
