@@ -865,12 +865,6 @@ class SspPackage:
         return self.name
 
     @property
-    def parameter_set_names(self) -> tuple[str, ...]:
-        """The names of the parameter sets of the package (every SSD's), in the order they are
-        first bound (``SystemStructure.ssd`` first)."""
-        return tuple(self.sets)
-
-    @property
     def bound_sets(self) -> tuple[str, ...]:
         """The names of the sets this SSD binds, in the order they are first bound."""
         names: dict[str, None] = {}

@@ -390,7 +390,7 @@ def test_one_experiment_per_ssd_with_complete_sets(built, package):
     assert list(default.variants) == [names[0], *sorted(names[1:], key=lambda n: f"{n}.ssd")]
     assert default.variants[names[0]] == SSD_FILE and names[0] == "fig5"
     assert all(default.variants[n] == f"{n}.ssd" for n in names[1:])
-    assert default.parameter_set_names == tuple(default.variants)
+    assert tuple(default.sets) == tuple(default.variants)
     assert default.documentation == ("documentation/index.html",)
     fmus = {"plant": variant.plant_fmu, "controller": variant.controller_fmu}
     mds = {c: read_model_description(str(built.out / f)) for c, f in fmus.items()}

@@ -247,7 +247,7 @@ def test_topdrive_fmu_takes_the_lmi_controllers_place_in_its_package(built):
 def test_packages_carry_the_tunings_and_the_default_is_the_fmus_start(built, variant):
     b = built.si if variant.name == "si" else built
     p = read_ssp(b.topdrive_ssp, unpack=False)
-    assert set(p.parameter_set_names) == set(TOPDRIVE_SETS)
+    assert set(p.sets) == set(TOPDRIVE_SETS)
     assert TOPDRIVE_SETS == (
         "fig5", *(f"fig6-{t}" for t in INDUSTRIAL), "fig6-soft-speed-string"
     )  # fmt: skip
