@@ -63,11 +63,9 @@ __all__ = [
     "DEFAULT_STEP",
     "LMI_EXPERIMENTS",
     "LoopExperiment",
-    "PACKAGE_SETS",
     "TOPDRIVE_DEFAULT",
     "TOPDRIVE_EXPERIMENTS",
     "TOPDRIVE_PARAMETERS",
-    "TOPDRIVE_SETS",
     "loop_default_experiment",
     "loop_experiments",
     "package_documentation",
@@ -152,10 +150,6 @@ TOPDRIVE_EXPERIMENTS: tuple[LoopExperiment, ...] = (
         (("string_elements", 16),),
     ),
 )
-#: The parameter sets (= SSDs) of an LMI package, in binding order.
-PACKAGE_SETS = tuple(e.name for e in LMI_EXPERIMENTS)
-#: The parameter sets (= SSDs) of a top-drive package.
-TOPDRIVE_SETS = tuple(e.name for e in TOPDRIVE_EXPERIMENTS)
 
 
 def loop_experiments(variant: LoopVariant) -> tuple[LoopExperiment, ...]:

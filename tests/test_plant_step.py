@@ -195,4 +195,4 @@ def test_io_layout_is_its_table():
     offsets = list(P)
     # the outputs: the 13 SI quantities (the top-of-string torque the last) and 4 integers
     assert offsets == sorted(offsets) and P.size == P.out + 17
-    assert P.k + native.N_K == P.tau and native.PLANT_IO_SIZE == P.size
+    assert P.k + native.N_K == P.tau

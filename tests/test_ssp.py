@@ -79,7 +79,7 @@ from drillstring.orchestration.hosts import (
     variant_folder,
 )
 from drillstring.orchestration.loop_ssp import (
-    PACKAGE_SETS,
+    LMI_EXPERIMENTS,
     loop_default_experiment,
     loop_experiments,
     topdrive_tunings,
@@ -438,7 +438,7 @@ def test_one_experiment_per_ssd_with_complete_sets(built, package):
             "Integer",
             1,
         )
-        assert PACKAGE_SETS == ("fig5", "fig6")
+        assert tuple(e.name for e in LMI_EXPERIMENTS) == ("fig5", "fig6")
 
 
 def test_si_package_units_and_the_reference_rig(built):
