@@ -17,7 +17,6 @@ from drillstring.analysis.axial_stability import (
     FIG2_GAMMABARS,
     axial_roots,
     axial_spectral_abscissa,
-    characteristic_function,
     critical_delay,
     crossing_delays,
     crossing_frequencies,
@@ -29,6 +28,11 @@ from drillstring.analysis.axial_stability import (
 from drillstring.analysis.figures import write_stability_diagram
 from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.params import REFERENCE
+
+
+def characteristic_function(s: complex, g: float, e2: float, tau: float) -> complex:
+    """P(s) = s^2 + gammabar s + etabar^2 + 1 - exp(-s taubar_n), eq. (21)."""
+    return s * s + g * s + e2 + 1.0 - np.exp(-s * tau)
 
 
 def first_destabilising_delay(g: float, e2: float, step: float = 0.25, tol: float = 1e-11) -> float:

@@ -73,7 +73,6 @@ __all__ = [
     "axial_roots",
     "axial_spectral_abscissa",
     "axial_system",
-    "characteristic_function",
     "critical_delay",
     "crossing_delays",
     "crossing_frequencies",
@@ -101,28 +100,6 @@ def _check_ge(
 
 # --------------------------------------------------------------------------------------------------
 # characteristic equation and roots
-
-
-def characteristic_function(
-    s: ArrayLike, gammabar: float, etabar2: float, taubar_n: float
-) -> NDArray | complex:
-    """P(s) = s^2 + gammabar s + etabar^2 + 1 - exp(-s taubar_n), eq. (21).
-
-    Parameters
-    ----------
-    s : array_like
-        Point(s) of the complex plane.
-    gammabar, etabar2, taubar_n : float
-        Damping gammabar, stiffness etabar^2 and delay taubar_n of (18) (not validated).
-
-    Returns
-    -------
-    complex or ndarray
-        P(s), of the shape of ``s`` (a scalar for scalar ``s``).
-    """
-    s = np.asarray(s, dtype=complex)
-    out = s * s + gammabar * s + etabar2 + 1.0 - np.exp(-s * taubar_n)
-    return out[()] if out.ndim == 0 else out
 
 
 def axial_system(gammabar: float, etabar2: float, taubar_n: float) -> DDESystem:
