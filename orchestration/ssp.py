@@ -860,11 +860,6 @@ class SspPackage:
     documentation: tuple[str, ...] = ()
 
     @property
-    def variant(self) -> str:
-        """The name of the SSD read (:attr:`name`)."""
-        return self.name
-
-    @property
     def bound_sets(self) -> tuple[str, ...]:
         """The names of the sets this SSD binds, in the order they are first bound."""
         names: dict[str, None] = {}
