@@ -14,7 +14,7 @@ import pytest
 from drillstring.analysis.axial_stability import critical_delay
 from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.control import AffineFeedback
-from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.engine import Engine, EngineOptions, stick_entries
 from drillstring.model.kernel import state as S
 from drillstring.model.kernel.jit import numba_available
 from drillstring.model.params import REFERENCE
@@ -139,7 +139,7 @@ def ref_run():
 
 def test_stick_events_are_on_the_switching_surface(ref_run):
     r = ref_run
-    stick = r.stick_events()
+    stick = stick_entries(r.events)
     assert len(stick) > 20
     assert max(abs(e.V) for e in stick) < 1e-9
     assert all(0.0 <= e.gstar <= 1.0 for e in stick)
