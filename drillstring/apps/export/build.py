@@ -74,7 +74,6 @@ __all__ = [
     "build_packages",
     "load_gains",
     "synthesize_gains",
-    "topdrive_config",
 ]
 
 #: The default output folder (relative to the working directory).
@@ -264,7 +263,9 @@ def build_fmus(
     gains = load_gains(gains_file)  # before building anything: a bad file fails at once
     base = {"version": package_version(), "format": 1}
     control = {**base, "gains": gains}
-    topdrive = {**control, "topdrive": topdrive_config()}
+    # the top-drive controller's tunings (scaled, reference set) and which is its start values
+    tunings = {"default": TOPDRIVE_DEFAULT, "tunings": topdrive_tunings()}
+    topdrive = {**control, "topdrive": tunings}
     jobs = (
         (PLANT, base),
         (CONTROLLER, control),
@@ -289,12 +290,6 @@ def build_fmus(
     if 2 in fmi:
         built.update(build_packages(out, source_date_epoch))
     return built
-
-
-def topdrive_config() -> dict[str, Any]:
-    """The top-drive controller's tunings (scaled, reference set) and which one is its start
-    values (:func:`drillstring.orchestration.loop_ssp.topdrive_tunings`)."""
-    return {"default": TOPDRIVE_DEFAULT, "tunings": topdrive_tunings()}
 
 
 def build_packages(out_dir: Path, source_date_epoch: int | None = None) -> dict[str, Path]:
