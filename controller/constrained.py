@@ -492,10 +492,7 @@ def least_braking(
     R_max: float,
     braking_limit: float = 0.0,
     sigma: float = DEFAULT_DECAY,
-    tau_max: float | None = None,
     tol: float = BRAKING_TOL,
-    margin: float = LMI_MARGIN,
-    solvers: Sequence[str] = SOLVERS,
 ) -> tuple[float | None, int]:
     """The least braking limit b (R_min = -b, units of C) at which the program of the module
     docstring is feasible at ``alpha`` with the budget ``u_max(b) = min(operating_torque + b,
@@ -527,11 +524,7 @@ def least_braking(
         u = min(bias + b, R_max - bias)
         if not u > 0.0:
             return False
-        S = solve_constrained_lmi(
-            model, X0, alpha, sigma=sigma, tau_max=tau_max, u_max=u, margin=margin,
-            solvers=solvers,
-        )[2]  # fmt: skip
-        return S is not None
+        return solve_constrained_lmi(model, X0, alpha, sigma=sigma, u_max=u)[2] is not None
 
     if math.isfinite(R_max):
         hi = R_max - 2.0 * bias
