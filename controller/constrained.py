@@ -348,7 +348,6 @@ def check_constrained(
     *,
     sigma: float = DEFAULT_DECAY,
     tau_max: float | None = None,
-    taus: Sequence[float] | NDArray[np.float64] | None = None,
     braking_limit: float | None = None,
 ) -> ConstrainedCertificate:
     """Check a constrained design without the solver (module docstring); ``braking_limit`` is
@@ -371,7 +370,7 @@ def check_constrained(
     X0 = np.atleast_2d(np.asarray(states, dtype=float))
     state_max = float(max(x @ P @ x for x in X0))
     peak = float(math.sqrt(max(float(Fv @ Sm @ Fv), 0.0)))
-    taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
+    taus_arr = default_delay_sweep(model)
     nominal = float(delay_roots(model, Fv, None, 1)[0].real)
     sweep = np.asarray(spectral_abscissa_sweep(model, Fv, taus_arr), dtype=float)
     return ConstrainedCertificate(
