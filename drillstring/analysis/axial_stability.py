@@ -488,7 +488,6 @@ def stability_diagram(
     *,
     n_param: int = 40000,
     grid: tuple[int, int] = (801, 401),
-    shade_gammabar: float | None = None,
 ) -> StabilityDiagram:
     """Boundaries of the stable region of (21) for each gammabar (Fig. 2), by tau-decomposition.
 
@@ -506,9 +505,8 @@ def stability_diagram(
     n_param : int
         Points per crossing curve before thinning.
     grid : (int, int)
-        ``(n_taubar, n_etabar2)`` size of the shading mask.
-    shade_gammabar : float, optional
-        Damping of the shading mask; default the smallest of ``gammabars``.
+        ``(n_taubar, n_etabar2)`` size of the shading mask, drawn for the smallest of
+        ``gammabars``.
 
     Returns
     -------
@@ -550,11 +548,7 @@ def stability_diagram(
                     pts = np.column_stack([tau[run], e2[run]])
                     segs.append(_thin(pts, scale, 1.0 / 1000.0))
         boundaries[g] = segs
-    sg = (
-        min(gs)
-        if shade_gammabar is None
-        else check_real("shade_gammabar", shade_gammabar, lower=0.0, strict=False)
-    )
+    sg = min(gs)
     tg = np.linspace(t0, t1, grid[0])
     eg = np.linspace(max(e0, 1e-6), e1, grid[1])
     counts = _count_unstable(sg, eg[:, None], tg[None, :])
