@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree as ET
 
-from drillstring.apps.export.archive import validate, write_zip
+from drillstring.apps.export.archive import validate
 from drillstring.apps.export.documentation import documentation
 from drillstring.apps.export.front_layer import (
     CFLAGS,
@@ -54,6 +54,7 @@ from drillstring.apps.export.staging import (
 )
 from drillstring.controller import design_controller, write_gains
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFileError, read_gains
+from drillstring.fileio import write_zip
 from drillstring.model.params import REFERENCE
 from drillstring.orchestration.closed_loop import SCALED, SI, fmu_paths
 from drillstring.orchestration.closed_loop import TOPDRIVE as TOPDRIVE_LOOP
@@ -174,7 +175,7 @@ def _postprocess(
         files[f"{_BINARIES[version]}/{model}_pythonfmu.so"] = pythonfmu_lib
         files["modelDescription.xml"] = xml_bytes(description)
         dest = out_dir / f"{model}.fmu"
-        write_zip(files, dest, source_date_epoch)
+        write_zip(dest, files, source_date_epoch)
         written[model] = dest
     return written
 
