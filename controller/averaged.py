@@ -29,7 +29,6 @@ from drillstring.validation import check_real
 __all__ = [
     "AveragedModel",
     "averaged_model",
-    "averaged_rhs",
     "default_delay_sweep",
     "balanced",
     "delay_roots",
@@ -150,30 +149,6 @@ def averaged_model(params: ScaledParams, A: float, taubar_crit: float) -> Averag
         taubar_crit=taubar_crit,
         rho=rho,
     )
-
-
-def averaged_rhs(
-    model: AveragedModel, x: ArrayLike, x_delayed: ArrayLike, R_fb: float = 0.0
-) -> NDArray[np.float64]:
-    """Right-hand side of (29): ``A0 x + A1 x_delayed + B R_fb``.
-
-    Parameters
-    ----------
-    model : AveragedModel
-        The averaged model.
-    x, x_delayed : array_like
-        The state x(tau) and x(tau - tau_n), 4 entries each.
-    R_fb : float
-        Feedback torque.
-
-    Returns
-    -------
-    ndarray
-        dx/dtau, shape (4,).
-    """
-    x = np.asarray(x, dtype=float).reshape(4)
-    xd = np.asarray(x_delayed, dtype=float).reshape(4)
-    return model.A0 @ x + model.A1 @ xd + model.B[:, 0] * float(R_fb)
 
 
 def linearised_ode_matrix(model: AveragedModel) -> NDArray[np.float64]:

@@ -348,7 +348,6 @@ def check_constrained(
     *,
     sigma: float = DEFAULT_DECAY,
     tau_max: float | None = None,
-    taus: Sequence[float] | NDArray[np.float64] | None = None,
     braking_limit: float | None = None,
 ) -> ConstrainedCertificate:
     """Check a constrained design without the solver (module docstring); ``braking_limit`` is
@@ -371,7 +370,7 @@ def check_constrained(
     X0 = np.atleast_2d(np.asarray(states, dtype=float))
     state_max = float(max(x @ P @ x for x in X0))
     peak = float(math.sqrt(max(float(Fv @ Sm @ Fv), 0.0)))
-    taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
+    taus_arr = default_delay_sweep(model)
     nominal = float(delay_roots(model, Fv, None, 1)[0].real)
     sweep = np.asarray(spectral_abscissa_sweep(model, Fv, taus_arr), dtype=float)
     return ConstrainedCertificate(
@@ -492,10 +491,7 @@ def least_braking(
     R_max: float,
     braking_limit: float = 0.0,
     sigma: float = DEFAULT_DECAY,
-    tau_max: float | None = None,
     tol: float = BRAKING_TOL,
-    margin: float = LMI_MARGIN,
-    solvers: Sequence[str] = SOLVERS,
 ) -> tuple[float | None, int]:
     """The least braking limit b (R_min = -b, units of C) at which the program of the module
     docstring is feasible at ``alpha`` with the budget ``u_max(b) = min(operating_torque + b,
@@ -527,11 +523,7 @@ def least_braking(
         u = min(bias + b, R_max - bias)
         if not u > 0.0:
             return False
-        S = solve_constrained_lmi(
-            model, X0, alpha, sigma=sigma, tau_max=tau_max, u_max=u, margin=margin,
-            solvers=solvers,
-        )[2]  # fmt: skip
-        return S is not None
+        return solve_constrained_lmi(model, X0, alpha, sigma=sigma, u_max=u)[2] is not None
 
     if math.isfinite(R_max):
         hi = R_max - 2.0 * bias

@@ -44,7 +44,7 @@ from drillstring.controller.synthesis import (
     synthesize,
     to_gains_file,
 )
-from drillstring.model.experiments import FIG6, Experiment
+from drillstring.model.experiments import FIG6
 from drillstring.model.params import ScaledParams
 from drillstring.model.topdrive import TopDrive
 from drillstring.validation import check_real
@@ -97,13 +97,13 @@ def design_constrained(
     model: AveragedModel,
     top_drive: TopDrive,
     *,
-    experiment: Experiment = FIG6,
     decay: float = DEFAULT_DECAY,
     label: str = "",
     alphas: Sequence[float] | None = None,
     braking_tol: float = BRAKING_TOL,
 ) -> ConstrainedDesign:
-    """The input-constrained design for a top drive, from an experiment's switch-on states.
+    """The input-constrained design for a top drive, from the switch-on states of Fig. 6 (with its
+    latch).
 
     The drive's range [R_min, R_max] need not be symmetric about the operating torque R0 + R_ff:
     the budget is the smaller margin (:func:`~drillstring.controller.constrained.torque_budget`),
@@ -120,8 +120,6 @@ def design_constrained(
     top_drive : TopDrive
         The drive whose torque range bounds the feedback (:func:`~drillstring.controller.
         constrained.torque_budget`).
-    experiment : Experiment
-        The switch-on (default Fig. 6's, with its latch).
     decay : float
         Required decay rate of the certificate (1/tau), >= 0 (default
         :data:`~drillstring.controller.constrained.DEFAULT_DECAY`: half-life three torsional
@@ -146,7 +144,7 @@ def design_constrained(
         within ``braking_tol`` above (None: no braking limit helps, the margin above the
         operating torque is too small).
     """
-    states = switch_on_states(params, model, experiment, latch=experiment.latch)
+    states = switch_on_states(params, model, FIG6, latch=FIG6.latch)
     u_max = torque_budget(params, top_drive, model.R_ff)
     grid = {} if alphas is None else {"alphas": alphas, "refine": 0}
     try:
@@ -177,7 +175,7 @@ def design_constrained(
             "braking_limit": -top_drive.R_min + 0.0,
             "top_drive": label,
             "states": int(len(states)),
-            "experiment": experiment.name,
+            "experiment": FIG6.name,
             # the ellipsoid E = {x^T S^-1 x <= 1} and the states in it: the certificate can be
             # checked again from the file (constrained.recheck_constrained)
             "S": [[float(v) for v in row] for row in result.S],

@@ -1,9 +1,9 @@
 """The controllers compared at an operating point: three industrial top-drive laws and the LMI law.
 
-:func:`controller_lineup` builds, for one parameter set, the stiff speed PI, SoftSpeed, Z-Torque
+:func:`industrial_lineup` builds, for one parameter set, the stiff speed PI, SoftSpeed, Z-Torque
 (tuned from the string by the rules of :mod:`drillstring.controller.tuning`, the choices a
-:class:`Tuning` states) and the paper's state feedback (29)-(31) with a gain :func:`lmi_gain`
-takes from a gains file or designs by Theorem 1 at the point. All four share the feed-forward
+:class:`Tuning` states); the paper's state feedback (29)-(31) takes the gain :func:`lmi_gain`
+reads from a gains file or designs by Theorem 1 at the point. All four share the feed-forward
 R_ff and the switch-on time, so that they start from the same state in the same way
 (``docs/controllers.md``).
 """
@@ -33,7 +33,7 @@ from drillstring.controller.tuning import (
 )
 from drillstring.model.control import AffineFeedback
 from drillstring.model.digital.controller import DigitalController
-from drillstring.model.laws import Law, SampledAffine, SpeedPI, ZTorque
+from drillstring.model.laws import SampledAffine, SpeedPI, ZTorque
 from drillstring.model.params import ScaledParams, known_rig
 from drillstring.model.pipe import StringParams
 from drillstring.model.sensing import Sensing
@@ -58,7 +58,6 @@ __all__ = [
     "SENSING",
     "TIMED_CONTROLLERS",
     "Tuning",
-    "controller_lineup",
     "industrial_lineup",
     "lmi_gain",
     "rig_lineup",
@@ -270,38 +269,6 @@ def lmi_gain(
         abscissa = float(delay_roots(model, F, None, 1)[0].real) if roots else math.nan
     gain = (float(F[0]), float(F[1]), float(F[2]), float(F[3]))
     return LmiGain(F=gain, K0=float(K0), R_ff=float(R_ff), abscissa=abscissa)
-
-
-def controller_lineup(
-    params: ScaledParams,
-    gain: LmiGain,
-    *,
-    t_on: float = 0.0,
-    latch: str = "angle",
-) -> dict[str, Law]:
-    """The four controllers of :data:`CONTROLLERS` at ``params``.
-
-    Parameters
-    ----------
-    params : ScaledParams
-        The operating point (rho for the industrial tunings).
-    gain : LmiGain
-        The paper's law; its R_ff is the feed-forward of every law.
-    t_on : float
-        Switch-on time of every law.
-    latch : str
-        Bumpless switch-on of the paper's law (``docs/model.md``, "Bumpless switch-on"); the
-        PI laws preset their integrators instead (``drillstring.model.laws``).
-
-    Returns
-    -------
-    dict
-        Name -> law, in the order of :data:`CONTROLLERS`.
-    """
-    return {
-        **industrial_lineup(params, R_ff=gain.R_ff, t_on=t_on),
-        "lmi": SampledAffine(AffineFeedback(gain.F, gain.K0, gain.R_ff, t_on, latch)),
-    }
 
 
 def industrial_lineup(

@@ -45,7 +45,6 @@ from drillstring.validation import check_choice, check_real
 __all__ = [
     "MODE_TABLE",
     "Reflection",
-    "law_impedance",
     "reflection",
     "reflection_at_modes",
     "top_impedance",
@@ -55,22 +54,6 @@ __all__ = [
 #: "Reflection at the top drive": the held table, where a reflecting top puts the waves the
 #: bit's velocity weakening feeds).
 MODE_TABLE = "held"
-
-
-def law_impedance(law: Law, s: complex) -> complex:
-    """The law's torque per table speed ``Z_law(s)`` (``R_fb = -Z_law*W``), scaled (C*t*).
-
-    For :class:`ZTorque` this is the law closed through the torque it measures at the top (the
-    table's inertia ``rho`` enters it): use :func:`top_impedance`, which needs rho.
-
-    Raises
-    ------
-    TypeError
-        A law that is not a one-port at the top (the LMI laws) or a Z-Torque law (see above).
-    """
-    if isinstance(law, SpeedPI):
-        return complex(law.kp + law.ki / s)
-    raise TypeError(f"no top impedance of its own for a law of type {type(law).__name__}")
 
 
 def top_impedance(law: Law | None, rho: float, s: complex) -> complex:
@@ -99,7 +82,7 @@ def top_impedance(law: Law | None, rho: float, s: complex) -> complex:
     if law is None:
         return rho * s
     if isinstance(law, SpeedPI):
-        return rho * s + law_impedance(law, s)
+        return rho * s + (law.kp + law.ki / s)
     if isinstance(law, ZTorque):
         P = law.kp + law.ki / s
         H = (s / (s + law.omega_hp)) * (law.omega_lp / (s + law.omega_lp))

@@ -365,13 +365,11 @@ def fig6_on_string(
     design: StringDesign,
     top_drive: Any,
     *,
-    elements: int = FIG6_ELEMENTS,
     tau_end: float = FIG6_TAU_END,
-    window: float = FIG6_WINDOW,
-    kappa: float = REFERENCE_KAPPA,
 ) -> dict[str, Any]:
-    """The nonlinear Fig. 6 switch-on of the string law on the ``elements``-element string
-    under ``top_drive`` (sampled, freeze-angle on saturation, the motor's string torque).
+    """The nonlinear Fig. 6 switch-on of the string law on the reference pipe in
+    :data:`FIG6_ELEMENTS` elements under ``top_drive`` (sampled, freeze-angle on saturation, the
+    motor's string torque), its severity over the last :data:`FIG6_WINDOW`.
 
     Returns
     -------
@@ -386,15 +384,15 @@ def fig6_on_string(
                      latch=FIG6.latch, on_saturation="freeze-angle")  # fmt: skip
     controller = DigitalController(law, top_drive, Sensing(torque=TORQUE))
     options = EngineOptions(h=FIG6.h, torsional_stick=FIG6.torsional_stick)
-    string = StringParams(elements=elements, kappa=kappa)
+    string = StringParams(elements=FIG6_ELEMENTS, kappa=REFERENCE_KAPPA)
     run = simulate_sampled(
         params, controller, tau_end, DEFAULT_TS, initial=FIG6.initial(), options=options,
         string=string,
     )  # fmt: skip
-    sev = severity_metrics(run, window, t_from=FIG6.t_on)
+    sev = severity_metrics(run, FIG6_WINDOW, t_from=FIG6.t_on)
     on = np.asarray(run.tau) >= FIG6.t_on
     return {
-        "elements": int(elements),
+        "elements": FIG6_ELEMENTS,
         "tau_end": float(tau_end),
         "status": run.status.code,
         "outcome": sev.outcome,

@@ -341,13 +341,13 @@ def string_abscissa(
     *,
     torque: str = "motor",
     bit: str = "delay",
-    tau: float | None = None,
 ) -> float:
-    """Spectral abscissa (largest real part of the roots) of ``law`` on the string.
+    """Spectral abscissa (largest real part of the roots) of ``law`` on the string, at the
+    nominal delay tau_n0 of (14).
 
     Parameters
     ----------
-    model, law, string, torque, bit, tau
+    model, law, string, torque, bit
         As :func:`string_roots`.
 
     Returns
@@ -356,5 +356,5 @@ def string_abscissa(
         max Re s over the roots of :func:`string_roots`, the rigid-body root left out, scaled
         (per unit of tau; divide by t* for 1/s); < 0: the linearised closed loop is stable.
     """
-    roots = string_roots(model, law, string, torque=torque, bit=bit, tau=tau, n_roots=1)
+    roots = string_roots(model, law, string, torque=torque, bit=bit, n_roots=1)
     return float(roots[0].real) if roots.size else -math.inf

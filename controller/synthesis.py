@@ -210,21 +210,6 @@ class GainEvaluation:
     certificate: Certificate | None
     attempts: tuple[tuple[float, str, str], ...]
 
-    @property
-    def stable_nominal(self) -> bool:
-        """Closed-loop spectral abscissa < 0 at tau_n0."""
-        return self.abscissa_nominal < 0.0
-
-    @property
-    def stable_sweep(self) -> bool:
-        """Closed-loop spectral abscissa < 0 at every delay of the sweep."""
-        return bool(np.all(self.abscissa < 0.0))
-
-    @property
-    def has_certificate(self) -> bool:
-        """A Razumikhin certificate (32) was found on the alpha grid."""
-        return self.certificate is not None
-
 
 # ------------------------------------------------------------------------------------------------
 # LMIs
@@ -661,18 +646,15 @@ def evaluate_gain(
     A: float,
     taubar_crit: float,
     *,
-    alphas: Sequence[float] | NDArray[np.float64] = ALPHA_GRID,
-    margin: float = LMI_MARGIN,
-    solvers: Sequence[str] = SOLVERS,
     taus: Sequence[float] | NDArray[np.float64] | None = None,
-    n_roots: int = 8,
 ) -> GainEvaluation:
     """Evaluate a gain ``F`` (e.g. the paper's, :data:`~drillstring.controller.gains.PAPER_F`)
     on the averaged model at ``params``.
 
-    Closed-loop roots at ``tau_n0``, the spectral abscissa over the delay sweep, and whether a
-    Razumikhin certificate (32) exists for this ``F`` with some ``P`` and an ``alpha`` of the
-    grid (LMI in ``P``; the first alpha whose solution passes the numpy check is kept).
+    Closed-loop roots at ``tau_n0`` (the 8 rightmost), the spectral abscissa over the delay
+    sweep, and whether a Razumikhin certificate (32) exists for this ``F`` with some ``P`` and an
+    ``alpha`` of :data:`ALPHA_GRID` (LMI in ``P`` with :data:`LMI_MARGIN`; the first alpha whose
+    solution passes the numpy check is kept).
 
     Parameters
     ----------
@@ -682,16 +664,8 @@ def evaluate_gain(
         The parameter set.
     A, taubar_crit : float
         The axial quantities of (22).
-    alphas : sequence of float
-        Alphas tried for the certificate, in order.
-    margin : float
-        Relative margin of the LMI.
-    solvers : sequence of str
-        cvxpy solvers, as for :func:`solve_synthesis_lmi`.
     taus : sequence of float, optional
         Delays of the spectral sweep (default as :func:`check_certificate`).
-    n_roots : int
-        Rightmost roots reported at tau_n0.
 
     Returns
     -------
@@ -706,17 +680,15 @@ def evaluate_gain(
     Fv = _as_gain(F)
     model = averaged_model(params, A, taubar_crit)
     taus_arr = default_delay_sweep(model) if taus is None else np.asarray(taus, dtype=float)
-    roots = delay_roots(model, Fv, None, n_roots)
+    roots = delay_roots(model, Fv)
     sweep = spectral_abscissa_sweep(model, Fv, taus_arr)
     Abar = model.A0 + model.B @ Fv[None, :]
     tried: list[tuple[float, str, str]] = []
     cert: Certificate | None = None
-    for a in np.asarray(alphas, dtype=float).reshape(-1):
-        P, solver, status = razumikhin_certificate(
-            Abar, model.A1, float(a), margin=margin, solvers=solvers
-        )
+    for a in np.asarray(ALPHA_GRID, dtype=float).reshape(-1):
+        P, solver, status = razumikhin_certificate(Abar, model.A1, float(a))
         tried.append((float(a), solver, status))
-        if P is not None and _margin_of(model, Fv, P, float(a)) >= 0.5 * margin:
+        if P is not None and _margin_of(model, Fv, P, float(a)) >= 0.5 * LMI_MARGIN:
             nominal = float(roots[0].real)
             cert = check_certificate(model, Fv, P, float(a), taus_arr, _sweep=(nominal, sweep))
             break

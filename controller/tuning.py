@@ -55,7 +55,6 @@ __all__ = [
     "STRING_IMPEDANCES",
     "Z_STRING",
     "Pipe",
-    "damping_ratios",
     "impedance",
     "linear_closed_loop",
     "rig_pipe",
@@ -451,30 +450,3 @@ def linear_closed_loop(model: AveragedModel, law: Law) -> NDArray[np.float64]:
         M[Y, Y] = -law.omega_lp
         return M
     raise TypeError(f"no linear closed loop for a law of type {type(law).__name__}")
-
-
-def damping_ratios(M: NDArray[np.float64], tol: float = 1e-9) -> NDArray[np.float64]:
-    """Damping ratios -Re(s)/|s| of the eigenvalues of ``M``, ascending.
-
-    Parameters
-    ----------
-    M : ndarray
-        Square system matrix (e.g. of :func:`linear_closed_loop`).
-    tol : float
-        Eigenvalues with ``|s| <= tol`` (at the origin: integrators, rigid-body modes) are left
-        out.
-
-    Returns
-    -------
-    ndarray
-        One ratio per remaining eigenvalue (a complex pair gives two equal entries); negative
-        for an unstable mode.
-
-    Raises
-    ------
-    numpy.linalg.LinAlgError
-        ``M`` is not square.
-    """
-    ev = np.linalg.eigvals(np.asarray(M, dtype=float))
-    ev = ev[np.abs(ev) > tol]
-    return np.sort(-ev.real / np.abs(ev))

@@ -4,6 +4,7 @@ temporary folders that are removed also when the process is terminated."""
 from __future__ import annotations
 
 import csv
+import datetime as _dt
 import io
 import json
 import math
@@ -13,7 +14,8 @@ import signal
 import tempfile
 import threading
 import tomllib
-from collections.abc import Callable, Iterable, Sequence
+import zipfile
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path, PurePath
 from typing import IO, Any
 
@@ -134,6 +136,50 @@ def write_csv(
         w.writerow([repr(float(x)) if isinstance(x, float) else x for x in row])
     data = buf.getvalue().encode()
     return atomic_write(path, lambda fh: fh.write(data))
+
+
+def write_zip(
+    path: str | os.PathLike[str],
+    entries: Mapping[str, bytes | Path],
+    source_date_epoch: int | None = None,
+) -> Path:
+    """Write a zip archive atomically (see :func:`atomic_write`) and reproducibly.
+
+    The entries are written in sorted order, deflated, as Unix files (mode 0755 for a ``.so``,
+    else 0644), all dated ``source_date_epoch`` (UTC, no earlier than 1980, the earliest a zip
+    file holds; default 1980-01-01), so that the same entries give the same bytes.
+
+    Parameters
+    ----------
+    path : path-like
+        The archive to write.
+    entries : mapping
+        Name in the archive -> its bytes, or the file that holds them.
+    source_date_epoch : int, optional
+        Timestamp of the entries (seconds since 1970, ``SOURCE_DATE_EPOCH``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    date_time = (1980, 1, 1, 0, 0, 0)
+    if source_date_epoch is not None:
+        t = _dt.datetime.fromtimestamp(max(source_date_epoch, 315532800), tz=_dt.UTC)
+        date_time = (t.year, t.month, t.day, t.hour, t.minute, t.second)
+
+    def write(fh: IO[bytes]) -> None:
+        with zipfile.ZipFile(fh, "w") as z:
+            for name in sorted(entries):
+                info = zipfile.ZipInfo(name, date_time=date_time)
+                info.compress_type = zipfile.ZIP_DEFLATED
+                mode = 0o755 if name.endswith(".so") else 0o644
+                info.external_attr = mode << 16
+                info.create_system = 3  # unix, so external_attr is read as permissions
+                data = entries[name]
+                z.writestr(info, data.read_bytes() if isinstance(data, Path) else data)
+
+    return atomic_write(path, write)
 
 
 def write_json(path: str | os.PathLike[str], obj: Any) -> Path:

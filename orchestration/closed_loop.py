@@ -553,10 +553,8 @@ def grid_indices(times: np.ndarray, dt: float, n: int) -> np.ndarray:
     return k
 
 
-def errors_on_grid(
-    res: CosimResult, mono: SimulationResult, dt: float, names: Sequence[str] = ("du", "dphi")
-) -> dict[str, float]:
-    """Max |co-simulation - monolithic| of ``plant.<name>`` over the common points.
+def errors_on_grid(res: CosimResult, mono: SimulationResult, dt: float) -> dict[str, float]:
+    """Max |co-simulation - monolithic| of ``plant.du`` and ``plant.dphi`` over the common points.
 
     Parameters
     ----------
@@ -566,8 +564,6 @@ def errors_on_grid(
         The monolithic run on a grid of step ``dt`` (the points both runs reached count).
     dt : float
         Its output step.
-    names : sequence of str
-        Plant outputs compared.
 
     Returns
     -------
@@ -578,7 +574,7 @@ def errors_on_grid(
     t = t[t <= mono.tau[-1] + 1e-9 * dt]
     k = grid_indices(t, dt, len(mono.tau))
     out = {}
-    for name in names:
+    for name in ("du", "dphi"):
         diff = res[f"plant.{name}"][: len(k)] - getattr(mono, name)[k]
         out[name] = float(np.max(np.abs(diff))) if len(diff) else math.nan
     return out

@@ -38,7 +38,6 @@ import numpy as np
 from drillstring.fileio import save_figure, write_csv
 from drillstring.model.experiments import FIG5, Experiment
 from drillstring.orchestration.closed_loop import (
-    Overrides,
     closed_loop_master,
     errors_on_grid,
     loop_model_of,
@@ -227,12 +226,11 @@ def run_crosscheck(
     experiment: Experiment = CROSSCHECK,
     *,
     steps: Sequence[float] = DEFAULT_STEPS,
-    schemes: Sequence[tuple[str, str]] = DEFAULT_SCHEMES,
     fit_max: float = FIT_MAX_H,
-    overrides: Overrides | None = None,
     on_row: Callable[[CrosscheckRow], None] | None = None,
 ) -> CrosscheckResult:
-    """Co-simulate for every scheme and H, compare with one monolithic run (module docstring).
+    """Co-simulate for every scheme of :data:`DEFAULT_SCHEMES` and H, compare with one monolithic
+    run (module docstring).
 
     Parameters
     ----------
@@ -242,12 +240,8 @@ def run_crosscheck(
         The set-up, run over ``[0, experiment.tau_end]`` (default :data:`CROSSCHECK`).
     steps : sequence of float
         Macro steps H (see :func:`check_steps`).
-    schemes : sequence of (str, str)
-        (scheme, extrapolation) pairs.
     fit_max : float
         Orders are fitted over ``H <= fit_max``.
-    overrides : mapping, optional
-        ``"unit.variable"`` -> start value, for both runs.
     on_row : callable, optional
         Called with every row as soon as it is computed.
 
@@ -259,17 +253,14 @@ def run_crosscheck(
     Raises
     ------
     ValueError
-        For bad steps or schemes.
+        For bad steps.
     RuntimeError
         If the monolithic reference stops early.
     """
     tau_end = experiment.tau_end
     steps = sorted({float(H) for H in steps}, reverse=True)
-    for scheme, ex in schemes:
-        if scheme not in ("jacobi", "gauss-seidel") or ex not in ("zoh", "linear"):
-            raise ValueError(f"unknown scheme/extrapolation {scheme!r}/{ex!r}")
     rows = []
-    with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
+    with closed_loop_master(fmus_dir, experiment) as master:
         model = loop_model_of(master)
         dt = check_steps(steps, model.options.h, tau_end)
         w0 = time.perf_counter()
@@ -277,7 +268,7 @@ def run_crosscheck(
         ref_wall = time.perf_counter() - w0
         if not ref.status.ok:
             raise RuntimeError(f"the monolithic reference stopped early: {ref.status.message}")
-        for scheme, ex in schemes:
+        for scheme, ex in DEFAULT_SCHEMES:
             for H in steps:
                 res = run_cosim(master, tau_end, H, scheme=scheme, extrapolation=ex)
                 if res.completed:
@@ -301,7 +292,7 @@ def run_crosscheck(
                 if on_row is not None:
                     on_row(row)
     orders = {}
-    for key in schemes:
+    for key in DEFAULT_SCHEMES:
         sel = [r for r in rows if (r.scheme, r.extrapolation) == key and r.H <= fit_max * 1.000001]
         Hs = [r.H for r in sel]
         orders[key] = {
@@ -441,7 +432,6 @@ def adaptive_vs_fixed(
     control: StepControl = DEFAULT_CONTROL,
     extrapolation: str = "zoh",
     max_doublings: int = 6,
-    overrides: Overrides | None = None,
 ) -> dict[str, Any]:
     """Steps of the adaptive master against the fixed-step master for the same error.
 
@@ -468,8 +458,6 @@ def adaptive_vs_fixed(
         ``"zoh"`` or ``"linear"``, for all runs.
     max_doublings : int
         Doublings of the fixed step count tried.
-    overrides : mapping, optional
-        ``"unit.variable"`` -> start value, for all runs.
 
     Returns
     -------
@@ -492,7 +480,7 @@ def adaptive_vs_fixed(
             raise RuntimeError(f"the monolithic reference stopped early: {ref.status.message}")
         return float(np.max(np.abs(res["plant.dphi"] - ref.dphi)))
 
-    with closed_loop_master(fmus_dir, experiment, overrides=overrides) as master:
+    with closed_loop_master(fmus_dir, experiment) as master:
         model = loop_model_of(master)
         ad = run_cosim(master, tau_end, None, step_control=control, extrapolation=extrapolation)
         if not ad.completed:

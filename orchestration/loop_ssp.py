@@ -63,11 +63,9 @@ __all__ = [
     "DEFAULT_STEP",
     "LMI_EXPERIMENTS",
     "LoopExperiment",
-    "PACKAGE_SETS",
     "TOPDRIVE_DEFAULT",
     "TOPDRIVE_EXPERIMENTS",
     "TOPDRIVE_PARAMETERS",
-    "TOPDRIVE_SETS",
     "loop_default_experiment",
     "loop_experiments",
     "package_documentation",
@@ -152,10 +150,6 @@ TOPDRIVE_EXPERIMENTS: tuple[LoopExperiment, ...] = (
         (("string_elements", 16),),
     ),
 )
-#: The parameter sets (= SSDs) of an LMI package, in binding order.
-PACKAGE_SETS = tuple(e.name for e in LMI_EXPERIMENTS)
-#: The parameter sets (= SSDs) of a top-drive package.
-TOPDRIVE_SETS = tuple(e.name for e in TOPDRIVE_EXPERIMENTS)
 
 
 def loop_experiments(variant: LoopVariant) -> tuple[LoopExperiment, ...]:
@@ -252,10 +246,10 @@ def _complete_set(md, given: Mapping[str, object]) -> tuple[SspParameter, ...]:
 def write_loop_package(
     fmus_dir: str | os.PathLike[str],
     variant: LoopVariant,
-    out: str | os.PathLike[str] | None = None,
     source_date_epoch: int | None = None,
 ) -> Path:
-    """Write the SSP package of the closed loop of the FMUs in ``fmus_dir`` (module docstring).
+    """Write the SSP package of the closed loop of the FMUs in ``fmus_dir`` (module docstring)
+    to ``fmus_dir/<variant.ssp>``.
 
     Parameters
     ----------
@@ -264,8 +258,6 @@ def write_loop_package(
     variant : LoopVariant
         :data:`~drillstring.orchestration.closed_loop.SCALED`, ``SI``, ``TOPDRIVE`` or
         ``TOPDRIVE_SI``.
-    out : path, optional
-        The ``.ssp`` file (default ``fmus_dir/<variant.ssp>``).
     source_date_epoch : int, optional
         Timestamp of the archive entries (reproducible builds).
 
@@ -275,7 +267,7 @@ def write_loop_package(
         The package, validated against the SSP 1.0 schemas.
     """
     paths = dict(zip(("plant", "controller"), fmu_paths(fmus_dir, variant), strict=True))
-    target = Path(out) if out is not None else Path(fmus_dir) / variant.ssp
+    target = Path(fmus_dir) / variant.ssp
     mds = {name: read_model_description(str(fmu)) for name, fmu in paths.items()}
     connectors = {
         name: tuple(

@@ -23,7 +23,6 @@ def run_monolithic(
     *,
     dt_out: float = DEFAULT_DT_OUT,
     times: np.ndarray | None = None,
-    progress: bool | None = False,
 ) -> SimulationResult:
     """Simulate plant and controller in one solver.
 
@@ -38,8 +37,6 @@ def run_monolithic(
     times : numpy.ndarray, optional
         Output times from 0 to ``tau_end`` instead of the grid of ``dt_out`` (e.g. the
         communication points of an adaptive co-simulation; the engine lands on each).
-    progress : bool, optional
-        Progress bar (None: only for long runs).
 
     Returns
     -------
@@ -53,6 +50,6 @@ def run_monolithic(
         initial=model.initial,
         dt_out=dt_out,
         options=model.options,
-        progress=progress,
+        progress=False,
         times=times,
     )

@@ -33,7 +33,6 @@ libcosim reads; the master reads it too (:attr:`SspPackage.step`).
 
 from __future__ import annotations
 
-import datetime as _dt
 import os
 import shutil
 import tempfile
@@ -46,6 +45,7 @@ from typing import Any
 import fmpy
 from lxml import etree
 
+from drillstring.fileio import write_zip
 from drillstring.model.units import BASE_UNITS, UnitDef
 
 __all__ = [
@@ -90,7 +90,6 @@ NS = {
 OSP_ANNOTATION = "com.opensimulationplatform"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
 _SCHEMA_DIR = Path(fmpy.__file__).parent / "ssp" / "schema"
-_ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
 _TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration")
 
 
@@ -535,21 +534,7 @@ def write_ssp(
     problems = _validate_entries(entries)
     if problems:
         raise SspError(f"{path.name}: " + "; ".join(problems))
-    date_time = _ZIP_EPOCH
-    if source_date_epoch is not None:
-        t = _dt.datetime.fromtimestamp(max(source_date_epoch, 315532800), tz=_dt.UTC)
-        date_time = (t.year, t.month, t.day, t.hour, t.minute, t.second)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with zipfile.ZipFile(tmp, "w") as z:
-        for entry in sorted(entries):
-            info = zipfile.ZipInfo(entry, date_time=date_time)
-            info.compress_type = zipfile.ZIP_DEFLATED
-            info.external_attr = 0o644 << 16
-            info.create_system = 3
-            z.writestr(info, entries[entry])
-    tmp.replace(path)
-    return path
+    return write_zip(path, entries, source_date_epoch)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -858,17 +843,6 @@ class SspPackage:
     variants: Mapping[str, str] = field(default_factory=dict)
     sets: Mapping[str, Mapping[str, tuple[SspParameter, ...]]] = field(default_factory=dict)
     documentation: tuple[str, ...] = ()
-
-    @property
-    def variant(self) -> str:
-        """The name of the SSD read (:attr:`name`)."""
-        return self.name
-
-    @property
-    def parameter_set_names(self) -> tuple[str, ...]:
-        """The names of the parameter sets of the package (every SSD's), in the order they are
-        first bound (``SystemStructure.ssd`` first)."""
-        return tuple(self.sets)
 
     @property
     def bound_sets(self) -> tuple[str, ...]:

@@ -14,7 +14,8 @@ import pytest
 from drillstring.analysis.axial_stability import critical_delay
 from drillstring.analysis.spectrum import dde_roots
 from drillstring.model.control import AffineFeedback
-from drillstring.model.engine import Engine, EngineOptions
+from drillstring.model.engine import Engine, EngineOptions, stick_entries
+from drillstring.model.kernel import state as S
 from drillstring.model.kernel.jit import numba_available
 from drillstring.model.params import REFERENCE
 from drillstring.model.simulate import simulate
@@ -138,7 +139,7 @@ def ref_run():
 
 def test_stick_events_are_on_the_switching_surface(ref_run):
     r = ref_run
-    stick = r.stick_events()
+    stick = stick_entries(r.events)
     assert len(stick) > 20
     assert max(abs(e.V) for e in stick) < 1e-9
     assert all(0.0 <= e.gstar <= 1.0 for e in stick)
@@ -191,26 +192,31 @@ def test_delay_and_depth_recomputed_from_returned_arrays(ref_run):
     assert max(errs_d) < 1e-6
 
 
+def live_history(e: Engine) -> np.ndarray:
+    """A copy of the engine's live history window (one column a node)."""
+    s = e.kernel_arrays()
+    return s.history[:, int(s.ints[S.I_HSTART]) : int(s.ints[S.I_HEND])].copy()
+
+
 def test_restore_is_bit_identical():
     e = Engine(P, initial={"dphi": -2.5})
     assert e.advance(5.0).ok
     snap = e.get_state()
     blob = e.serialize_state()
     assert e.advance(10.0).ok
-    first = (e.total_state(), e.outputs(), e.history().nodes(), e.counters)
+    first = (e.total_state(), e.outputs(), live_history(e), e.counters)
     e.set_state(snap)
     assert e.tau == 5.0
     assert e.advance(10.0).ok
-    second = (e.total_state(), e.outputs(), e.history().nodes(), e.counters)
+    second = (e.total_state(), e.outputs(), live_history(e), e.counters)
     fresh = Engine(P)
     fresh.deserialize_state(blob)
     assert fresh.advance(10.0).ok
-    third = (fresh.total_state(), fresh.outputs(), fresh.history().nodes(), fresh.counters)
+    third = (fresh.total_state(), fresh.outputs(), live_history(fresh), fresh.counters)
     for other in (second, third):
         assert np.array_equal(first[0], other[0])
         assert first[1] == other[1]
-        for k in first[2]:
-            assert np.array_equal(first[2][k], other[2][k])
+        assert np.array_equal(first[2], other[2])
         assert first[3]["steps"] == other[3]["steps"]
 
 
@@ -219,10 +225,10 @@ def test_history_memory_is_bounded():
     sizes = []
     for k in range(1, 31):
         assert e.advance(2.0 * k).ok
-        sizes.append(len(e.history()))
+        sizes.append(live_history(e).shape[1])
     tau_n_max = 2 * math.pi / P.n / (P.omega0 - 4.0)
     assert max(sizes) < 1.5 * tau_n_max / e.options.h + 50
-    assert e.history_capacity <= 4 * 2048
+    assert e.kernel_arrays().history.shape[1] <= 4 * 2048
 
 
 @pytest.mark.parametrize(
@@ -323,6 +329,7 @@ import sys
 import numpy as np
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
+from drillstring.model.kernel import state as S
 from drillstring.model.kernel.jit import numba_available
 from drillstring.model.params import REFERENCE
 from drillstring.model.simulate import simulate

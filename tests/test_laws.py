@@ -20,12 +20,10 @@ from drillstring.model.digital.controller import DigitalController
 from drillstring.model.engine import EngineOptions
 from drillstring.model.laws import (
     FeedForward,
-    Measurement,
     SampledAffine,
     SpeedPI,
     ZTorque,
     law_from_si,
-    measure,
 )
 from drillstring.model.params import REFERENCE, get_physical
 from drillstring.model.sampled import simulate_sampled
@@ -42,11 +40,6 @@ def _start(law):
 # --------------------------------------------------------------------------------------------
 # laws by hand
 # --------------------------------------------------------------------------------------------
-
-
-def test_measure_takes_the_string_torque_as_theta_minus_phi():
-    m = measure([0.1, 0.2, 2.0, 0.3, 1.5, -0.4])
-    assert m == Measurement(theta=1.5, dtheta=-0.4, torque=-0.5, phi=2.0, dphi=0.3)
 
 
 def test_speed_pi_by_hand():

@@ -171,8 +171,7 @@ def test_nominal_torque_two_routes(q: dict) -> None:
     """Eq. (8) solved for R0 in SI units, divided by C, equals the scaled n*d0 + n*beta*lambda."""
     phys = PhysicalParams(**q)
     s = phys.to_scaled()
-    assert phys.scaled_torque(phys.R0) == pytest.approx(s.R0, rel=1e-13)
-    assert phys.physical_torque(s.R0) == pytest.approx(phys.R0, rel=1e-13)
+    assert phys.R0 / phys.C == pytest.approx(s.R0, rel=1e-13)
     # depth of cut scales by L*: d0 [m] / L* = v0 * tau_n0
     assert phys.d0 / phys.L_star == pytest.approx(s.d0, rel=1e-13)
     # delay scales by t*: t_n0 = 2 pi/(n Omega0) seconds

@@ -10,7 +10,17 @@ import pytest
 
 from drillstring.model import prehistory
 from drillstring.model.engine import Engine, EngineOptions
-from drillstring.model.kernel.state import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
+from drillstring.model.kernel.state import (
+    H_FLAG,
+    H_PHI,
+    H_ROWS,
+    H_TAU,
+    H_U,
+    H_V,
+    H_W,
+    I_HEND,
+    I_HSTART,
+)
 from drillstring.model.params import REFERENCE
 from drillstring.model.prehistory import build_prehistory, nominal_history
 from drillstring.model.simulate import simulate
@@ -81,12 +91,13 @@ def test_custom_history_runs_and_matches_its_definition():
     r = simulate(P, 1.0, history=wavy, initial={"u": 0.0, "dphi": 0.2}, progress=False)
     assert r.status.ok
     e = Engine(P, EngineOptions(h=1e-3), history=wavy, initial={"dphi": 0.2})
-    nodes = e.history().nodes()
-    tau = nodes["tau"][:-1]
+    s = e.kernel_arrays()
+    nodes = s.history[:, int(s.ints[I_HSTART]) : int(s.ints[I_HEND])]
+    tau = nodes[H_TAU, :-1]
     u = np.array([wavy(t)[0] for t in tau])
-    assert np.array_equal(nodes["U"][:-1], P.v0 * tau + u)
-    assert np.array_equal(nodes["W"][:-1], P.omega0 + np.array([wavy(t)[3] for t in tau]))
-    assert np.array_equal(nodes["V"][:-1], P.v0 + np.array([wavy(t)[1] for t in tau]))
+    assert np.array_equal(nodes[H_U, :-1], P.v0 * tau + u)
+    assert np.array_equal(nodes[H_W, :-1], P.omega0 + np.array([wavy(t)[3] for t in tau]))
+    assert np.array_equal(nodes[H_V, :-1], P.v0 + np.array([wavy(t)[1] for t in tau]))
 
 
 @pytest.mark.parametrize(

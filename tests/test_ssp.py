@@ -79,7 +79,7 @@ from drillstring.orchestration.hosts import (
     variant_folder,
 )
 from drillstring.orchestration.loop_ssp import (
-    PACKAGE_SETS,
+    LMI_EXPERIMENTS,
     loop_default_experiment,
     loop_experiments,
     topdrive_tunings,
@@ -390,14 +390,14 @@ def test_one_experiment_per_ssd_with_complete_sets(built, package):
     assert list(default.variants) == [names[0], *sorted(names[1:], key=lambda n: f"{n}.ssd")]
     assert default.variants[names[0]] == SSD_FILE and names[0] == "fig5"
     assert all(default.variants[n] == f"{n}.ssd" for n in names[1:])
-    assert default.parameter_set_names == tuple(default.variants)
+    assert tuple(default.sets) == tuple(default.variants)
     assert default.documentation == ("documentation/index.html",)
     fmus = {"plant": variant.plant_fmu, "controller": variant.controller_fmu}
     mds = {c: read_model_description(str(built.out / f)) for c, f in fmus.items()}
     tunings = topdrive_tunings(variant) if variant.controller == "topdrive" else {}
     for e in experiments:
         p = read_ssp(ssp, unpack=False, variant=e.name)
-        assert (p.name, p.variant, p.system) == (e.name, e.name, default.system)
+        assert (p.name, p.system) == (e.name, default.system)
         assert [str(c) for c in p.connections] == list(variant.connections)
         # exactly one binding per component, named like the SSD
         ssd = etree.fromstring(zipfile.ZipFile(ssp).read(p.file))
@@ -438,7 +438,7 @@ def test_one_experiment_per_ssd_with_complete_sets(built, package):
             "Integer",
             1,
         )
-        assert PACKAGE_SETS == ("fig5", "fig6")
+        assert tuple(e.name for e in LMI_EXPERIMENTS) == ("fig5", "fig6")
 
 
 def test_si_package_units_and_the_reference_rig(built):

@@ -5,7 +5,7 @@
   equals its law of :mod:`drillstring.model.laws` in the monolithic sampled loop
   (:func:`~drillstring.model.sampled.simulate_sampled`, Ts = H) on a Fig. 6-like run: torsional
   stick-slip from dphi0 = -4.9 with the torsional-stick model on, the law switched on at
-  tau = 25. The laws are built here from the tuning rules (``controller_lineup``), not from the
+  tau = 25. The laws are built here from the tuning rules (``industrial_lineup``), not from the
   FMU's parameters. The same for the LMI controller FMU and the sampled paper's law;
 * the SI FMU in the SI package against the same sampled loop of the law converted back from its
   SI parameters (``law_from_si``), compared in SI;
@@ -53,8 +53,8 @@ from drillstring.orchestration.closed_loop import (
 from drillstring.orchestration.connections import declared_start_values
 from drillstring.orchestration.loop_ssp import (
     TOPDRIVE_DEFAULT,
+    TOPDRIVE_EXPERIMENTS,
     TOPDRIVE_PARAMETERS,
-    TOPDRIVE_SETS,
     topdrive_tunings,
 )
 from drillstring.orchestration.master import Master
@@ -247,8 +247,8 @@ def test_topdrive_fmu_takes_the_lmi_controllers_place_in_its_package(built):
 def test_packages_carry_the_tunings_and_the_default_is_the_fmus_start(built, variant):
     b = built.si if variant.name == "si" else built
     p = read_ssp(b.topdrive_ssp, unpack=False)
-    assert set(p.parameter_set_names) == set(TOPDRIVE_SETS)
-    assert TOPDRIVE_SETS == (
+    assert set(p.sets) == {e.name for e in TOPDRIVE_EXPERIMENTS}
+    assert tuple(e.name for e in TOPDRIVE_EXPERIMENTS) == (
         "fig5", *(f"fig6-{t}" for t in INDUSTRIAL), "fig6-soft-speed-string"
     )  # fmt: skip
     assert [c.name for c in p.components] == ["plant", "controller"]

@@ -73,7 +73,6 @@ __all__ = [
     "axial_roots",
     "axial_spectral_abscissa",
     "axial_system",
-    "characteristic_function",
     "critical_delay",
     "crossing_delays",
     "crossing_frequencies",
@@ -101,28 +100,6 @@ def _check_ge(
 
 # --------------------------------------------------------------------------------------------------
 # characteristic equation and roots
-
-
-def characteristic_function(
-    s: ArrayLike, gammabar: float, etabar2: float, taubar_n: float
-) -> NDArray | complex:
-    """P(s) = s^2 + gammabar s + etabar^2 + 1 - exp(-s taubar_n), eq. (21).
-
-    Parameters
-    ----------
-    s : array_like
-        Point(s) of the complex plane.
-    gammabar, etabar2, taubar_n : float
-        Damping gammabar, stiffness etabar^2 and delay taubar_n of (18) (not validated).
-
-    Returns
-    -------
-    complex or ndarray
-        P(s), of the shape of ``s`` (a scalar for scalar ``s``).
-    """
-    s = np.asarray(s, dtype=complex)
-    out = s * s + gammabar * s + etabar2 + 1.0 - np.exp(-s * taubar_n)
-    return out[()] if out.ndim == 0 else out
 
 
 def axial_system(gammabar: float, etabar2: float, taubar_n: float) -> DDESystem:
@@ -511,7 +488,6 @@ def stability_diagram(
     *,
     n_param: int = 40000,
     grid: tuple[int, int] = (801, 401),
-    shade_gammabar: float | None = None,
 ) -> StabilityDiagram:
     """Boundaries of the stable region of (21) for each gammabar (Fig. 2), by tau-decomposition.
 
@@ -529,9 +505,8 @@ def stability_diagram(
     n_param : int
         Points per crossing curve before thinning.
     grid : (int, int)
-        ``(n_taubar, n_etabar2)`` size of the shading mask.
-    shade_gammabar : float, optional
-        Damping of the shading mask; default the smallest of ``gammabars``.
+        ``(n_taubar, n_etabar2)`` size of the shading mask, drawn for the smallest of
+        ``gammabars``.
 
     Returns
     -------
@@ -573,11 +548,7 @@ def stability_diagram(
                     pts = np.column_stack([tau[run], e2[run]])
                     segs.append(_thin(pts, scale, 1.0 / 1000.0))
         boundaries[g] = segs
-    sg = (
-        min(gs)
-        if shade_gammabar is None
-        else check_real("shade_gammabar", shade_gammabar, lower=0.0, strict=False)
-    )
+    sg = min(gs)
     tg = np.linspace(t0, t1, grid[0])
     eg = np.linspace(max(e0, 1e-6), e1, grid[1])
     counts = _count_unstable(sg, eg[:, None], tg[None, :])

@@ -13,7 +13,6 @@ from matplotlib.patches import Patch
 from tqdm import tqdm
 
 from drillstring.analysis.axial_stability import (
-    FIG2_GAMMABARS,
     StabilityDiagram,
     stability_diagram,
 )
@@ -310,12 +309,7 @@ def write_average_figure(
 
 
 def write_stability_diagram(
-    out_dir: str | os.PathLike[str],
-    gammabars: Sequence[float] = FIG2_GAMMABARS,
-    taubar_range: tuple[float, float] = (0.0, 20.0),
-    etabar2_range: tuple[float, float] = (0.0, 4.0),
-    *,
-    diagram: StabilityDiagram | None = None,
+    out_dir: str | os.PathLike[str], *, diagram: StabilityDiagram | None = None
 ) -> dict[str, Path]:
     """Write Fig. 2 (``fig2_stability.png``, ``fig2_boundaries.csv``) atomically into ``out_dir``.
 
@@ -325,11 +319,9 @@ def write_stability_diagram(
     ----------
     out_dir : path-like
         Output folder (created).
-    gammabars, taubar_range, etabar2_range
-        Passed to :func:`~drillstring.analysis.axial_stability.stability_diagram`; ignored when
-        ``diagram`` is given.
     diagram : StabilityDiagram, optional
-        A diagram computed before.
+        A diagram computed before (default: that of
+        :func:`~drillstring.analysis.axial_stability.stability_diagram`, Fig. 2).
 
     Returns
     -------
@@ -338,7 +330,7 @@ def write_stability_diagram(
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    d = diagram or stability_diagram(gammabars, taubar_range, etabar2_range)
+    d = diagram or stability_diagram()
 
     csv_path = write_csv(
         out / "fig2_boundaries.csv",

@@ -313,38 +313,6 @@ def default_fit_delays(gammabar: float, etabar2: float, n: int = FIT_POINTS) -> 
     return np.linspace(1.5 * tc, tc + 30.0, n)
 
 
-def average_curve(
-    gammabar: float,
-    etabar2: float,
-    taubars: Sequence[float],
-    *,
-    progress: bool = True,
-    **kw: Any,
-) -> list[LimitCycle]:
-    """Limit cycles along a line of delays, computed one after the other, without samples.
-
-    Parameters
-    ----------
-    gammabar, etabar2 : float
-        The line's damping and stiffness.
-    taubars : sequence of float
-        The delays.
-    progress : bool
-        Show a progress bar.
-    **kw
-        Passed to :func:`limit_cycle` (except ``n_samples``, which is 0).
-
-    Returns
-    -------
-    list of LimitCycle
-        One per delay, in order.
-    """
-    out = []
-    for tb in tqdm(list(taubars), desc=f"gammabar={gammabar:g}", disable=not progress, leave=False):
-        out.append(limit_cycle(gammabar, etabar2, float(tb), n_samples=0, **kw))
-    return out
-
-
 @dataclass(frozen=True)
 class AxialDesignInputs:
     """A and taubar_crit of (22) for a parameter set: the input of the controller design.
@@ -380,7 +348,7 @@ def design_inputs(
     progress : bool
         Show a progress bar.
     **kw
-        Passed to :func:`limit_cycle`.
+        Passed to :func:`limit_cycle` (except ``n_samples``, which is 0).
 
     Returns
     -------
@@ -390,7 +358,8 @@ def design_inputs(
     """
     g, e2 = params.gammabar, params.etabar2
     tb = default_fit_delays(g, e2) if taubars is None else np.asarray(taubars, dtype=float)
-    curve = average_curve(g, e2, tb, progress=progress, **kw)
+    bar = tqdm(list(tb), desc=f"gammabar={g:g}", disable=not progress, leave=False)
+    curve = [limit_cycle(g, e2, float(t), n_samples=0, **kw) for t in bar]
     fit = fit_slope(g, e2, tb, [lc.average for lc in curve])
     return AxialDesignInputs(
         A=fit.A,

@@ -20,7 +20,8 @@ Method
 2. Every approximate eigenvalue in the region of interest is refined by Newton's method on
    f(s) = det Delta(s), using f'(s)/f(s) = trace(Delta(s)^-1 Delta'(s)),
    Delta'(s) = I + sum_k tau_k A_k exp(-s tau_k). A candidate is kept only if the relative smallest
-   singular value of Delta at the refined point is below ``res_tol`` (see :func:`root_residual`).
+   singular value of Delta at the refined point, divided by the size of its terms
+   (:meth:`DDESystem.scale`), is below ``res_tol``.
 3. Converged candidates are deduplicated; for real coefficient matrices conjugate pairs are
    completed and near-real roots snapped to the real axis.
 
@@ -69,8 +70,6 @@ __all__ = [
     "chebyshev_generator",
     "dde_roots",
     "delayed_columns",
-    "quasi_polynomial_roots",
-    "root_residual",
     "spectral_abscissa",
 ]
 
@@ -166,7 +165,8 @@ class DDESystem:
 
     def scale(self, s: complex) -> float:
         """Size of the terms of Delta(s): |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)| (||.|| the
-        spectral norm; the denominator of :func:`root_residual`).
+        spectral norm): sigma_min(Delta(s)) / scale(s) is ~1e-16 at an exact root in floating point
+        and O(1) far from roots.
         """
         r = abs(s) + self._n0
         for tau, nk in zip(self.taus, self._nk, strict=True):
@@ -199,33 +199,6 @@ def _system(A0: ArrayLike | DDESystem, delayed: Sequence[tuple[float, ArrayLike]
             raise ValueError("pass either a DDESystem or (A0, delayed), not both")
         return A0
     return DDESystem(A0, delayed)
-
-
-def root_residual(
-    s: complex, A0: ArrayLike | DDESystem, delayed: Sequence[tuple[float, ArrayLike]] = ()
-) -> float:
-    """Relative residual of a candidate root: sigma_min(Delta(s)) / scale(s).
-
-    scale(s) = |s| + ||A0|| + sum ||A_k|| |exp(-s tau_k)| is the size of the terms that cancel in
-    Delta(s), so the residual is ~1e-16 at an exact root in floating point and O(1) far from roots.
-
-    Parameters
-    ----------
-    s : complex
-        The candidate root.
-    A0, delayed
-        The system, as for :class:`DDESystem`; ``A0`` may also be a :class:`DDESystem` (then
-        ``delayed`` must be empty).
-
-    Returns
-    -------
-    float
-        sigma_min(Delta(s)) / scale(s).
-    """
-    sys_ = _system(A0, delayed)
-    s = complex(s)
-    smin = float(np.linalg.svd(sys_.delta(s), compute_uv=False)[-1])
-    return smin / sys_.scale(s)
 
 
 def _cheb(n: int) -> tuple[NDArray, NDArray]:
@@ -478,8 +451,8 @@ def dde_roots(
     max_roots : int, optional
         Return at most this many roots (the rightmost ones).
     max_iter, step_tol, res_tol : int, float, float
-        Newton iterations, relative step tolerance, and the acceptance threshold for
-        :func:`root_residual`.
+        Newton iterations, relative step tolerance, and the acceptance threshold for the
+        relative residual sigma_min(Delta(s)) / scale(s) (:meth:`DDESystem.scale`).
     reduced : bool
         Discretise the past of the delayed columns only (:func:`chebyshev_generator`): the
         same roots, at a fraction of the cost when the delays act on few components.
@@ -612,64 +585,3 @@ def spectral_abscissa(
     if roots.size == 0:
         raise RuntimeError("no characteristic root found in the requested region")
     return float(roots.real.max())
-
-
-def quasi_polynomial_roots(
-    poly: ArrayLike,
-    delayed: Sequence[tuple[float, ArrayLike]] = (),
-    **kwargs: Any,
-) -> NDArray[np.complex128]:
-    """Roots of p(s) - sum_k q_k(s) exp(-s tau_k) = 0 (retarded: deg q_k < deg p).
-
-    ``poly`` holds the coefficients of p, highest power first (numpy.polyval order); ``delayed`` is
-    a sequence of ``(tau_k, q_k)`` with q_k coefficient arrays, highest power first. Written as a
-    first-order system in companion form (x = [y, y', ..., y^(m-1)]) and passed to :func:`dde_roots`
-    with the same keyword arguments. Example: eq. (21) is ``poly=[1, gammabar, etabar2 + 1]``,
-    ``delayed=[(taubar_n, [1])]``.
-
-    Parameters
-    ----------
-    poly : array_like
-        Coefficients of p, highest power first, degree >= 1, ``poly[0] != 0``.
-    delayed : sequence of (float, array_like)
-        Pairs ``(tau_k, q_k)``, ``tau_k > 0``, deg q_k < deg p.
-    **kwargs
-        Passed to :func:`dde_roots`.
-
-    Returns
-    -------
-    ndarray of complex
-        The roots, as :func:`dde_roots` returns them.
-
-    Raises
-    ------
-    ValueError
-        Bad coefficients, a malformed pair, or deg q_k >= deg p.
-    """
-    p = np.atleast_1d(np.asarray(poly))
-    if p.ndim != 1 or p.size < 2 or not np.all(np.isfinite(p)) or p[0] == 0:
-        raise ValueError(
-            f"poly must be finite coefficients of degree >= 1 with p[0] != 0, got {p!r}"
-        )
-    m = p.size - 1
-    dtype = complex if np.iscomplexobj(p) else float
-    a0 = np.zeros((m, m), dtype=dtype)
-    a0[:-1, 1:] = np.eye(m - 1)
-    a0[-1, :] = -p[::-1][:m] / p[0]
-    mats = []
-    for i, item in enumerate(delayed):
-        try:
-            tau, q = item
-        except (TypeError, ValueError):
-            raise ValueError(f"delayed[{i}] must be a pair (tau, q), got {item!r}") from None
-        q = np.atleast_1d(np.asarray(q))
-        if q.ndim != 1 or not np.all(np.isfinite(q)):
-            raise ValueError(f"delayed[{i}]: q must be finite 1-D coefficients, got {q!r}")
-        if q.size > m:
-            raise ValueError(
-                f"delayed[{i}]: deg q = {q.size - 1} must be < deg p = {m} (retarded equation)"
-            )
-        ak = np.zeros((m, m), dtype=complex if np.iscomplexobj(q) or dtype is complex else float)
-        ak[-1, : q.size] = q[::-1] / p[0]
-        mats.append((tau, ak))
-    return dde_roots(a0, mats, **kwargs)

@@ -18,81 +18,36 @@ import numpy as np
 from drillstring.fileio import save_figure, write_csv
 from drillstring.model.control import AffineFeedback
 from drillstring.model.engine import EngineOptions
-from drillstring.model.experiments import FIG6, Experiment
-from drillstring.model.params import REFERENCE_RIG, PhysicalParams
+from drillstring.model.experiments import FIG6
+from drillstring.model.params import REFERENCE_RIG
 from drillstring.model.pipe import StringParams
-from drillstring.model.simulate import SimulationResult, simulate
+from drillstring.model.simulate import simulate
 from drillstring.plotting import new_figure
 
-__all__ = ["string_fig6_runs", "write_string_fig6"]
+__all__ = ["write_string_fig6"]
 
 #: The elements of "the converged string": its second torsional mode within 0.4 % of the
 #: continuous string's on the reference rig (``docs/analysis.md``, "Modes of the string").
 CONVERGED_ELEMENTS = 16
 
 
-def string_fig6_runs(
-    law: AffineFeedback,
-    string: StringParams,
-    rig: PhysicalParams = REFERENCE_RIG,
-    experiment: Experiment = FIG6,
-) -> dict[str, SimulationResult]:
-    """Fig. 6's run on the one-mode model and on ``string``.
-
-    Parameters
-    ----------
-    law : AffineFeedback
-        The law (29)-(31); its switch-on time and latch are taken from ``experiment``.
-    string : StringParams
-        The distributed string.
-    rig : PhysicalParams
-        The rig (its scaled set is the model's).
-    experiment : Experiment
-        The run: initial state, length, switch-on, latch, torsional stick.
-
-    Returns
-    -------
-    dict of str to SimulationResult
-        ``"one_mode"`` and ``"string"``.
-    """
-    params = rig.to_scaled()
-    control = AffineFeedback(law.F, law.K0, law.R_ff, t_on=experiment.t_on, latch=experiment.latch)
-    options = EngineOptions(h=experiment.h, torsional_stick=experiment.torsional_stick)
-    runs = {}
-    for name, s in (("one_mode", None), ("string", string)):
-        runs[name] = simulate(
-            params,
-            experiment.tau_end,
-            control=control,
-            initial=experiment.initial(),
-            options=options,
-            string=s,
-            progress=False,
-        )
-    return runs
-
-
 def write_string_fig6(
     out_dir: str | Path,
     law: AffineFeedback,
     elements: int = CONVERGED_ELEMENTS,
-    rig: PhysicalParams = REFERENCE_RIG,
-    string: StringParams | None = None,
 ) -> dict[str, Any]:
-    """Write ``fig6_string.png`` and ``fig6_string.csv`` (SI) and return what they show.
+    """Write ``fig6_string.png`` and ``fig6_string.csv`` (SI) and return what they show: Fig. 6's
+    run on the reference rig on the one-mode model and on the reference rig's pipe (kappa =
+    1.870) in ``elements`` elements.
 
     Parameters
     ----------
     out_dir : path
         Folder to write into.
     law : AffineFeedback
-        The law (the design's gains).
+        The law (the design's gains); its switch-on time and latch are Fig. 6's.
     elements : int
         N of the distributed string (default :data:`CONVERGED_ELEMENTS`).
-    rig : PhysicalParams
-        The rig.
-    string : StringParams, optional
-        The string (default: the reference rig's pipe, kappa = 1.870, in ``elements``).
 
     Returns
     -------
@@ -103,8 +58,21 @@ def write_string_fig6(
         quarter) [rpm].
     """
     out = Path(out_dir)
-    string = string or StringParams(elements=elements)
-    runs = string_fig6_runs(law, string, rig)
+    rig, string = REFERENCE_RIG, StringParams(elements=elements)
+    control = AffineFeedback(law.F, law.K0, law.R_ff, t_on=FIG6.t_on, latch=FIG6.latch)
+    options = EngineOptions(h=FIG6.h, torsional_stick=FIG6.torsional_stick)
+    runs = {
+        name: simulate(
+            rig.to_scaled(),
+            FIG6.tau_end,
+            control=control,
+            initial=FIG6.initial(),
+            options=options,
+            string=s,
+            progress=False,
+        )
+        for name, s in (("one_mode", None), ("string", string))
+    }
     ts, C = rig.t_star, rig.C
     rpm = 60.0 / (2.0 * math.pi) / ts  # scaled speed -> rpm
     t_on = FIG6.t_on

@@ -33,7 +33,6 @@ from drillstring.model.params import ScaledParams
 from drillstring.model.pipe import StringParams, axial_chain, max_elements, torsional_chain
 from drillstring.model.prehistory import (
     HistoryFunction,
-    HistoryView,
     build_prehistory,
     nominal_history,
 )
@@ -631,11 +630,6 @@ class Engine:
         return self._failed
 
     @property
-    def history_capacity(self) -> int:
-        """Columns of the history buffer (it grows when the live window needs more)."""
-        return int(self._s.history.shape[1])
-
-    @property
     def counters(self) -> dict[str, int]:
         """Steps, events, entries into axial stick, bit bouncing and torsional stick, and the RK4
         trials spent on event locations (mode events and delayed discontinuities)."""
@@ -649,31 +643,6 @@ class Engine:
             "event_trials": int(I[S.I_NTRIALS]),
             "event_locations": int(I[S.I_NLOCATE]),
         }
-
-    def history(self) -> HistoryView:
-        """A copy of the live history nodes.
-
-        Returns
-        -------
-        HistoryView
-            The live window of the history buffer of the delay (14): the nodes the delayed instant
-            may still reach, up to the current time, in total coordinates (``docs/model.md``,
-            "Coordinates"); a copy, later steps do not change it.
-        """
-        s = self._s
-        return HistoryView(s.history, int(s.ints[S.I_HSTART]), int(s.ints[S.I_HEND]))
-
-    def perturbation(self) -> np.ndarray:
-        """[u, du, phi, dphi, theta, dtheta] at the current time.
-
-        Returns
-        -------
-        ndarray
-            Shape (6,): the scaled perturbations u, phi, theta of (9)-(10) from the nominal motion
-            and their tau-derivatives (``docs/model.md``, "Coordinates").
-        """
-        s = self._s
-        return np.array(to_perturbation(s.params, self.tau, *s.y))
 
     def total_state(self) -> np.ndarray:
         """[U, V, Phi, W, Theta, Wt] (total scaled coordinates) at the current time.

@@ -39,9 +39,9 @@ form.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, NamedTuple, TypeVar
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
@@ -76,7 +76,6 @@ __all__ = [
     "SATURATION",
     "FeedForward",
     "Law",
-    "Measurement",
     "SampledAffine",
     "SpeedPI",
     "ZTorque",
@@ -86,7 +85,6 @@ __all__ = [
     "law_start",
     "law_state",
     "law_update",
-    "measure",
     "preset",
 ]
 
@@ -103,45 +101,6 @@ AW_COND = ANTI_WINDUP.index("conditional")
 #: What the affine law does while the top drive saturates (index: the block's code).
 SATURATION = ("none", "freeze-angle")
 SAT_FREEZE = SATURATION.index("freeze-angle")
-
-
-class Measurement(NamedTuple):
-    """What the controller measures at a sample instant (scaled, perturbation form).
-
-    Attributes
-    ----------
-    theta : float
-        Rotary-table angle theta (eq. (10)).
-    dtheta : float
-        Rotary-table speed dtheta/dtau (the speed set point omega0 is dtheta = 0).
-    torque : float
-        String torque at the top minus its nominal value: theta - phi (the twist of (13)).
-    phi, dphi : float
-        Bit angle and bit speed (downhole; only the paper's law needs them; NaN if absent).
-    """
-
-    theta: float
-    dtheta: float
-    torque: float
-    phi: float = math.nan
-    dphi: float = math.nan
-
-
-def measure(y: Sequence[float]) -> Measurement:
-    """The measurements of a perturbation state ``y = [u, du, phi, dphi, theta, dtheta]``.
-
-    Parameters
-    ----------
-    y : sequence of 6 float
-        As :meth:`drillstring.model.engine.Engine.perturbation` returns it.
-
-    Returns
-    -------
-    Measurement
-        Table angle and speed, string torque theta - phi, bit angle and speed.
-    """
-    phi, dphi, theta, dtheta = float(y[2]), float(y[3]), float(y[4]), float(y[5])
-    return Measurement(theta, dtheta, theta - phi, phi, dphi)
 
 
 _FEED_FORWARD = Parameter(

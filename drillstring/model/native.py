@@ -53,7 +53,6 @@ __all__ = [
     "DONE",
     "NOT_STARTED",
     "PLANT",
-    "PLANT_IO_SIZE",
     "RESUME",
     "controller_functions",
     "plant_functions",
@@ -105,7 +104,6 @@ PLANT = block_layout(
         ("out", max(len(PLANT_SCALED_KEYS), len(PLANT_SI_KEYS))),  # the outputs, by *_KEYS
     ),
 )
-PLANT_IO_SIZE = PLANT.size
 assert PLANT[: len(COMMON_IO)] == (IO_STALE, IO_RESUME, IO_TIME, IO_NSTEPS) == tuple(range(IO_BASE))
 assert PLANT.out == PLANT.tau + 1, "a kernel sample (tau, then the outputs) is written at tau"
 _BOUNCE_SCALED = PLANT.out + PLANT_SCALED_KEYS.index("bit_bounce")

@@ -495,36 +495,6 @@ class PhysicalParams:
         """Nominal depth of cut per revolution n*d0 = 2*pi*V0/Omega0, eq. (8), in millimetres."""
         return self.n * self.d0 * 1e3
 
-    def scaled_torque(self, R: float) -> float:
-        """Scaled torque script-R = R/C, eq. (16).
-
-        Parameters
-        ----------
-        R : float
-            Torque [N m].
-
-        Returns
-        -------
-        float
-            R/C (dimensionless).
-        """
-        return R / self.C
-
-    def physical_torque(self, r: float) -> float:
-        """Inverse of :meth:`scaled_torque`: R = C*r [N m], eq. (16).
-
-        Parameters
-        ----------
-        r : float
-            Scaled torque.
-
-        Returns
-        -------
-        float
-            The torque in N m.
-        """
-        return r * self.C
-
     def to_scaled(self) -> ScaledParams:
         """Scaled parameters by eqs. (15)-(16), v0 = V0*t*/L*, omega0 = Omega0*t* (Section II).
 

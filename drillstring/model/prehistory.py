@@ -1,7 +1,7 @@
-"""The history buffer of the delay equation (14): the prehistory for tau <= 0, and a view of it.
+"""The history buffer of the delay equation (14): the prehistory for tau <= 0.
 
 The buffer stores U, V, Phi, W at the integrator's nodes (``drillstring.model.kernel.hermite``
-holds its numerics); this module fills it for tau <= 0 and offers a read-only view for inspection.
+holds its numerics); this module fills it for tau <= 0.
 Memory is bounded: nodes older than the current delay interval are dropped as the run goes on,
 and a torsional-stick stretch is kept as two nodes.
 """
@@ -13,11 +13,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from drillstring.model.kernel.hermite import interpolate
-from drillstring.model.kernel.state import H_FLAG, H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
+from drillstring.model.kernel.state import H_PHI, H_ROWS, H_TAU, H_U, H_V, H_W
 from drillstring.model.params import ScaledParams
 
-__all__ = ["HistoryFunction", "HistoryView", "build_prehistory", "nominal_history"]
+__all__ = ["HistoryFunction", "build_prehistory", "nominal_history"]
 
 HistoryFunction = Callable[[float], tuple[float, float, float, float]]
 """tau <= 0 -> (u, du/dtau, phi, dphi/dtau), perturbations from the nominal motion."""
@@ -167,64 +166,3 @@ def build_prehistory(
     H = np.zeros((H_ROWS, cap))
     H[:, : len(nodes)] = nodes.T
     return H, len(nodes)
-
-
-class HistoryView:
-    """Read-only view of the live part of a history buffer (for inspection and tests)."""
-
-    def __init__(self, H: np.ndarray, start: int, end: int) -> None:
-        self._H = H[:, start:end].copy()
-
-    @property
-    def tau(self) -> np.ndarray:
-        return self._H[H_TAU]
-
-    def __len__(self) -> int:
-        return self._H.shape[1]
-
-    def nodes(self) -> dict[str, np.ndarray]:
-        """Node arrays tau, U, V, Phi, W (total coordinates) and the discontinuity flags.
-
-        Returns
-        -------
-        dict of str to ndarray
-            ``tau``, ``U``, ``V``, ``Phi``, ``W`` (float, the total scaled coordinates of
-            ``docs/model.md``, "Coordinates") in increasing time, and ``discontinuity`` (bool: the
-            node is a kink, such as a mode event or the joint of the initial state at tau = 0);
-            views of this view's copy, not of the engine's buffer.
-        """
-        return {
-            "tau": self._H[H_TAU],
-            "U": self._H[H_U],
-            "V": self._H[H_V],
-            "Phi": self._H[H_PHI],
-            "W": self._H[H_W],
-            "discontinuity": self._H[H_FLAG] > 0.0,
-        }
-
-    def evaluate(self, tau: float) -> tuple[float, float, float, float]:
-        """(U, V, Phi, W) at a past time by the kernel's Hermite interpolation.
-
-        Parameters
-        ----------
-        tau : float
-            A time within the stored nodes, ``self.tau[0] <= tau <= self.tau[-1]``.
-
-        Returns
-        -------
-        tuple of 4 float
-            U and Phi by cubic Hermite interpolation of the neighbouring nodes' values and slopes
-            V and W; V and W as the interpolant's derivatives (total scaled coordinates,
-            ``docs/model.md``, "Coordinates").
-
-        Raises
-        ------
-        ValueError
-            ``tau`` is outside the stored history.
-        """
-        out = np.zeros(4)
-        if not interpolate(self._H, 0, self._H.shape[1], float(tau), out):
-            raise ValueError(
-                f"tau = {tau!r} is outside the stored history [{self.tau[0]}, {self.tau[-1]}]"
-            )
-        return float(out[0]), float(out[1]), float(out[2]), float(out[3])

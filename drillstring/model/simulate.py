@@ -24,7 +24,6 @@ from drillstring.model.engine import (
     Event,
     InitialState,
     Status,
-    stick_entries,
     string_profiles,
     time_in_mode,
 )
@@ -88,17 +87,6 @@ class SimulationResult:
             "torsional_stick": self.counters.get("torsional_stick_events", 0) > 0
             or self.status.code == "torsional_stick",
         }
-
-    def stick_events(self) -> list[Event]:
-        """Entries into axial stick (slip or up -> stick).
-
-        Returns
-        -------
-        list of Event
-            The "mode" events of :attr:`events` whose new mode is "stick", in time order (none when
-            ``EngineOptions.keep_events`` was off).
-        """
-        return stick_entries(self.events)
 
     def axial_stick_fraction(self) -> float:
         """Fraction of the simulated time spent in axial stick, exact from the mode events.

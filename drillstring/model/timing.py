@@ -102,11 +102,6 @@ class Timing(Tabled):
                 f"({self.period!r}): the controller queues {N_PENDING} commands"
             )
 
-    @property
-    def is_host(self) -> bool:
-        """True for the law at every sample of the host, without latency (the default)."""
-        return self.period == 0.0
-
     def pack(self, b: np.ndarray, at: int) -> None:
         """Write the settings into the controller's block ``b``, whose timing section
         (:data:`TIMING_SLOTS`) is at ``at``, its state at rest."""

@@ -149,37 +149,6 @@ class UnitDef:
         """
         return all(self.exponents.get(k, 0) == other.exponents.get(k, 0) for k in BASE_UNITS)
 
-    def display_definition(self, name: str) -> UnitDef:
-        """The display unit ``name`` as a unit of its own (for a parameter or a connector).
-
-        FMI 2.0 displays ``x`` as ``factor_d * x + offset_d``; a value ``v`` in the display unit
-        is therefore ``x = (v - offset_d) / factor_d`` in this unit and
-        ``self.factor * x + self.offset`` in the base units.
-
-        Parameters
-        ----------
-        name : str
-            One of :attr:`display`, e.g. ``"rpm"`` of ``rad/s``.
-
-        Returns
-        -------
-        UnitDef
-            Unit ``name`` with this unit's exponents, factor ``self.factor / factor_d`` and
-            offset ``self.offset - self.factor * offset_d / factor_d``.
-
-        Raises
-        ------
-        ValueError
-            This unit has no display unit ``name``.
-        """
-        d = self.display_unit(name)
-        return UnitDef(
-            name,
-            dict(self.exponents),
-            factor=self.factor / d.factor,
-            offset=self.offset - self.factor * d.offset / d.factor,
-        )
-
     def display_unit(self, name: str) -> DisplayUnit:
         """The display unit called ``name``.
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree as ET
 
-from drillstring.apps.export.archive import validate, write_zip
+from drillstring.apps.export.archive import validate
 from drillstring.apps.export.documentation import documentation
 from drillstring.apps.export.front_layer import (
     CFLAGS,
@@ -54,6 +54,7 @@ from drillstring.apps.export.staging import (
 )
 from drillstring.controller import design_controller, write_gains
 from drillstring.controller.gains import DEFAULT_GAINS_PATH, GainsFileError, read_gains
+from drillstring.fileio import write_zip
 from drillstring.model.params import REFERENCE
 from drillstring.orchestration.closed_loop import SCALED, SI, fmu_paths
 from drillstring.orchestration.closed_loop import TOPDRIVE as TOPDRIVE_LOOP
@@ -74,7 +75,6 @@ __all__ = [
     "build_packages",
     "load_gains",
     "synthesize_gains",
-    "topdrive_config",
 ]
 
 #: The default output folder (relative to the working directory).
@@ -175,7 +175,7 @@ def _postprocess(
         files[f"{_BINARIES[version]}/{model}_pythonfmu.so"] = pythonfmu_lib
         files["modelDescription.xml"] = xml_bytes(description)
         dest = out_dir / f"{model}.fmu"
-        write_zip(files, dest, source_date_epoch)
+        write_zip(dest, files, source_date_epoch)
         written[model] = dest
     return written
 
@@ -264,7 +264,9 @@ def build_fmus(
     gains = load_gains(gains_file)  # before building anything: a bad file fails at once
     base = {"version": package_version(), "format": 1}
     control = {**base, "gains": gains}
-    topdrive = {**control, "topdrive": topdrive_config()}
+    # the top-drive controller's tunings (scaled, reference set) and which is its start values
+    tunings = {"default": TOPDRIVE_DEFAULT, "tunings": topdrive_tunings()}
+    topdrive = {**control, "topdrive": tunings}
     jobs = (
         (PLANT, base),
         (CONTROLLER, control),
@@ -289,12 +291,6 @@ def build_fmus(
     if 2 in fmi:
         built.update(build_packages(out, source_date_epoch))
     return built
-
-
-def topdrive_config() -> dict[str, Any]:
-    """The top-drive controller's tunings (scaled, reference set) and which one is its start
-    values (:func:`drillstring.orchestration.loop_ssp.topdrive_tunings`)."""
-    return {"default": TOPDRIVE_DEFAULT, "tunings": topdrive_tunings()}
 
 
 def build_packages(out_dir: Path, source_date_epoch: int | None = None) -> dict[str, Path]:

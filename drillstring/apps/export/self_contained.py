@@ -43,9 +43,10 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
-from drillstring.apps.export.archive import validate, write_zip
+from drillstring.apps.export.archive import validate
 from drillstring.apps.export.python_runtime import RUNTIME_NAME, python_record
 from drillstring.apps.export.specs import BuildError
+from drillstring.fileio import write_zip
 
 __all__ = [
     "BUNDLE",
@@ -447,8 +448,7 @@ def make_self_contained(
     entries[doc] = _documentation(text, bundle).encode("utf-8")
     entries.update(compiled)
     entries.update(bundle.entries())
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    write_zip(entries, dest, source_date_epoch)
+    write_zip(dest, entries, source_date_epoch)
     validate(dest)
     return dest
 

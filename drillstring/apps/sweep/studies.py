@@ -621,14 +621,13 @@ def linear_boundary(
     spec: SweepSpec,
     design: DesignInputs,
     refine: int | None = None,
-    names: tuple[str, ...] | None = None,
 ) -> LinearBoundary:
     """:func:`linear_abscissa` of the open loop and of each controller on a grid ``refine``
     times finer than the map's (the same ranges and scales), for the stability boundary.
 
     The design inputs A, taubar_crit must be those of every point (an rpm x WOB map leaves
-    gammabar, etabar^2 as they are). A law whose gain is designed at each point (``gains =
-    "design"``) is left out: its boundary is drawn from the map's points.
+    gammabar, etabar^2 as they are). The controllers are the study's, less a law whose gain is
+    designed at each point (``gains = "design"``): its boundary is drawn from the map's points.
 
     Parameters
     ----------
@@ -640,8 +639,6 @@ def linear_boundary(
         Intervals of the fine grid per interval of the map's, >= 1 (default 4 on the one-mode
         model; 1 on the distributed string, whose delay-equation roots cost about 40 ms a law
         and a point).
-    names : tuple of str, optional
-        The controllers (default: the study's, less the point-wise designed LMI law).
 
     Returns
     -------
@@ -659,8 +656,7 @@ def linear_boundary(
     refine = check_int("refine", refine, lower=1)
     design.check()
     opts = spec.options
-    if names is None:
-        names = tuple(c for c in opts.controllers if not (c == "lmi" and opts.gains_file is None))
+    names = tuple(c for c in opts.controllers if not (c == "lmi" and opts.gains_file is None))
     fine = [
         Axis(a.param, a.start, a.stop, refine * (a.num - 1) + 1, a.scale).values()
         for a in spec.axes
