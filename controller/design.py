@@ -151,19 +151,9 @@ def design_constrained(
         result = synthesize_constrained(model, states, u_max, sigma=decay, **grid)
     except ConstrainedInfeasible as exc:
         raise _refusal(params, model, top_drive, states, decay, braking_tol, exc) from None
-    cert = result.certificate
-    gains = GainsFile(
-        F=tuple(float(v) for v in result.F),  # type: ignore[arg-type]
-        K0=model.K0,
-        R_ff=model.R_ff,
-        alpha=result.alpha,
-        A=model.A,
-        taubar_crit=model.taubar_crit,
-        params=params,
-        certificate=cert.margins(),
-        spectral_abscissa=cert.abscissa_nominal,
-        solver=result.solver,
-        solver_status=result.status,
+    gains = to_gains_file(
+        result,
+        params,
         constraint={
             "u_max": result.u_max,
             "peak_torque": result.peak_torque,
@@ -377,15 +367,12 @@ def design_on_string(
         record["torque_limit"] = [top_drive.R_min, top_drive.R_max]
         record["braking_limit"] = -top_drive.R_min + 0.0
     cert = design.certificate
-    gains = GainsFile(
-        F=tuple(float(v) for v in design.F),  # type: ignore[arg-type]
-        K0=model.K0,
-        R_ff=model.R_ff,
+    gains = GainsFile.of_model(
+        model,
+        params,
+        design.F,
         # no Razumikhin alpha here: the file's alpha is the certified decay of the reduced chain
         alpha=design.sigma,
-        A=model.A,
-        taubar_crit=model.taubar_crit,
-        params=params,
         certificate=cert.margins(),
         spectral_abscissa=max(cert.abscissae.values()),
         solver="CLARABEL",

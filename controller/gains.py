@@ -40,15 +40,15 @@ import hashlib
 import json
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
-from drillstring.controller.averaged import averaged_model
+from drillstring.controller.averaged import AveragedModel, averaged_model
 from drillstring.fileio import write_text
 from drillstring.model.params import ParameterError, ScaledParams
 from drillstring.validation import check_real
@@ -303,6 +303,24 @@ class GainsFile:
                 f"gains file: K0 = {self.K0!r} differs from (27) with the stored params, A and "
                 f"taubar_crit: {K0!r}"
             )
+
+    @classmethod
+    def of_model(
+        cls, model: AveragedModel, params: ScaledParams, F: Sequence[float], **fields: Any
+    ) -> Self:
+        """The record of a gain ``F`` designed on ``model`` (27), built from ``params``: K0,
+        R_ff (31), A and taubar_crit are the model's, ``fields`` the design's other fields
+        (``alpha``, ``certificate``, ``solver``, ...); :class:`GainsFileError` as the
+        constructor."""
+        return cls(
+            F=tuple(float(v) for v in F),  # type: ignore[arg-type]
+            K0=model.K0,
+            R_ff=model.R_ff,
+            A=model.A,
+            taubar_crit=model.taubar_crit,
+            params=params,
+            **fields,
+        )
 
     @property
     def params_sha256(self) -> str:

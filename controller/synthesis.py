@@ -37,6 +37,7 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
@@ -599,15 +600,18 @@ def _infeasible_message(attempts: Sequence[AlphaAttempt], gain_max: float, margi
     return "\n".join(lines)
 
 
-def to_gains_file(result: SynthesisResult, params: ScaledParams) -> GainsFile:
+def to_gains_file(result: SynthesisResult, params: ScaledParams, **record: Any) -> GainsFile:
     """The gains-file record of a design.
 
     Parameters
     ----------
     result : SynthesisResult
-        The design.
+        The design (or a :class:`~drillstring.controller.constrained.ConstrainedResult`: the
+        same model, gain, alpha, certificate and solver).
     params : ScaledParams
         The set the model was built from (the record checks K0 against it).
+    **record
+        The record's further fields (a constrained design's ``constraint``).
 
     Returns
     -------
@@ -619,19 +623,16 @@ def to_gains_file(result: SynthesisResult, params: ScaledParams) -> GainsFile:
     GainsFileError
         ``params`` does not give the model's K0.
     """
-    m = result.model
-    return GainsFile(
-        F=tuple(float(v) for v in result.F),  # type: ignore[arg-type]
-        K0=m.K0,
-        R_ff=m.R_ff,
+    return GainsFile.of_model(
+        result.model,
+        params,
+        result.F,
         alpha=result.alpha,
-        A=m.A,
-        taubar_crit=m.taubar_crit,
-        params=params,
         certificate=result.certificate.margins(),
         spectral_abscissa=result.certificate.abscissa_nominal,
         solver=result.solver,
         solver_status=result.status,
+        **record,
     )
 
 

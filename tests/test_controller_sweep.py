@@ -34,6 +34,7 @@ from drillstring.apps.controllers import (
     write_controller_comparison,
 )
 from drillstring.apps.sweep.metrics import controller_column
+from drillstring.apps.sweep.options import ControllerOptions
 from drillstring.apps.sweep.runner import run_sweep
 from drillstring.apps.sweep.spec import FEED_FOR_WOB, SweepSpecError, spec_from_dict
 from drillstring.apps.sweep.studies import (
@@ -264,7 +265,9 @@ def test_the_map_window_holds_five_periods_of_the_slowest_stick_slip(paper_gains
     with pytest.raises(SweepSpecError, match=r"options.window = 30.0 holds 4.29 periods"):
         controller_map_spec(paper_gains[1], n=2, controllers=["stiff-pi"], window=30.0)
     with pytest.raises(ValueError, match=r"window = 30.0 holds 4.29 periods"):
-        write_controller_comparison(tmp_path, paper_gains[0], window=30.0, log=None)
+        write_controller_comparison(
+            tmp_path, paper_gains[0], options=ControllerOptions(window=30.0), log=None
+        )
     # the comparison's two windows follow Fig. 6's switch-on at tau = 25
     assert 2.0 * COMPARISON_WINDOW <= COMPARISON_TAU_END - 25.0
 
@@ -531,7 +534,7 @@ def test_comparison_starts_every_controller_from_the_same_state(
 ):
     result = write_controller_comparison(
         tmp_path, paper_gains[0], designed_constrained, experiment=SHORT_FIG6, tau_end=8.0,
-        window=1.0, min_periods=0.0, log=None,
+        options=ControllerOptions(window=1.0, min_periods=0.0), log=None,
     )  # fmt: skip
     names = [r["controller"] for r in result.rows]
     # the timing of a real drive: the rows of TIMED_CONTROLLERS after the rig's controllers
@@ -591,8 +594,8 @@ def test_comparison_starts_every_controller_from_the_same_state(
 
 def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path):
     result = write_controller_comparison(
-        tmp_path, paper_gains[0], experiment=SHORT_FIG6, tau_end=8.0, window=1.0,
-        min_periods=0.0, top_drive="none", log=None,
+        tmp_path, paper_gains[0], experiment=SHORT_FIG6, tau_end=8.0,
+        options=ControllerOptions(window=1.0, min_periods=0.0, top_drive="none"), log=None,
     )  # fmt: skip
     rows = {r["controller"]: r for r in result.rows}
     assert "lmi-constrained" not in rows  # no constrained design given
@@ -602,9 +605,10 @@ def test_sampled_lmi_without_a_drive_is_the_continuous_law(paper_gains, tmp_path
     with pytest.raises(
         ValueError, match=r"options.t_on = 6.0 must lie in \[0, tau_end - 2 window\] = \[0, 4.0\]"
     ):
-        write_controller_comparison(tmp_path, paper_gains[0], experiment=SHORT_FIG6,
-                                    tau_end=8.0, window=2.0, min_periods=0.0,
-                                    log=None)  # fmt: skip
+        options = ControllerOptions(window=2.0, min_periods=0.0)
+        write_controller_comparison(
+            tmp_path, paper_gains[0], experiment=SHORT_FIG6, tau_end=8.0, options=options, log=None
+        )
     # the controllers are evaluated with the torsional-stick model on, as at a map's points
     no_stick = dataclasses.replace(SHORT_FIG6, torsional_stick=False)
     with pytest.raises(ValueError, match="'fig6-short' has the torsional-stick model off"):

@@ -24,6 +24,7 @@ from drillstring.apps.controllers import (
     write_controller_comparison,
     write_controller_map,
 )
+from drillstring.apps.sweep.options import ControllerOptions
 from drillstring.apps.sweep.runner import _boundary_overlays, read_results, shown_values
 from drillstring.apps.sweep.runner import columns as sweep_columns
 from drillstring.apps.sweep.spec import load_spec
@@ -36,7 +37,11 @@ from drillstring.model.pipe import REFERENCE_KAPPA, string_of_rig
 DATA = Path(__file__).parent / "data" / "comparison_short_109c713.json"
 #: The old columns (before the SI names) and their new names.
 RENAMED = {"tau_reached": "tau_reached_scaled"}
-SHORT = {"experiment": SHORT_FIG6, "tau_end": 8.0, "window": 1.0, "min_periods": 0.0}
+SHORT = {
+    "experiment": SHORT_FIG6,
+    "tau_end": 8.0,
+    "options": ControllerOptions(window=1.0, min_periods=0.0),
+}
 
 
 @pytest.fixture(scope="module")

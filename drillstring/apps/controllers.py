@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from drillstring.analysis.severity import MIN_WINDOW_PERIODS, Severity, severity_metrics
+from drillstring.analysis.severity import Severity, severity_metrics
 from drillstring.apps.colors import CONTROLLER_COLORS
 from drillstring.apps.sweep.options import MAP_WINDOW, ControllerOptions
 from drillstring.apps.sweep.runner import SweepError, SweepReport, run_sweep
@@ -58,7 +58,6 @@ from drillstring.model.engine import EngineOptions
 from drillstring.model.experiments import FIG6, Experiment
 from drillstring.model.params import PhysicalParams, known_rig
 from drillstring.model.pipe import StringParams, string_of_rig
-from drillstring.model.sampled import DEFAULT_TS
 from drillstring.model.simulate import SimulationResult, simulate
 from drillstring.model.topdrive import BRAKING, RPM
 from drillstring.plotting import new_figure
@@ -313,11 +312,7 @@ def write_controller_comparison(
     *,
     experiment: Experiment = FIG6,
     tau_end: float = COMPARISON_TAU_END,
-    Ts: float = DEFAULT_TS,
-    window: float = COMPARISON_WINDOW,
-    min_periods: float = MIN_WINDOW_PERIODS,
-    top_drive: str = "tds-11sa",
-    tuning: Tuning | None = None,
+    options: ControllerOptions | None = None,
     rig: PhysicalParams | None = None,
     string: StringParams | None = None,
     without_braking: bool = False,
@@ -348,21 +343,16 @@ def write_controller_comparison(
         The set-up (default :data:`~drillstring.model.experiments.FIG6`); run to ``tau_end``.
     tau_end : float
         End of the run (scaled), after the switch-on by more than ``2*window``.
-    Ts : float
-        Sample period of the digital controllers (scaled).
-    window : float
-        Late window of the metrics (scaled time).
-    min_periods : float
-        Periods of the slowest oscillation (:data:`~drillstring.analysis.severity.
-        SLOWEST_PERIOD`) the window must hold (:func:`~drillstring.analysis.severity.
-        check_window`; 0: none, for a quick run whose outcomes are not to be trusted).
-    top_drive : str
-        The drive of every controller (:func:`~drillstring.model.topdrive.top_drive_from_spec`,
-        or "none").
-    tuning : Tuning, optional
-        The industrial rules' choices (default :class:`~drillstring.controller.lineup.Tuning`:
-        the lumped impedance, SoftSpeed's two-mass rule, full matching); ``"pipe"`` takes the
-        pipe of ``rig``.
+    options : ControllerOptions, optional
+        How the lineup is evaluated (default: :class:`~drillstring.apps.sweep.options.
+        ControllerOptions`'s): the sample period ``Ts``, the metrics' late ``window`` holding
+        ``min_periods`` periods of the slowest oscillation (:data:`~drillstring.analysis.
+        severity.SLOWEST_PERIOD`; 0: none, for a quick run whose outcomes are not to be
+        trusted), the drive ``top_drive`` of every controller
+        (:func:`~drillstring.model.topdrive.top_drive_from_spec`, or "none"), the industrial
+        rules' ``tuning`` (``"pipe"`` takes the pipe of ``rig``), ...; the controllers, the
+        step, the switch-on and its latch are the comparison's (the rig's lineup, the
+        experiment's).
     rig : PhysicalParams, optional
         For the SI columns, the drive and the pipe; default: a known rig whose scaled set is the
         gains' (the reference rig for the reference set).
@@ -402,7 +392,6 @@ def write_controller_comparison(
     rig = rig if rig is not None else known_rig(params)
     if rig is None:
         raise ValueError("no physical rig maps onto the gains' parameter set: give rig=")
-    tuning = Tuning() if tuning is None else tuning
     model = averaged_model(params, g.A, g.taubar_crit)
     paper = lmi_gain(model, g, feedforward="file")
     cgain = None if gc is None else lmi_gain(model, gc, feedforward="file")
@@ -410,9 +399,9 @@ def write_controller_comparison(
     # the timing of a real drive: the rows of TIMED_CONTROLLERS whose controller runs here
     timed = [n for n, (of, _) in TIMED_CONTROLLERS.items() if of in rig_names]
     names = (*rig_names, *timed)
-    options = ControllerOptions(
-        controllers=tuple(rig_names), top_drive=top_drive, h=experiment.h, Ts=Ts, t_on=t_on,
-        latch=experiment.latch, window=window, min_periods=min_periods, tuning=tuning,
+    options = replace(
+        ControllerOptions() if options is None else options, controllers=tuple(rig_names),
+        h=experiment.h, t_on=t_on, latch=experiment.latch,
     )  # fmt: skip
     tau_end = options.check_run(tau_end)
     drive = map_top_drive(options.top_drive, params, rig)
@@ -441,7 +430,8 @@ def write_controller_comparison(
         severity[key] = severity_metrics(runs[key], options.window, t_from=t_on)
     row_of = {
         key: _row(key.removesuffix(NO_BRAKING),
-                  "none" if key in (OPEN_LOOP, LMI_UNLIMITED) else top_drive, r, severity[key],
+                  "none" if key in (OPEN_LOOP, LMI_UNLIMITED) else options.top_drive, r,
+                  severity[key],
                   t_on, rig, braking_of.get(key, "four-quadrant"))
         for key, r in runs.items()
     }  # fmt: skip
@@ -466,8 +456,8 @@ def write_controller_comparison(
     title = (
         f"{experiment.name} set-up on {model_text}: controllers on at t = "
         f"{t_on * rig.t_star:.3g} s, sampled every {options.Ts * rig.t_star * 1e3:.3g} ms, "
-        f"top drive {top_drive}\n(solid: with braking, dashed: without; {LMI_UNLIMITED}: no "
-        "drive, the paper's; grey band: the metrics' window)\n"
+        f"top drive {options.top_drive}\n(solid: with braking, dashed: without; "
+        f"{LMI_UNLIMITED}: no drive, the paper's; grey band: the metrics' window)\n"
         + "\n".join(
             textwrap.wrap(
                 sensing_note([n for n in runs if n in SENSING]), 120, break_on_hyphens=False
@@ -497,8 +487,11 @@ def write_controller_comparison(
         "tau_end": tau_end,
         "Ts": options.Ts,
         "window": options.window,
-        "top_drive": {"spec": top_drive, "limits": None if drive is None else drive.to_si(rig)},
-        "tuning": tuning.values(),
+        "top_drive": {
+            "spec": options.top_drive,
+            "limits": None if drive is None else drive.to_si(rig),
+        },
+        "tuning": options.tuning.values(),
         "string": {
             "elements": elements,
             "lumping": "paper" if string is None else string.lumping,
@@ -897,8 +890,12 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
     prog = f"drillstring controllers {args.job}"
     try:
         if args.job == "compare":
-            tuning = Tuning(
-                impedance=args.impedance, soft_speed=args.soft_speed, z_matching=args.z_matching
+            options = ControllerOptions(
+                top_drive=args.top_drive,
+                Ts=args.Ts,
+                window=args.window,
+                min_periods=args.min_periods,
+                tuning=Tuning(args.impedance, args.soft_speed, args.z_matching),
             )
             constrained = args.constrained
             if constrained is None:
@@ -912,12 +909,8 @@ def controllers_main(argv: Sequence[str] | None = None) -> int:
                 constrained,
                 string=string,
                 without_braking=not args.braking_only,
-                Ts=args.Ts,
-                window=args.window,
-                min_periods=args.min_periods,
                 tau_end=args.tau_end,
-                top_drive=args.top_drive,
-                tuning=tuning,
+                options=options,
             )
             print(f"wrote {', '.join(str(p) for p in result.files.values())}")
             return 0

@@ -46,11 +46,9 @@ from drillstring.model.params import (
     KNOWN_PARAMS,
     KNOWN_PHYSICAL,
     ParameterError,
-    PhysicalParams,
     ScaledParams,
-    get_params,
-    known_rig,
-    read_params,
+    params_from_spec,
+    rig_from_spec,
 )
 from drillstring.model.pipe import LUMPINGS, REFERENCE_KAPPA, StringParams
 from drillstring.plotting import new_figure
@@ -123,36 +121,21 @@ def _whole(option: str, text: str, upper: int | None = None) -> int:
 
 def _rig(spec: str, t_star: float | None) -> tuple[ScaledParams, float, str]:
     """The scaled set of ``--params``, the t* [s] of its rig and a name for the title."""
-    phys: PhysicalParams | None = None
-    if spec in KNOWN_PHYSICAL:
-        phys, name = KNOWN_PHYSICAL[spec], spec
-        scaled = phys.to_scaled()
-    elif spec in KNOWN_PARAMS:
-        scaled, name = get_params(spec), spec
-    else:
-        path = Path(spec)
-        if not (path.suffix.lower() in (".toml", ".json") or path.exists()):
-            get_params(spec)  # raises, listing the known sets
-        read = read_params(path)
-        name = path.name
-        if isinstance(read, PhysicalParams):
-            phys, scaled = read, read.to_scaled()
-        else:
-            scaled = read
+    scaled = params_from_spec(spec)
+    name = spec if spec in KNOWN_PARAMS else Path(spec).name
     if t_star is not None:
         if not (math.isfinite(t_star) and t_star > 0):
             raise UsageError(f"--t-star must be a positive number of seconds, got {t_star!r}")
         return scaled, t_star, f"{name}, t* given"
-    if phys is None:
-        phys = known_rig(scaled)
-        if phys is not None:
-            rig = next(k for k, v in KNOWN_PHYSICAL.items() if v is phys)
-            name = f"{name} = {rig}"
+    phys = rig_from_spec(spec)
     if phys is None:
         raise UsageError(
             f"--params {spec!r} is a scaled set of no known rig, so t* is unknown: "
             "give --t-star SECONDS or a physical parameter file"
         )
+    rig = next((k for k, v in KNOWN_PHYSICAL.items() if v is phys), spec)
+    if rig != spec:  # a scaled set of a known rig
+        name = f"{name} = {rig}"
     return scaled, phys.t_star, name
 
 

@@ -193,18 +193,8 @@ def simulate_sampled(
         k += 1
         if k > n:  # pragma: no cover - the loop returns at k == n
             break
-    rows = rows[:i]
-    data = {c: rows[:, j].copy() for j, c in enumerate(SAMPLED_COLUMNS)}
-    return SampledResult(
-        params=params,
-        options=engine.options,
-        data=data,
-        events=engine.events,
-        status=status,
-        counters=engine.counters,
-        string=engine.string,
-        Ts=Ts,
-        controller=controller,
+    return SampledResult.of_engine(
+        engine, params, rows[:i], status, SAMPLED_COLUMNS, Ts=Ts, controller=controller
     )
 
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from tqdm import tqdm
@@ -71,6 +71,30 @@ class SimulationResult:
     counters: dict[str, int] = field(default_factory=dict)
     string: StringParams = field(default_factory=StringParams)
     profiles: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @classmethod
+    def of_engine(
+        cls,
+        engine: Engine,
+        params: ScaledParams,
+        rows: np.ndarray,
+        status: Status,
+        columns: Sequence[str] = COLUMNS,
+        **fields: Any,
+    ) -> Self:
+        """The result of ``engine``'s run of ``params``: ``rows`` (one sample a row, the
+        ``columns``), the engine's options, events, counters and string, the run's ``status``
+        and the subclass's ``fields``."""
+        return cls(
+            params=params,
+            options=engine.options,
+            data={c: rows[:, j].copy() for j, c in enumerate(columns)},
+            events=engine.events,
+            status=status,
+            counters=engine.counters,
+            string=engine.string,
+            **fields,
+        )
 
     def __getattr__(self, name: str) -> np.ndarray:
         data = self.__dict__.get("data", {})
@@ -279,19 +303,9 @@ def simulate(
                 chunk *= 2
     finally:
         bar.close()
-    rows = rows[:n_done]
-    data = {c: rows[:, j].copy() for j, c in enumerate(COLUMNS)}
-    profiles = string_profiles(params, engine.string, data, nodes[:n_done])
-    return SimulationResult(
-        params=params,
-        options=engine.options,
-        data=data,
-        events=engine.events,
-        status=status,
-        counters=engine.counters,
-        string=engine.string,
-        profiles=profiles,
-    )
+    result = SimulationResult.of_engine(engine, params, rows[:n_done], status)
+    result.profiles = string_profiles(params, engine.string, result.data, nodes[:n_done])
+    return result
 
 
 def cache_counts(modules: Iterable[ModuleType]) -> tuple[int, int]:
