@@ -115,9 +115,7 @@ class Hosts:
 def _overhead(built: tl.Built, work: Path, unit: tl.Unit, blocks: int, steps: int):
     exe = work / "fmu_overhead"
     if not exe.exists():
-        src = ROOT / "bench" / "fmu_overhead.c"
-        cmd = ["cc", "-std=gnu11", "-O2", "-Wall", "-o", str(exe), str(src), "-ldl"]
-        subprocess.run(cmd, check=True)
+        tl.compile_c_program(ROOT / "bench" / "fmu_overhead.c", work, "-std=gnu11", "-ldl")
     # a plain folder name: the direct calls give pythonfmu's library the resource URI as it is,
     # and it cannot decode a percent-encoded one (one of the things the layer is for)
     plain = work / "plain" / unit.model

@@ -171,25 +171,48 @@ def restore_sys_path() -> Iterator[None]:
         yield
 
 
+def gains_file(
+    F: tuple[float, ...],
+    A: float,
+    taubar_crit: float,
+    *,
+    constraint: dict[str, Any] | None = None,
+    solver: str = "test",
+    solver_status: str = "input",
+    spectral_abscissa: float = -1.0,
+) -> GainsFile:
+    """A consistent gains file of the reference set with the gains ``F``, not a designed one:
+    K0 and R_ff of (27), (31) at ``A``, ``taubar_crit``, no certificate."""
+    model = averaged_model(REFERENCE, A, taubar_crit)
+    return GainsFile(
+        F=F,
+        K0=model.K0,
+        R_ff=model.R_ff,
+        alpha=1.0,
+        A=A,
+        taubar_crit=taubar_crit,
+        params=REFERENCE,
+        certificate={},
+        spectral_abscissa=spectral_abscissa,
+        solver=solver,
+        solver_status=solver_status,
+        constraint=constraint,
+    )
+
+
 def make_gains_file(path: Path) -> Path:
     """A valid gains file: the paper's F with K0 and R_ff of (27), (31) at an assumed A.
 
     Other gains than the session build's designed ones (:func:`other_gains_fmus`): a consistent
     gains file, not a designed one; A = 0.45 and taubar_crit = 5 are merely admissible values.
     """
-    model = averaged_model(REFERENCE, 0.45, 5.0)
-    gains = GainsFile(
-        F=PAPER_F,
-        K0=model.K0,
-        R_ff=model.R_ff,
-        alpha=1.0,
-        A=model.A,
-        taubar_crit=model.taubar_crit,
-        params=REFERENCE,
-        certificate={},
-        spectral_abscissa=0.0,
+    gains = gains_file(
+        PAPER_F,
+        0.45,
+        5.0,
         solver="none (test fixture)",
         solver_status="none",
+        spectral_abscissa=0.0,
     )
     return write_gains(gains, path)
 
