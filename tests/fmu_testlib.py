@@ -41,6 +41,7 @@ import zipfile
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 from xml.etree import ElementTree as ET
 
@@ -392,12 +393,19 @@ def build_small_fmus(dest: Path) -> dict[str, Path]:
     return built
 
 
-def _output_dependencies(script: Path) -> dict[str, list[str]]:
-    spec = importlib.util.spec_from_file_location(f"_deps_{script.stem}", script)
+def load_script(path: Path, name: str) -> ModuleType:
+    """A script that is no installed module (``tools/``, ``tests/fmus/``) loaded as the module
+    ``name``, which ``sys.modules`` holds (dataclasses look their module up there)."""
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
     spec.loader.exec_module(module)
-    return module.OUTPUT_DEPENDENCIES
+    return module
+
+
+def _output_dependencies(script: Path) -> dict[str, list[str]]:
+    return load_script(script, f"_deps_{script.stem}").OUTPUT_DEPENDENCIES
 
 
 def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
