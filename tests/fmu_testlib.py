@@ -1007,8 +1007,13 @@ def fmpy_command(*args: str) -> list[str]:
 
 
 def run_clean(
-    cmd: list[str], env: dict[str, str], cwd: Path, timeout: float = 600
+    cmd: list[str],
+    env: Mapping[str, str] | None = None,
+    cwd: Path | None = None,
+    timeout: float = 600,
 ) -> subprocess.CompletedProcess:
+    """``cmd`` run to its end in ``env`` and ``cwd`` (None: this process's), its output captured
+    as text."""
     return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=timeout)
 
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
 import sys
 import zipfile
 from pathlib import Path
@@ -60,14 +59,7 @@ def fmutool_findings(fmu: Path) -> list[str]:
     status, and the absence of either checker's verdict of compliance for the FMU's FMI version
     (so that a checker that did not run is a finding too)."""
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    run = subprocess.run(
-        [str(FMUTOOL), "-input", str(fmu), "-check"],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-        check=False,
-    )
+    run = tl.run_clean([str(FMUTOOL), "-input", str(fmu), "-check"], env, None, 300)
     lines = [_ANSI.sub("", line).strip() for line in run.stdout.splitlines()]
     findings = [
         line

@@ -64,13 +64,7 @@ def run_cycles(
     """tests/c_host/cycles.c on ``unit`` in a clean environment; (process, {cycles: RSS})."""
     args = [unit.unzipped, unit.model, unit.guid, n, warmup, int(logging), stack_kib]
     args += [unit.vr[OUTPUT[which]], int(state)]
-    proc = subprocess.run(
-        [str(exe), *map(str, args)],
-        capture_output=True,
-        text=True,
-        env=tl.clean_env(home),
-        timeout=600,
-    )
+    proc = tl.run_clean([str(exe), *map(str, args)], tl.clean_env(home))
     rss = {}
     for line in proc.stdout.splitlines():
         if line.startswith("rss "):
@@ -183,13 +177,7 @@ def test_python_host_keeps_nothing_of_its_instances(built, which, clean_home):
     freed by fmi2FreeInstance at once."""
     unit = getattr(built, which)
     args = [str(unit.fmu), str(unit.unzipped), str(tl.ROOT / "tests"), unit.model, OUTPUT[which]]
-    proc = subprocess.run(
-        [sys.executable, "-c", PYTHON_HOST, *args],
-        capture_output=True,
-        text=True,
-        env=_python_host_env(clean_home),
-        timeout=600,
-    )
+    proc = tl.run_clean([sys.executable, "-c", PYTHON_HOST, *args], _python_host_env(clean_home))
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().split(maxsplit=4) == ["True", "0", "0", "True", "[]"], proc.stdout
 
@@ -282,13 +270,7 @@ def test_the_hosts_sigint_disposition_is_left_alone(
     unit = getattr(built, which)
     folder = tl.unpack(unit.fmu, tmp_path / which)  # no character that needs percent-encoding
     args = [folder, unit.model, unit.guid, unit.vr[OUTPUT[which]], mode]
-    proc = subprocess.run(
-        [str(sigint_host), *map(str, args)],
-        capture_output=True,
-        text=True,
-        env=tl.clean_env(clean_home),
-        timeout=600,
-    )
+    proc = tl.run_clean([str(sigint_host), *map(str, args)], tl.clean_env(clean_home))
     lines = proc.stdout.splitlines()
     if mode == "default":
         assert lines == ["before default", "after default"], (lines, proc.stderr)
@@ -335,13 +317,10 @@ def test_reset_after_the_folder_moved_is_an_error_naming_it(built, tmp_path):
     """fmi2Reset after the unpacked FMU was moved away: fmi2Error naming the missing resources
     folder, never fmi2Fatal (pythonfmu's reset makes a new slave from that folder and lost the
     old one); the instance goes on as it was, and once the folder is back fmi2Reset works."""
-    proc = subprocess.run(
+    proc = tl.run_clean(
         [sys.executable, "-c", RESET_AFTER_MOVE, str(built.plant.fmu), str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=tl.ROOT / "tests",
-        env={**os.environ, "PYTHONPATH": str(tl.ROOT / "tests")},
+        {**os.environ, "PYTHONPATH": str(tl.ROOT / "tests")},
+        tl.ROOT / "tests",
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     r = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -387,12 +366,8 @@ def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
     csv = tmp_path / "out.csv"
     config = tmp_path / "host.cfg"
     config.write_text(_plant_only(built, folder, csv), encoding="utf-8")
-    proc = subprocess.run(
-        read_only([str(host), str(config)], [home, folder]),
-        capture_output=True,
-        text=True,
-        env=tl.clean_env(home),
-        timeout=900,
+    proc = tl.run_clean(
+        read_only([str(host), str(config)], [home, folder]), tl.clean_env(home), None, 900
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
     assert "no locator" not in proc.stderr
@@ -475,12 +450,6 @@ def test_all_layers_share_one_lock_and_threads_may_instantiate(built, clean_home
     instantiated, stepped and freed concurrently from two threads leave sys.path unchanged."""
     args = [str(built.plant.fmu), str(built.plant.unzipped)]
     args += [str(built.controller.fmu), str(built.controller.unzipped)]
-    proc = subprocess.run(
-        [sys.executable, "-c", THREADS, *args],
-        capture_output=True,
-        text=True,
-        env=_python_host_env(clean_home),
-        timeout=600,
-    )
+    proc = tl.run_clean([sys.executable, "-c", THREADS, *args], _python_host_env(clean_home))
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().split(maxsplit=2) == ["1", "True", "[]"], proc.stdout
