@@ -96,6 +96,12 @@ RECORD_PLANT_SI = (
     "rate_of_penetration",
 )
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
+#: Overrides of the Python an FMU would start that lead nowhere (a self-contained FMU ignores them).
+BOGUS_PYTHON = {
+    "DRILLSTRING_FMU_LIBPYTHON": "/nonexistent/libpython3.11.so",
+    "DRILLSTRING_FMU_PYTHONHOME": "/nonexistent",
+    "DRILLSTRING_FMU_SITE_PACKAGES": "/nonexistent",
+}
 
 
 @dataclass
@@ -408,35 +414,44 @@ def _output_dependencies(script: Path) -> dict[str, list[str]]:
     return load_script(script, f"_deps_{script.stem}").OUTPUT_DEPENDENCIES
 
 
-def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
-    with zipfile.ZipFile(fmu) as z:
+@contextlib.contextmanager
+def edited_model_description(src: Path, dst: Path) -> Iterator[ET.Element]:
+    """The model description of the FMU ``src`` as the root element the block edits, written with
+    the rest of the archive unchanged to ``dst`` (which may be ``src``: replaced only once the
+    copy is whole) when the block ends without an error."""
+    with zipfile.ZipFile(src) as z:
         entries = {info.filename: z.read(info.filename) for info in z.infolist()}
     root = ET.fromstring(entries["modelDescription.xml"])
-    variables = root.find("ModelVariables").iter("ScalarVariable")
-    index = {sv.get("name"): i + 1 for i, sv in enumerate(variables)}
-    name_of = {v: k for k, v in index.items()}
-    outputs = root.find("ModelStructure/Outputs")
-    seen = set()
-    for unknown in outputs.iter("Unknown"):
-        name = name_of[int(unknown.get("index"))]
-        seen.add(name)
-        unknown.set("dependencies", " ".join(str(index[d]) for d in deps[name]))
-        unknown.set("dependenciesKind", " ".join("fixed" for _ in deps[name]))
-    if seen != set(deps):
-        raise RuntimeError(f"{fmu.name}: OUTPUT_DEPENDENCIES {sorted(deps)} != {sorted(seen)}")
-    # FMI 2.0 wants every output with initial="calculated" (the default) listed as an
-    # initial unknown; no dependencies attribute = may depend on all start values.
-    structure = root.find("ModelStructure")
-    initial = ET.Element("InitialUnknowns")
-    for unknown in outputs.iter("Unknown"):
-        ET.SubElement(initial, "Unknown", index=unknown.get("index"))
-    structure.insert(list(structure).index(outputs) + 1, initial)
+    yield root
     entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    tmp = fmu.with_suffix(".tmp")
+    tmp = dst.with_suffix(".tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
         for name, data in entries.items():
             z.writestr(name, data)
-    tmp.replace(fmu)
+    tmp.replace(dst)
+
+
+def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
+    with edited_model_description(fmu, fmu) as root:
+        variables = root.find("ModelVariables").iter("ScalarVariable")
+        index = {sv.get("name"): i + 1 for i, sv in enumerate(variables)}
+        name_of = {v: k for k, v in index.items()}
+        outputs = root.find("ModelStructure/Outputs")
+        seen = set()
+        for unknown in outputs.iter("Unknown"):
+            name = name_of[int(unknown.get("index"))]
+            seen.add(name)
+            unknown.set("dependencies", " ".join(str(index[d]) for d in deps[name]))
+            unknown.set("dependenciesKind", " ".join("fixed" for _ in deps[name]))
+        if seen != set(deps):
+            raise RuntimeError(f"{fmu.name}: OUTPUT_DEPENDENCIES {sorted(deps)} != {sorted(seen)}")
+        # FMI 2.0 wants every output with initial="calculated" (the default) listed as an
+        # initial unknown; no dependencies attribute = may depend on all start values.
+        structure = root.find("ModelStructure")
+        initial = ET.Element("InitialUnknowns")
+        for unknown in outputs.iter("Unknown"):
+            ET.SubElement(initial, "Unknown", index=unknown.get("index"))
+        structure.insert(list(structure).index(outputs) + 1, initial)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1036,25 +1051,19 @@ def fmu_with_units(
     into) ``UnitDefinitions``. The FMU's code is unchanged: it computes with the numbers it is
     given, so declaring a unit is honest only where every value it meets is given in it.
     """
-    with zipfile.ZipFile(src) as z:
-        entries = {i.filename: z.read(i.filename) for i in z.infolist()}
-    root = ET.fromstring(entries["modelDescription.xml"])
-    unit_defs = root.find("UnitDefinitions")
-    if unit_defs is None and defs:
-        unit_defs = ET.Element("UnitDefinitions")
-        after = max(i for i, e in enumerate(root) if e.tag in ("CoSimulation", "ModelExchange"))
-        root.insert(after + 1, unit_defs)
-    for name, base in (defs or {}).items():
-        unit_defs.append(ET.fromstring(f'<Unit name="{name}"><BaseUnit {base}/></Unit>'))
-    for sv in root.iter("ScalarVariable"):
-        if sv.get("name") in units:
-            real = sv.find("Real")
-            real.attrib.pop("displayUnit", None)
-            real.attrib.pop("unit", None)
-            if units[sv.get("name")] is not None:
-                real.set("unit", units[sv.get("name")])
-    entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, data in entries.items():
-            z.writestr(name, data)
+    with edited_model_description(src, dst) as root:
+        unit_defs = root.find("UnitDefinitions")
+        if unit_defs is None and defs:
+            unit_defs = ET.Element("UnitDefinitions")
+            after = max(i for i, e in enumerate(root) if e.tag in ("CoSimulation", "ModelExchange"))
+            root.insert(after + 1, unit_defs)
+        for name, base in (defs or {}).items():
+            unit_defs.append(ET.fromstring(f'<Unit name="{name}"><BaseUnit {base}/></Unit>'))
+        for sv in root.iter("ScalarVariable"):
+            if sv.get("name") in units:
+                real = sv.find("Real")
+                real.attrib.pop("displayUnit", None)
+                real.attrib.pop("unit", None)
+                if units[sv.get("name")] is not None:
+                    real.set("unit", units[sv.get("name")])
     return dst
