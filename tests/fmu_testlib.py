@@ -1,4 +1,4 @@
-"""Shared helpers of the FMU tests (``tests/test_fmu_*.py``; this module is not collected).
+"""Shared helpers of the tests, above all the FMU tests' (this module is not collected).
 
 * :func:`built_fmus` designs the controller and builds the six FMUs and the four SSP packages
   once per test session with the real command (``python build_fmus.py --gains ... --design
@@ -22,7 +22,9 @@
   ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's ``OPENBLAS_*`` settings;
   :func:`first_use` is the first run of the FMUs in such an environment (it compiles the kernel
   into :func:`package_cache`);
-  :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it.
+  :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it;
+* for every test: :func:`gains_file` (a consistent gains file of given gains),
+  :func:`load_script` (a script of ``tools/`` as a module), :func:`strict_json`.
 """
 
 from __future__ import annotations
@@ -67,6 +69,8 @@ from drillstring.model.params import REFERENCE
 from drillstring.orchestration.closed_loop import SCALED
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 from drillstring.orchestration.loop_ssp import write_loop_package
+from drillstring.orchestration.master import Master
+from drillstring.orchestration.master import Unit as MasterUnit
 
 ROOT = Path(__file__).resolve().parents[1]
 C_HOST = ROOT / "tests" / "c_host" / "host.c"
@@ -205,6 +209,15 @@ def gains_file(
         solver_status=solver_status,
         constraint=constraint,
     )
+
+
+def strict_json(text: str) -> Any:
+    """Parse as a strict JSON reader (``JSON.parse``) does: no NaN, Infinity, -Infinity."""
+
+    def refuse(word: str) -> None:
+        raise ValueError(f"not JSON: {word}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def make_gains_file(path: Path) -> Path:
@@ -408,6 +421,24 @@ def load_script(path: Path, name: str) -> ModuleType:
     sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
+
+
+def integrator_loop(
+    small_fmus: dict[str, Path],
+    ka: float = 1.0,
+    kb: float = -1.0,
+    a0: float = 1.0,
+    b0: float = 0.0,
+    a_extra: dict[str, float] | None = None,
+    **kw: Any,
+) -> Master:
+    """Two integrators in a loop, a' = k_a b, b' = k_b a, from a(0) = a0, b(0) = b0 (``a_extra``:
+    more start values of A); ``kw`` goes to the :class:`Master`."""
+    units = [
+        MasterUnit("A", small_fmus["integrator"], {"x0": a0, "k": ka, **(a_extra or {})}),
+        MasterUnit("B", small_fmus["integrator"], {"x0": b0, "k": kb}),
+    ]
+    return Master(units, ["A.x -> B.u", "B.x -> A.u"], **kw)
 
 
 def _output_dependencies(script: Path) -> dict[str, list[str]]:
