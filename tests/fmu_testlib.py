@@ -100,12 +100,6 @@ RECORD_PLANT_SI = (
     "rate_of_penetration",
 )
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-#: Overrides of the Python an FMU would start that lead nowhere (a self-contained FMU ignores them).
-BOGUS_PYTHON = {
-    "DRILLSTRING_FMU_LIBPYTHON": "/nonexistent/libpython3.11.so",
-    "DRILLSTRING_FMU_PYTHONHOME": "/nonexistent",
-    "DRILLSTRING_FMU_SITE_PACKAGES": "/nonexistent",
-}
 
 
 @dataclass

@@ -64,7 +64,13 @@ def run_cycles(
     """tests/c_host/cycles.c on ``unit`` in a clean environment; (process, {cycles: RSS})."""
     args = [unit.unzipped, unit.model, unit.guid, n, warmup, int(logging), stack_kib]
     args += [unit.vr[OUTPUT[which]], int(state)]
-    proc = tl.run_clean([str(exe), *map(str, args)], tl.clean_env(home))
+    proc = subprocess.run(
+        [str(exe), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(home),
+        timeout=600,
+    )
     rss = {}
     for line in proc.stdout.splitlines():
         if line.startswith("rss "):
@@ -177,7 +183,13 @@ def test_python_host_keeps_nothing_of_its_instances(built, which, clean_home):
     freed by fmi2FreeInstance at once."""
     unit = getattr(built, which)
     args = [str(unit.fmu), str(unit.unzipped), str(tl.ROOT / "tests"), unit.model, OUTPUT[which]]
-    proc = tl.run_clean([sys.executable, "-c", PYTHON_HOST, *args], _python_host_env(clean_home))
+    proc = subprocess.run(
+        [sys.executable, "-c", PYTHON_HOST, *args],
+        capture_output=True,
+        text=True,
+        env=_python_host_env(clean_home),
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().split(maxsplit=4) == ["True", "0", "0", "True", "[]"], proc.stdout
 
@@ -270,7 +282,13 @@ def test_the_hosts_sigint_disposition_is_left_alone(
     unit = getattr(built, which)
     folder = tl.unpack(unit.fmu, tmp_path / which)  # no character that needs percent-encoding
     args = [folder, unit.model, unit.guid, unit.vr[OUTPUT[which]], mode]
-    proc = tl.run_clean([str(sigint_host), *map(str, args)], tl.clean_env(clean_home))
+    proc = subprocess.run(
+        [str(sigint_host), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(clean_home),
+        timeout=600,
+    )
     lines = proc.stdout.splitlines()
     if mode == "default":
         assert lines == ["before default", "after default"], (lines, proc.stderr)
@@ -366,8 +384,12 @@ def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
     csv = tmp_path / "out.csv"
     config = tmp_path / "host.cfg"
     config.write_text(_plant_only(built, folder, csv), encoding="utf-8")
-    proc = tl.run_clean(
-        read_only([str(host), str(config)], [home, folder]), tl.clean_env(home), None, 900
+    proc = subprocess.run(
+        read_only([str(host), str(config)], [home, folder]),
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(home),
+        timeout=900,
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
     assert "no locator" not in proc.stderr
@@ -450,6 +472,12 @@ def test_all_layers_share_one_lock_and_threads_may_instantiate(built, clean_home
     instantiated, stepped and freed concurrently from two threads leave sys.path unchanged."""
     args = [str(built.plant.fmu), str(built.plant.unzipped)]
     args += [str(built.controller.fmu), str(built.controller.unzipped)]
-    proc = tl.run_clean([sys.executable, "-c", THREADS, *args], _python_host_env(clean_home))
+    proc = subprocess.run(
+        [sys.executable, "-c", THREADS, *args],
+        capture_output=True,
+        text=True,
+        env=_python_host_env(clean_home),
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().split(maxsplit=2) == ["1", "True", "[]"], proc.stdout

@@ -30,6 +30,7 @@ import os
 import platform
 import re
 import shutil
+import subprocess
 import sys
 import sysconfig
 from pathlib import Path
@@ -70,7 +71,13 @@ def run_host(host: Any, fmus: list[Path], work: Path, home: Path, **env: str) ->
     args = [host.inside(p) for p in (script, out)] + [str(STEPS), repr(H)]
     args += [host.inside(p) for p in copies]
     extra = {**host.env, **env, "TMPDIR": host.inside(work)}
-    proc = tl.run_clean(host.command(*args), tl.clean_env(Path(host.inside(home)), **extra))
+    proc = subprocess.run(
+        host.command(*args),
+        capture_output=True,
+        text=True,
+        env=tl.clean_env(Path(host.inside(home)), **extra),
+        timeout=600,
+    )
     # a refusal is a NULL from fmi2Instantiate, never a crash of the host
     assert proc.returncode == 0, (proc.returncode, proc.stderr)
     report = json.loads(out.read_text())
@@ -100,8 +107,11 @@ def other_minor(tmp_path_factory: pytest.TempPathFactory) -> Any:
 @pytest.mark.slow  # an interpreter's environment installed (and maybe a Debian tree made)
 def test_a_python_host_of_another_minor_version_gets_a_logged_null(built, other_minor, tmp_path):
     host = other_minor
-    check = tl.run_clean(
-        host.command("-c", "import numpy, tqdm, fmpy"), {"PATH": "/usr/bin:/bin", **host.env}
+    check = subprocess.run(
+        host.command("-c", "import numpy, tqdm, fmpy"),
+        capture_output=True,
+        text=True,
+        env={"PATH": "/usr/bin:/bin", **host.env},
     )
     assert check.returncode == 0, check.stderr  # the FMU's imports would succeed there
     work = host.outside("/tmp/another_minor") if host.root != Path("/") else tmp_path / "work"
@@ -132,9 +142,11 @@ def test_a_python_host_of_the_same_minor_version_runs_only_on_the_fmus_numpy_and
     use, is taken by the other build as well (numba's cache is per minor version)."""
     start = [f"numpy!={numpy.__version__}", "tqdm>=4.66"]  # another numpy, no numba
     host = python_hosts.provide(SAME_MINOR, tmp_path / "host", start)
-    prefix = tl.run_clean(
+    prefix = subprocess.run(
         host.command("-c", "import sys; print(sys.base_prefix)"),
-        {"PATH": "/usr/bin:/bin", **host.env},
+        capture_output=True,
+        text=True,
+        env={"PATH": "/usr/bin:/bin", **host.env},
     ).stdout.strip()
     assert host.version.rsplit(".", 1)[0] == FMU_VERSION
     assert (host.root, prefix) != (Path("/"), sys.base_prefix), "the building Python itself"
