@@ -142,15 +142,7 @@ def main(argv: list[str] | None = None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="fmu_startup_") as tmp:
         work = Path(tmp)
-        gains = work / "gains.json"
-        tl.make_gains_file(gains)
-        tl.run_build(work / "build", gains)
-        built = tl.Built(
-            plant=tl._unit(tl.PLANT, work / "build" / f"{tl.PLANT}.fmu", work),
-            controller=tl._unit(tl.CONTROLLER, work / "build" / f"{tl.CONTROLLER}.fmu", work),
-            gains=gains,
-            out=work / "build",
-        )
+        built = tl.bench_build(work)
         home = work / "home"
         home.mkdir()
         hosts = Hosts(built, work, tl.clean_env(home))

@@ -330,6 +330,16 @@ def _unit(model: str, fmu: Path, root: Path) -> Unit:
     return Unit(model, fmu, unzipped, md.guid, vr, types, causality)
 
 
+def bench_build(work: Path) -> Built:
+    """The benchmarks' build: the FMUs and packages of :func:`make_gains_file`'s gains built by
+    ``build_fmus.py`` into ``work/build``, its scaled plant and controller unpacked under
+    ``work``."""
+    gains = make_gains_file(work / "gains.json")
+    run_build(work / "build", gains)
+    units = {m: _unit(m, work / "build" / f"{m}.fmu", work) for m in (PLANT, CONTROLLER)}
+    return Built(units[PLANT], units[CONTROLLER], gains, work / "build")
+
+
 def built_fmus(root: Path, environ: Mapping[str, str]) -> Built:
     """Design the controller and build the FMUs into ``root`` (once per session: conftest's
     ``built``): ``python build_fmus.py --gains GAINS --design --out OUT`` in the environment
