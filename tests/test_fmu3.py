@@ -637,9 +637,7 @@ def test_fmi3_states_round_trip_and_a_foreign_state_is_refused(plant3, built, tm
         # the serialized state of the FMI 2.0 plant (another FMU: its GUID) is refused
         fmu2 = tl.Slave(built.plant, "foreign")
         try:
-            fmu2.fmu.setupExperiment(startTime=0.0)
-            fmu2.fmu.enterInitializationMode()
-            fmu2.fmu.exitInitializationMode()
+            fmu2.init()
             foreign = bytes(fmu2.fmu.serializeFMUstate(fmu2.fmu.getFMUstate()))
         finally:
             fmu2.free()
