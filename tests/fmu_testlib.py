@@ -494,6 +494,10 @@ def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
 # ------------------------------------------------------------------------------------------------
 
 
+#: The C type of each FMI 2.0 type but String's (char pointers).
+_CTYPES = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
+
+
 class Slave:
     """One FMU instance driven by fmpy.
 
@@ -538,18 +542,15 @@ class Slave:
     # typed access by variable name
     def set(self, **values: Any) -> None:
         for name, value in values.items():
-            self._setter(name)([self.unit.vr[name]], [value])
+            self._typed("set", name)([self.unit.vr[name]], [value])
 
     def get(self, *names: str) -> list[Any]:
-        return [self._getter(name)([self.unit.vr[name]])[0] for name in names]
+        return [self._typed("get", name)([self.unit.vr[name]])[0] for name in names]
 
-    def _setter(self, name: str) -> Any:
+    def _typed(self, verb: str, name: str) -> Any:
+        """fmpy's ``set``/``get`` method of the variable ``name``'s type."""
         kind = self.unit.types[name]
-        return getattr(self.fmu, f"set{'Integer' if kind == 'Enumeration' else kind}")
-
-    def _getter(self, name: str) -> Any:
-        kind = self.unit.types[name]
-        return getattr(self.fmu, f"get{'Integer' if kind == 'Enumeration' else kind}")
+        return getattr(self.fmu, f"{verb}{'Integer' if kind == 'Enumeration' else kind}")
 
     def call(self, function: str, *args: Any) -> int:
         """Raw status of ``fmi2<function>(component, *args)``."""
@@ -560,19 +561,14 @@ class Slave:
 
     def set_raw(self, kind: str, vrs: list[int], values: list[Any]) -> int:
         """Raw status of fmi2Set<kind> (no type checks here: that is what is tested)."""
-        ctype = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
         if kind == "String":
             arr = (ctypes.c_char_p * len(values))(*[str(v).encode() for v in values])
         else:
-            arr = (ctype[kind] * len(values))(*values)
+            arr = (_CTYPES[kind] * len(values))(*values)
         return self.call(f"Set{kind}", (ctypes.c_uint * len(vrs))(*vrs), len(vrs), arr)
 
     def get_raw(self, kind: str, vrs: list[int]) -> tuple[int, list[Any]]:
-        ctype = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
-        if kind == "String":
-            arr = (ctypes.c_char_p * len(vrs))()
-        else:
-            arr = (ctype[kind] * len(vrs))()
+        arr = ({**_CTYPES, "String": ctypes.c_char_p}[kind] * len(vrs))()
         st = self.call(f"Get{kind}", (ctypes.c_uint * len(vrs))(*vrs), len(vrs), arr)
         return st, list(arr)
 
