@@ -12,65 +12,15 @@
  * fmu_src/fmi_front/runtime.c).
  */
 #define _GNU_SOURCE
-#include <dlfcn.h>
-#include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-typedef void *fmi2Component;
-typedef int fmi2Status;
-typedef void (*Logger)(void *, const char *, int, const char *, const char *, ...);
-typedef struct {
-    Logger logger;
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void *stepFinished;
-    void *componentEnvironment;
-} Callbacks;
-typedef fmi2Component (*Instantiate_t)(const char *, int, const char *, const char *,
-                                       const Callbacks *, int, int);
-typedef fmi2Status (*Setup_t)(fmi2Component, int, double, double, int, double);
-typedef fmi2Status (*Component_t)(fmi2Component);
-typedef fmi2Status (*DoStep_t)(fmi2Component, double, double, int);
-typedef void (*Free_t)(fmi2Component);
-
-typedef struct {
-    Instantiate_t instantiate;
-    Setup_t setup;
-    Component_t enter, exit_, terminate;
-    DoStep_t step;
-    Free_t free_;
-} Api;
+#include "../tests/c_host/fmi2_api.h"
 
 static void logger(void *env, const char *name, int status, const char *cat, const char *msg, ...)
 {
     (void)env, (void)cat;
     if (status >= 2) fprintf(stderr, "[%d] %s: %s\n", status, name, msg);
-}
-
-static void *need(void *lib, const char *name)
-{
-    void *p = dlsym(lib, name);
-    if (!p) {
-        fprintf(stderr, "missing %s: %s\n", name, dlerror());
-        exit(2);
-    }
-    return p;
-}
-
-static Api api(void *lib)
-{
-    Api a;
-    a.instantiate = (Instantiate_t)need(lib, "fmi2Instantiate");
-    a.setup = (Setup_t)need(lib, "fmi2SetupExperiment");
-    a.enter = (Component_t)need(lib, "fmi2EnterInitializationMode");
-    a.exit_ = (Component_t)need(lib, "fmi2ExitInitializationMode");
-    a.terminate = (Component_t)need(lib, "fmi2Terminate");
-    a.step = (DoStep_t)need(lib, "fmi2DoStep");
-    a.free_ = (Free_t)need(lib, "fmi2FreeInstance");
-    return a;
 }
 
 static double now(void)
@@ -97,26 +47,13 @@ int main(int argc, char **argv)
     const char *dir = argv[1], *id = argv[2], *guid = argv[3];
     const int blocks = atoi(argv[4]), steps = atoi(argv[5]);
     char path[4096], uri[4200], entry[256];
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", dir, id);
-    void *layer = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    if (!layer) {
-        fprintf(stderr, "cannot load: %s\n", dlerror());
-        return 2;
-    }
-    const Api la = api(layer);
+    const Api la = load_api(dir, id, "");
     static const Callbacks cb = {logger, calloc, free, NULL, NULL};
     snprintf(uri, sizeof uri, "file://%s/resources", dir);
     fmi2Component a = la.instantiate("layer", 1, guid, uri, &cb, 0, 0); /* starts Python */
     start(&la, a);
     /* loaded by the layer already (after libpython): the same library */
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s_pythonfmu.so", dir, id);
-    void *direct = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    if (!direct) {
-        fprintf(stderr, "cannot load: %s\n", dlerror());
-        return 2;
-    }
-    const Api da = api(direct);
-
+    const Api da = load_api(dir, id, "_pythonfmu");
     /* B: pythonfmu's library directly, prepared as the layer prepares its instances */
     snprintf(path, sizeof path, "%s/resources/slavemodule.txt", dir);
     FILE *fp = fopen(path, "r");

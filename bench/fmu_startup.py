@@ -115,9 +115,7 @@ class Hosts:
 def _overhead(built: tl.Built, work: Path, unit: tl.Unit, blocks: int, steps: int):
     exe = work / "fmu_overhead"
     if not exe.exists():
-        src = ROOT / "bench" / "fmu_overhead.c"
-        cmd = ["cc", "-std=gnu11", "-O2", "-Wall", "-o", str(exe), str(src), "-ldl"]
-        subprocess.run(cmd, check=True)
+        tl.compile_c_program(ROOT / "bench" / "fmu_overhead.c", work, "-std=gnu11", "-ldl")
     # a plain folder name: the direct calls give pythonfmu's library the resource URI as it is,
     # and it cannot decode a percent-encoded one (one of the things the layer is for)
     plain = work / "plain" / unit.model
@@ -144,15 +142,7 @@ def main(argv: list[str] | None = None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="fmu_startup_") as tmp:
         work = Path(tmp)
-        gains = work / "gains.json"
-        tl.make_gains_file(gains)
-        tl.run_build(work / "build", gains)
-        built = tl.Built(
-            plant=tl._unit(tl.PLANT, work / "build" / f"{tl.PLANT}.fmu", work),
-            controller=tl._unit(tl.CONTROLLER, work / "build" / f"{tl.CONTROLLER}.fmu", work),
-            gains=gains,
-            out=work / "build",
-        )
+        built = tl.bench_build(work)
         home = work / "home"
         home.mkdir()
         hosts = Hosts(built, work, tl.clean_env(home))

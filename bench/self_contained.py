@@ -92,16 +92,14 @@ def main(argv: list[str] | None = None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="self_contained_") as tmp:
         work = Path(tmp)
-        gains = work / "gains.json"
-        tl.make_gains_file(gains)
-        tl.run_build(work / "build", gains)
+        built = tl.bench_build(work)
         t0 = time.perf_counter()
         fmus = self_contained_fmus(
-            {m: work / "build" / f"{m}.fmu" for m in (tl.PLANT, tl.CONTROLLER)}, work / "sc"
+            {u.model: u.fmu for u in (built.plant, built.controller)}, work / "sc"
         )
         print(f"self-contained plant and controller made in {time.perf_counter() - t0:.0f} s")
         units = {
-            "normal": tl._unit(tl.PLANT, work / "build" / f"{tl.PLANT}.fmu", work / "u-normal"),
+            "normal": built.plant,
             "self-contained": tl._unit(tl.PLANT, fmus[tl.PLANT], work / "u-sc"),
         }
         for kind, unit in units.items():

@@ -1,4 +1,4 @@
-"""Shared helpers of the FMU tests (``tests/test_fmu_*.py``; this module is not collected).
+"""Shared helpers of the tests, above all the FMU tests' (this module is not collected).
 
 * :func:`built_fmus` designs the controller and builds the six FMUs and the four SSP packages
   once per test session with the real command (``python build_fmus.py --gains ... --design
@@ -22,7 +22,9 @@
   ``PATH=/usr/bin:/bin``, ``HOME``, ``LANG`` and the machine's ``OPENBLAS_*`` settings;
   :func:`first_use` is the first run of the FMUs in such an environment (it compiles the kernel
   into :func:`package_cache`);
-  :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it.
+  :func:`ecos_command` runs the ``ecos`` command line of the ``ecospy`` wheel in it;
+* for every test: :func:`gains_file` (a consistent gains file of given gains),
+  :func:`load_script` (a script of ``tools/`` as a module), :func:`strict_json`.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ import zipfile
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 from xml.etree import ElementTree as ET
 
@@ -66,6 +69,8 @@ from drillstring.model.params import REFERENCE
 from drillstring.orchestration.closed_loop import SCALED
 from drillstring.orchestration.hosts import ecos_command, load_ecospy  # noqa: F401  (the tests' hosts)
 from drillstring.orchestration.loop_ssp import write_loop_package
+from drillstring.orchestration.master import Master
+from drillstring.orchestration.master import Unit as MasterUnit
 
 ROOT = Path(__file__).resolve().parents[1]
 C_HOST = ROOT / "tests" / "c_host" / "host.c"
@@ -171,25 +176,57 @@ def restore_sys_path() -> Iterator[None]:
         yield
 
 
+def gains_file(
+    F: tuple[float, ...],
+    A: float,
+    taubar_crit: float,
+    *,
+    constraint: dict[str, Any] | None = None,
+    solver: str = "test",
+    solver_status: str = "input",
+    spectral_abscissa: float = -1.0,
+) -> GainsFile:
+    """A consistent gains file of the reference set with the gains ``F``, not a designed one:
+    K0 and R_ff of (27), (31) at ``A``, ``taubar_crit``, no certificate."""
+    model = averaged_model(REFERENCE, A, taubar_crit)
+    return GainsFile(
+        F=F,
+        K0=model.K0,
+        R_ff=model.R_ff,
+        alpha=1.0,
+        A=A,
+        taubar_crit=taubar_crit,
+        params=REFERENCE,
+        certificate={},
+        spectral_abscissa=spectral_abscissa,
+        solver=solver,
+        solver_status=solver_status,
+        constraint=constraint,
+    )
+
+
+def strict_json(text: str) -> Any:
+    """Parse as a strict JSON reader (``JSON.parse``) does: no NaN, Infinity, -Infinity."""
+
+    def refuse(word: str) -> None:
+        raise ValueError(f"not JSON: {word}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
 def make_gains_file(path: Path) -> Path:
     """A valid gains file: the paper's F with K0 and R_ff of (27), (31) at an assumed A.
 
     Other gains than the session build's designed ones (:func:`other_gains_fmus`): a consistent
     gains file, not a designed one; A = 0.45 and taubar_crit = 5 are merely admissible values.
     """
-    model = averaged_model(REFERENCE, 0.45, 5.0)
-    gains = GainsFile(
-        F=PAPER_F,
-        K0=model.K0,
-        R_ff=model.R_ff,
-        alpha=1.0,
-        A=model.A,
-        taubar_crit=model.taubar_crit,
-        params=REFERENCE,
-        certificate={},
-        spectral_abscissa=0.0,
+    gains = gains_file(
+        PAPER_F,
+        0.45,
+        5.0,
         solver="none (test fixture)",
         solver_status="none",
+        spectral_abscissa=0.0,
     )
     return write_gains(gains, path)
 
@@ -293,6 +330,16 @@ def _unit(model: str, fmu: Path, root: Path) -> Unit:
     return Unit(model, fmu, unzipped, md.guid, vr, types, causality)
 
 
+def bench_build(work: Path) -> Built:
+    """The benchmarks' build: the FMUs and packages of :func:`make_gains_file`'s gains built by
+    ``build_fmus.py`` into ``work/build``, its scaled plant and controller unpacked under
+    ``work``."""
+    gains = make_gains_file(work / "gains.json")
+    run_build(work / "build", gains)
+    units = {m: _unit(m, work / "build" / f"{m}.fmu", work) for m in (PLANT, CONTROLLER)}
+    return Built(units[PLANT], units[CONTROLLER], gains, work / "build")
+
+
 def built_fmus(root: Path, environ: Mapping[str, str]) -> Built:
     """Design the controller and build the FMUs into ``root`` (once per session: conftest's
     ``built``): ``python build_fmus.py --gains GAINS --design --out OUT`` in the environment
@@ -369,48 +416,86 @@ def build_small_fmus(dest: Path) -> dict[str, Path]:
     return built
 
 
-def _output_dependencies(script: Path) -> dict[str, list[str]]:
-    spec = importlib.util.spec_from_file_location(f"_deps_{script.stem}", script)
+def load_script(path: Path, name: str) -> ModuleType:
+    """A script that is no installed module (``tools/``, ``tests/fmus/``) loaded as the module
+    ``name``, which ``sys.modules`` holds (dataclasses look their module up there)."""
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
     spec.loader.exec_module(module)
-    return module.OUTPUT_DEPENDENCIES
+    return module
 
 
-def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
-    with zipfile.ZipFile(fmu) as z:
+def integrator_loop(
+    small_fmus: dict[str, Path],
+    ka: float = 1.0,
+    kb: float = -1.0,
+    a0: float = 1.0,
+    b0: float = 0.0,
+    a_extra: dict[str, float] | None = None,
+    **kw: Any,
+) -> Master:
+    """Two integrators in a loop, a' = k_a b, b' = k_b a, from a(0) = a0, b(0) = b0 (``a_extra``:
+    more start values of A); ``kw`` goes to the :class:`Master`."""
+    units = [
+        MasterUnit("A", small_fmus["integrator"], {"x0": a0, "k": ka, **(a_extra or {})}),
+        MasterUnit("B", small_fmus["integrator"], {"x0": b0, "k": kb}),
+    ]
+    return Master(units, ["A.x -> B.u", "B.x -> A.u"], **kw)
+
+
+def _output_dependencies(script: Path) -> dict[str, list[str]]:
+    return load_script(script, f"_deps_{script.stem}").OUTPUT_DEPENDENCIES
+
+
+@contextlib.contextmanager
+def edited_model_description(src: Path, dst: Path) -> Iterator[ET.Element]:
+    """The model description of the FMU ``src`` as the root element the block edits, written with
+    the rest of the archive unchanged to ``dst`` (which may be ``src``: replaced only once the
+    copy is whole) when the block ends without an error."""
+    with zipfile.ZipFile(src) as z:
         entries = {info.filename: z.read(info.filename) for info in z.infolist()}
     root = ET.fromstring(entries["modelDescription.xml"])
-    variables = root.find("ModelVariables").iter("ScalarVariable")
-    index = {sv.get("name"): i + 1 for i, sv in enumerate(variables)}
-    name_of = {v: k for k, v in index.items()}
-    outputs = root.find("ModelStructure/Outputs")
-    seen = set()
-    for unknown in outputs.iter("Unknown"):
-        name = name_of[int(unknown.get("index"))]
-        seen.add(name)
-        unknown.set("dependencies", " ".join(str(index[d]) for d in deps[name]))
-        unknown.set("dependenciesKind", " ".join("fixed" for _ in deps[name]))
-    if seen != set(deps):
-        raise RuntimeError(f"{fmu.name}: OUTPUT_DEPENDENCIES {sorted(deps)} != {sorted(seen)}")
-    # FMI 2.0 wants every output with initial="calculated" (the default) listed as an
-    # initial unknown; no dependencies attribute = may depend on all start values.
-    structure = root.find("ModelStructure")
-    initial = ET.Element("InitialUnknowns")
-    for unknown in outputs.iter("Unknown"):
-        ET.SubElement(initial, "Unknown", index=unknown.get("index"))
-    structure.insert(list(structure).index(outputs) + 1, initial)
+    yield root
     entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    tmp = fmu.with_suffix(".tmp")
+    tmp = dst.with_suffix(".tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
         for name, data in entries.items():
             z.writestr(name, data)
-    tmp.replace(fmu)
+    tmp.replace(dst)
+
+
+def _patch_model_structure(fmu: Path, deps: dict[str, list[str]]) -> None:
+    with edited_model_description(fmu, fmu) as root:
+        variables = root.find("ModelVariables").iter("ScalarVariable")
+        index = {sv.get("name"): i + 1 for i, sv in enumerate(variables)}
+        name_of = {v: k for k, v in index.items()}
+        outputs = root.find("ModelStructure/Outputs")
+        seen = set()
+        for unknown in outputs.iter("Unknown"):
+            name = name_of[int(unknown.get("index"))]
+            seen.add(name)
+            unknown.set("dependencies", " ".join(str(index[d]) for d in deps[name]))
+            unknown.set("dependenciesKind", " ".join("fixed" for _ in deps[name]))
+        if seen != set(deps):
+            raise RuntimeError(f"{fmu.name}: OUTPUT_DEPENDENCIES {sorted(deps)} != {sorted(seen)}")
+        # FMI 2.0 wants every output with initial="calculated" (the default) listed as an
+        # initial unknown; no dependencies attribute = may depend on all start values.
+        structure = root.find("ModelStructure")
+        initial = ET.Element("InitialUnknowns")
+        for unknown in outputs.iter("Unknown"):
+            ET.SubElement(initial, "Unknown", index=unknown.get("index"))
+        structure.insert(list(structure).index(outputs) + 1, initial)
 
 
 # ------------------------------------------------------------------------------------------------
 # fmpy
 # ------------------------------------------------------------------------------------------------
+
+
+#: The C type of each FMI 2.0 type but String's (char pointers).
+_CTYPES = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
 
 
 class Slave:
@@ -457,18 +542,15 @@ class Slave:
     # typed access by variable name
     def set(self, **values: Any) -> None:
         for name, value in values.items():
-            self._setter(name)([self.unit.vr[name]], [value])
+            self._typed("set", name)([self.unit.vr[name]], [value])
 
     def get(self, *names: str) -> list[Any]:
-        return [self._getter(name)([self.unit.vr[name]])[0] for name in names]
+        return [self._typed("get", name)([self.unit.vr[name]])[0] for name in names]
 
-    def _setter(self, name: str) -> Any:
+    def _typed(self, verb: str, name: str) -> Any:
+        """fmpy's ``set``/``get`` method of the variable ``name``'s type."""
         kind = self.unit.types[name]
-        return getattr(self.fmu, f"set{'Integer' if kind == 'Enumeration' else kind}")
-
-    def _getter(self, name: str) -> Any:
-        kind = self.unit.types[name]
-        return getattr(self.fmu, f"get{'Integer' if kind == 'Enumeration' else kind}")
+        return getattr(self.fmu, f"{verb}{'Integer' if kind == 'Enumeration' else kind}")
 
     def call(self, function: str, *args: Any) -> int:
         """Raw status of ``fmi2<function>(component, *args)``."""
@@ -479,19 +561,14 @@ class Slave:
 
     def set_raw(self, kind: str, vrs: list[int], values: list[Any]) -> int:
         """Raw status of fmi2Set<kind> (no type checks here: that is what is tested)."""
-        ctype = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
         if kind == "String":
             arr = (ctypes.c_char_p * len(values))(*[str(v).encode() for v in values])
         else:
-            arr = (ctype[kind] * len(values))(*values)
+            arr = (_CTYPES[kind] * len(values))(*values)
         return self.call(f"Set{kind}", (ctypes.c_uint * len(vrs))(*vrs), len(vrs), arr)
 
     def get_raw(self, kind: str, vrs: list[int]) -> tuple[int, list[Any]]:
-        ctype = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
-        if kind == "String":
-            arr = (ctypes.c_char_p * len(vrs))()
-        else:
-            arr = (ctype[kind] * len(vrs))()
+        arr = ({**_CTYPES, "String": ctypes.c_char_p}[kind] * len(vrs))()
         st = self.call(f"Get{kind}", (ctypes.c_uint * len(vrs))(*vrs), len(vrs), arr)
         return st, list(arr)
 
@@ -976,8 +1053,13 @@ def fmpy_command(*args: str) -> list[str]:
 
 
 def run_clean(
-    cmd: list[str], env: dict[str, str], cwd: Path, timeout: float = 600
+    cmd: list[str],
+    env: Mapping[str, str] | None = None,
+    cwd: Path | None = None,
+    timeout: float = 600,
 ) -> subprocess.CompletedProcess:
+    """``cmd`` run to its end in ``env`` and ``cwd`` (None: this process's), its output captured
+    as text."""
     return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=timeout)
 
 
@@ -1000,25 +1082,19 @@ def fmu_with_units(
     into) ``UnitDefinitions``. The FMU's code is unchanged: it computes with the numbers it is
     given, so declaring a unit is honest only where every value it meets is given in it.
     """
-    with zipfile.ZipFile(src) as z:
-        entries = {i.filename: z.read(i.filename) for i in z.infolist()}
-    root = ET.fromstring(entries["modelDescription.xml"])
-    unit_defs = root.find("UnitDefinitions")
-    if unit_defs is None and defs:
-        unit_defs = ET.Element("UnitDefinitions")
-        after = max(i for i, e in enumerate(root) if e.tag in ("CoSimulation", "ModelExchange"))
-        root.insert(after + 1, unit_defs)
-    for name, base in (defs or {}).items():
-        unit_defs.append(ET.fromstring(f'<Unit name="{name}"><BaseUnit {base}/></Unit>'))
-    for sv in root.iter("ScalarVariable"):
-        if sv.get("name") in units:
-            real = sv.find("Real")
-            real.attrib.pop("displayUnit", None)
-            real.attrib.pop("unit", None)
-            if units[sv.get("name")] is not None:
-                real.set("unit", units[sv.get("name")])
-    entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, data in entries.items():
-            z.writestr(name, data)
+    with edited_model_description(src, dst) as root:
+        unit_defs = root.find("UnitDefinitions")
+        if unit_defs is None and defs:
+            unit_defs = ET.Element("UnitDefinitions")
+            after = max(i for i, e in enumerate(root) if e.tag in ("CoSimulation", "ModelExchange"))
+            root.insert(after + 1, unit_defs)
+        for name, base in (defs or {}).items():
+            unit_defs.append(ET.fromstring(f'<Unit name="{name}"><BaseUnit {base}/></Unit>'))
+        for sv in root.iter("ScalarVariable"):
+            if sv.get("name") in units:
+                real = sv.find("Real")
+                real.attrib.pop("displayUnit", None)
+                real.attrib.pop("unit", None)
+                if units[sv.get("name")] is not None:
+                    real.set("unit", units[sv.get("name")])
     return dst

@@ -14,6 +14,7 @@ import json
 import math
 import pickle
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
@@ -47,7 +48,7 @@ from drillstring.apps.sweep.studies import (
 )
 from drillstring.controller.averaged import averaged_model
 from drillstring.controller.design import design_constrained
-from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.controller.gains import PAPER_F, write_gains
 from drillstring.controller.lineup import (
     MAP_CONTROLLERS,
     RIG_CONTROLLERS,
@@ -73,21 +74,9 @@ W0_KN = REFERENCE_RIG.W0 / 1e3
 
 def _design_gains(F, constraint=None):
     d = axial_design(REFERENCE)
-    m = averaged_model(REFERENCE, d.A, d.taubar_crit)
-    return GainsFile(
-        F=F,
-        K0=m.K0,
-        R_ff=m.R_ff,
-        alpha=1.0,
-        A=d.A,
-        taubar_crit=d.taubar_crit,
-        params=REFERENCE,
-        certificate={},
-        spectral_abscissa=-1.0,
-        solver="paper" if constraint is None else "test",
-        solver_status="published" if constraint is None else "input",
-        constraint=constraint,
-    )
+    if constraint is None:
+        return tl.gains_file(F, d.A, d.taubar_crit, solver="paper", solver_status="published")
+    return tl.gains_file(F, d.A, d.taubar_crit, constraint=constraint)
 
 
 @pytest.fixture(scope="module")

@@ -5,22 +5,15 @@ previous map), so the test runs without FMUs or hosts; ``make demo`` runs the re
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from types import SimpleNamespace
 
+import fmu_testlib as tl
+
 import drillstring.apps.demo as demo
 from drillstring.fileio import write_json, write_text
 from drillstring.model.params import REFERENCE_RIG
-
-
-def _strict(text: str):
-    def refuse(word: str):
-        raise ValueError(f"not JSON: {word}")
-
-    return json.loads(text, parse_constant=refuse)
-
 
 calls: list[tuple] = []
 
@@ -104,7 +97,7 @@ def test_summary_is_json_and_lists_every_file_the_run_wrote(tmp_path, monkeypatc
     write_text(out / "controllers" / "map" / "stale.csv", "an earlier map")
     summary = demo.run_demo(out / "design", tmp_path / "fmus", out, workers=0, map_points=2,
                             log=lambda s: None)  # fmt: skip
-    data = _strict((out / "summary.json").read_text())
+    data = tl.strict_json((out / "summary.json").read_text())
     on_disk = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     mine = {"design/gains.json", "fig5/old_notes.txt"}
     assert data["files"] == summary.files == sorted(set(on_disk) - mine)

@@ -3,10 +3,10 @@ written as JSON (no bare NaN)."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
@@ -43,16 +43,11 @@ def test_failed_replacement_keeps_the_old_folder(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map"]
 
 
-def _strict(text: str):
-    """Parse as a strict JSON reader (``JSON.parse``) does: no NaN, Infinity, -Infinity."""
-
-    def refuse(word: str):
-        raise ValueError(f"not JSON: {word}")
-
-    return json.loads(text, parse_constant=refuse)
-
-
 def test_json_without_a_value_is_null(tmp_path: Path) -> None:
     obj = {"a": math.nan, "b": [1.5, math.inf, (-math.inf, np.float64("nan"))], "c": {"d": 2.0}}
     path = write_json(tmp_path / "summary.json", obj)
-    assert _strict(path.read_text()) == {"a": None, "b": [1.5, None, [None, None]], "c": {"d": 2.0}}
+    assert tl.strict_json(path.read_text()) == {
+        "a": None,
+        "b": [1.5, None, [None, None]],
+        "c": {"d": 2.0},
+    }

@@ -562,15 +562,9 @@ def test_guids_are_distinct(built):
 
 def test_validation_failure_fails_the_build(built, tmp_path):
     broken = tmp_path / f"{tl.PLANT}.fmu"
-    with zipfile.ZipFile(built.plant.fmu) as z:
-        entries = {n: z.read(n) for n in z.namelist()}
-    root = ET.fromstring(entries["modelDescription.xml"])
-    outputs = root.find("ModelStructure/Outputs")
-    outputs.remove(outputs[0])  # an output missing from ModelStructure: invalid FMI 2.0
-    entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    with zipfile.ZipFile(broken, "w") as z:
-        for name, data in entries.items():
-            z.writestr(name, data)
+    with tl.edited_model_description(built.plant.fmu, broken) as root:
+        outputs = root.find("ModelStructure/Outputs")
+        outputs.remove(outputs[0])  # an output missing from ModelStructure: invalid FMI 2.0
     with pytest.raises(BuildError, match=r"(?s)validate_fmu reports \d+ problem.*Outputs"):
         validate(broken)
     validate(built.plant.fmu)  # the real one passes

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
 import sys
 import zipfile
 from pathlib import Path
@@ -60,14 +59,7 @@ def fmutool_findings(fmu: Path) -> list[str]:
     status, and the absence of either checker's verdict of compliance for the FMU's FMI version
     (so that a checker that did not run is a finding too)."""
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    run = subprocess.run(
-        [str(FMUTOOL), "-input", str(fmu), "-check"],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-        check=False,
-    )
+    run = tl.run_clean([str(FMUTOOL), "-input", str(fmu), "-check"], env, None, 300)
     lines = [_ANSI.sub("", line).strip() for line in run.stdout.splitlines()]
     findings = [
         line
@@ -132,20 +124,14 @@ def test_each_checker_finds_a_broken_model_description(built, tmp_path):
     against section 2.2.8 of FMI 2.0) and a parameter of causality "sometimes" (not in the
     schema's enumeration)."""
     broken = tmp_path / f"{tl.PLANT}.fmu"
-    with zipfile.ZipFile(built.plant.fmu) as z:
-        entries = {n: z.read(n) for n in z.namelist()}
-    root = ET.fromstring(entries["modelDescription.xml"])
-    outputs = root.find("ModelStructure/Outputs")
-    first = outputs[0]
-    outputs.remove(first)
-    svs = root.find("ModelVariables")
-    output_name = svs[int(first.get("index")) - 1].get("name")
-    parameter = next(sv for sv in svs if sv.get("causality") == "parameter")
-    parameter.set("causality", "sometimes")
-    entries["modelDescription.xml"] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    with zipfile.ZipFile(broken, "w") as z:
-        for name, data in entries.items():
-            z.writestr(name, data)
+    with tl.edited_model_description(built.plant.fmu, broken) as root:
+        outputs = root.find("ModelStructure/Outputs")
+        first = outputs[0]
+        outputs.remove(first)
+        svs = root.find("ModelVariables")
+        output_name = svs[int(first.get("index")) - 1].get("name")
+        parameter = next(sv for sv in svs if sv.get("causality") == "parameter")
+        parameter.set("causality", "sometimes")
 
     found = fmutool_findings(broken)
     assert any(f"Output '{output_name}' is not listed in <Outputs>" in f for f in found), found

@@ -1504,9 +1504,7 @@ def test_errors_are_logged_with_logging_off_and_info_only_with_it_on(built, sy):
     try:
         for s in (quiet, loud):
             assert s.set_raw(R, [s.unit.vr[sy.param]], [-1.0]) == ERROR
-            s.fmu.setupExperiment(startTime=0.0)
-            s.fmu.enterInitializationMode()
-            s.fmu.exitInitializationMode()
+            s.init()
         assert [st for st, _, _ in quiet.logs] == [ERROR]
         assert quiet.logs[0][1] == "logStatusError"
         assert any(st == OK and cat == "logInfo" for st, cat, _ in loud.logs)

@@ -363,30 +363,32 @@ REFUSED = (
 )  # fmt: skip
 
 
-@pytest.mark.parametrize("case", REFUSED)
-def test_layer_refuses_a_bad_descriptor(built, case, monkeypatch):
+def test_layer_refuses_a_bad_descriptor(built, monkeypatch):
     """The layer checks the descriptor it is handed (magic, version, its length against the
     counts, the io block's length, every slot against it, value references, causalities and
     types against the model's table) and refuses a bad one with an error naming why; the
-    instance then goes on served by Python, and a valid descriptor is taken again."""
-    s = make(built.plant, f"refuse_{case}", "native", monkeypatch).init()
+    instance then goes on served by Python, and a valid descriptor is taken again: every case of
+    :data:`REFUSED` in turn on one instance."""
+    s = make(built.plant, "refuse", "native", monkeypatch).init()
     try:
         assert s.step(0.0, 0.01) == OK
         slave = _slave_of(s)
         valid = slave.fast_descriptor(slave._fast)
-        words, length, reason = _corrupt(case, valid, s.unit.vr)
-        before = len(s.logs)
-        assert _handover(slave, words, length) == 1
-        warnings = [m for st, _, m in s.logs[before:] if st == WARNING]
-        assert len(warnings) == 1 and "the native fast path is refused: " in warnings[0], warnings
-        assert reason in warnings[0], warnings[0]
-        assert warnings[0].endswith(f"the Python slave serves every call of refuse_{case}_native")
-        python_steps = slave._python_steps
-        assert s.step(0.01, 0.01) == OK  # served by Python: the layer holds no descriptor
-        assert slave._python_steps == python_steps + 1
-        assert _handover(slave, valid, valid.size) == 0  # a valid one is taken
-        assert s.step(0.02, 0.01) == OK
-        assert slave._python_steps == python_steps + 1  # served natively
+        for k, case in enumerate(REFUSED):
+            words, length, reason = _corrupt(case, valid, s.unit.vr)
+            before = len(s.logs)
+            assert _handover(slave, words, length) == 1, case
+            warnings = [m for st, _, m in s.logs[before:] if st == WARNING]
+            assert len(warnings) == 1, (case, warnings)
+            assert "the native fast path is refused: " in warnings[0], (case, warnings)
+            assert reason in warnings[0], (case, warnings[0])
+            assert warnings[0].endswith("the Python slave serves every call of refuse_native")
+            python_steps, t = slave._python_steps, 0.01 * (2 * k + 1)
+            assert s.step(t, 0.01) == OK, case  # served by Python: the layer holds no descriptor
+            assert slave._python_steps == python_steps + 1, case
+            assert _handover(slave, valid, valid.size) == 0, case  # a valid one is taken
+            assert s.step(t + 0.01, 0.01) == OK, case
+            assert slave._python_steps == python_steps + 1, case  # served natively
     finally:
         s.free()
 

@@ -27,7 +27,6 @@ import io
 import json
 import re
 import struct
-import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -302,12 +301,8 @@ def _run_cases(fmu: Path, root: Path, cases: list[str]) -> dict[str, dict[str, A
     rest = list(cases)
     while rest:
         folder = root / f"host-{len(results)}"
-        run = subprocess.run(
-            [sys.executable, __file__, str(fmu), str(folder), *rest],
-            capture_output=True,
-            text=True,
-            timeout=600,
-            cwd=Path(__file__).parent,
+        run = tl.run_clean(
+            [sys.executable, __file__, str(fmu), str(folder), *rest], None, Path(__file__).parent
         )
         done = [json.loads(line[len(RESULT) :]) for line in run.stdout.splitlines()
                 if line.startswith(RESULT)]  # fmt: skip

@@ -335,13 +335,10 @@ def test_reset_after_the_folder_moved_is_an_error_naming_it(built, tmp_path):
     """fmi2Reset after the unpacked FMU was moved away: fmi2Error naming the missing resources
     folder, never fmi2Fatal (pythonfmu's reset makes a new slave from that folder and lost the
     old one); the instance goes on as it was, and once the folder is back fmi2Reset works."""
-    proc = subprocess.run(
+    proc = tl.run_clean(
         [sys.executable, "-c", RESET_AFTER_MOVE, str(built.plant.fmu), str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=tl.ROOT / "tests",
-        env={**os.environ, "PYTHONPATH": str(tl.ROOT / "tests")},
+        {**os.environ, "PYTHONPATH": str(tl.ROOT / "tests")},
+        tl.ROOT / "tests",
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     r = json.loads(proc.stdout.strip().splitlines()[-1])

@@ -25,7 +25,6 @@ interpreters (a path, or minor versions as ``tools/python_hosts.py`` takes them)
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import platform
@@ -44,12 +43,7 @@ import pytest
 
 pytestmark = pytest.mark.fmu
 
-_spec = importlib.util.spec_from_file_location(
-    "python_hosts", tl.ROOT / "tools" / "python_hosts.py"
-)
-python_hosts = importlib.util.module_from_spec(_spec)
-sys.modules["python_hosts"] = python_hosts  # dataclasses look their module up there
-_spec.loader.exec_module(python_hosts)
+python_hosts = tl.load_script(tl.ROOT / "tools" / "python_hosts.py", "python_hosts")
 
 HOST_SCRIPT = tl.ROOT / "tests" / "python_host" / "fmpy_host.py"
 STEPS, H = 200, 0.01

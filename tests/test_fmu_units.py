@@ -213,6 +213,15 @@ def test_controller_law_and_bumpless_switch_on(built, latch):
     code = LATCH_MODES.index(latch) + 1  # the Enumeration item's value
     c = tl.Slave(built.controller, f"law_{latch}").init(t_on=0.05, latch=code)
     x1, x2, x3 = (0.3, -0.2, 0.1, 0.05), (0.5, 0.1, -0.2, 0.02), (0.7, -0.3, 0.4, -0.1)
+
+    def refs(x):  # (phi_ref, twist_ref) latched at the state x
+        phi, _, theta, _ = x
+        return {
+            "none": (0.0, 0.0),
+            "angle": (phi, 0.0),
+            "angle+twist": (phi, phi - theta - g["K0"]),
+        }[latch]
+
     try:
         _set_x(c, x1)
         assert c.get("R_minus_R0")[0] == g["R_ff"]  # before t_on: feed-forward only
@@ -220,23 +229,11 @@ def test_controller_law_and_bumpless_switch_on(built, latch):
             t, h = tl.grid(k, H_NS)
             c.fmu.doStep(t, h)
         # tau = 0.05 = t_on, not yet stepped from: the current inputs act as references
-        phi, _, theta, _ = x1
-        refs = {
-            "none": (0.0, 0.0),
-            "angle": (phi, 0.0),
-            "angle+twist": (phi, phi - theta - g["K0"]),
-        }
-        assert c.get("R_minus_R0")[0] == pytest.approx(_law(g, *x1, *refs[latch]), rel=1e-14)
+        assert c.get("R_minus_R0")[0] == pytest.approx(_law(g, *x1, *refs(x1)), rel=1e-14)
         _set_x(c, x2)  # the inputs at the switch-on point are latched by doStep(0.05, ...)
         c.fmu.doStep(*tl.grid(5, H_NS))
-        phi, _, theta, _ = x2
-        refs = {
-            "none": (0.0, 0.0),
-            "angle": (phi, 0.0),
-            "angle+twist": (phi, phi - theta - g["K0"]),
-        }
         _set_x(c, x3)
-        assert c.get("R_minus_R0")[0] == pytest.approx(_law(g, *x3, *refs[latch]), rel=1e-14)
+        assert c.get("R_minus_R0")[0] == pytest.approx(_law(g, *x3, *refs(x2)), rel=1e-14)
     finally:
         c.free()
 

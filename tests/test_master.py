@@ -21,21 +21,12 @@ from drillstring.orchestration.master import Connection, Master, StepControl, Un
 pytestmark = pytest.mark.fmu
 
 
-# -- two integrators in a loop: a' = k_a * b, b' = k_b * a ---------------------------------
-
-
-def integrator_loop(small_fmus, ka=1.0, kb=-1.0, a0=1.0, b0=0.0, a_extra=None, **kw) -> Master:
-    a_start = {"x0": a0, "k": ka, **(a_extra or {})}
-    units = [
-        Unit("A", small_fmus["integrator"], a_start),
-        Unit("B", small_fmus["integrator"], {"x0": b0, "k": kb}),
-    ]
-    return Master(units, ["A.x -> B.u", "B.x -> A.u"], **kw)
+# -- two integrators in a loop: a' = k_a * b, b' = k_b * a (fmu_testlib.integrator_loop) ------
 
 
 @pytest.fixture(scope="module")
 def loop(small_fmus):
-    with integrator_loop(small_fmus) as m:
+    with tl.integrator_loop(small_fmus) as m:
         yield m
 
 
@@ -97,7 +88,7 @@ def test_jacobi_and_gauss_seidel_invariants(loop):
 def test_explicit_gauss_seidel_order(small_fmus):
     """gs_order=["B", "A"]: B steps first with a_n held, A gets the fresh b_{n+1}."""
     h, n = 0.1, 20
-    with integrator_loop(small_fmus, gs_order=["B", "A"]) as m:
+    with tl.integrator_loop(small_fmus, gs_order=["B", "A"]) as m:
         res = m.run(n * h, h, scheme="gauss-seidel", progress=False)
     b_ref, a_ref = recurrence("gauss-seidel", "zoh", [h] * n, ka=-1.0, kb=1.0, a0=0.0, b0=1.0)
     np.testing.assert_allclose(res["A.x"], a_ref, rtol=0, atol=1e-14)
@@ -322,7 +313,7 @@ def test_fmu_failure_stops_cleanly_with_partial_results(
 ):
     h = 0.1
     control = StepControl(rtol=0, atol=10.0, h_min=h, h_max=h) if adaptive else None
-    with integrator_loop(small_fmus, a_extra={fault: 0.35}) as m:
+    with tl.integrator_loop(small_fmus, a_extra={fault: 0.35}) as m:
         res = m.run(1.0, h, step_control=control, progress=False)
         again = m.run(0.3, h, progress=False)  # the failed run released its units
     assert not res.completed
@@ -413,7 +404,7 @@ def test_csv_follows_cross_check_conventions(loop, tmp_path):
 
 
 def test_recorded_extra_variables_and_progress_bar(small_fmus, capsys):
-    with integrator_loop(small_fmus, record=["A.k", "B.k", "A.x"]) as m:
+    with tl.integrator_loop(small_fmus, record=["A.k", "B.k", "A.x"]) as m:
         assert m.columns == ("time", "A.x", "B.x", "B.u", "A.u", "A.k", "B.k")
         res = m.run(0.3, 0.1, progress=True)
     np.testing.assert_array_equal(res["A.k"], 1.0)

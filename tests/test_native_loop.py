@@ -21,6 +21,7 @@ from __future__ import annotations
 import ctypes
 import dataclasses
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 from fmpy.fmi2 import fmi2Real, fmi2ValueReference
@@ -35,19 +36,11 @@ from drillstring.orchestration.closed_loop import (
     closed_loop_master,
     kept_sys_path,
 )
-from drillstring.orchestration.master import Master, StepControl, Unit
+from drillstring.orchestration.master import Master, StepControl
 
 pytestmark = pytest.mark.fmu
 
 TS = REFERENCE_RIG.t_star
-
-
-def integrators(small_fmus, a_extra=None, **kw) -> Master:
-    units = [
-        Unit("A", small_fmus["integrator"], {"x0": 1.0, "k": 1.0, **(a_extra or {})}),
-        Unit("B", small_fmus["integrator"], {"x0": 0.0, "k": -1.0}),
-    ]
-    return Master(units, ["A.x -> B.u", "B.x -> A.u"], **kw)
 
 
 @pytest.fixture
@@ -167,7 +160,7 @@ def test_every_grid_option(small_fmus, grid, exchange, extrapolation, stop, monk
     # 2500 steps from 0.1: the sum grid drifts from k*h, several chunks, a short last step (and
     # linear extrapolation over steps of different sizes)
     kw = dict(start_time=0.1, grid=grid, exchange=exchange, extrapolation=extrapolation)
-    with integrators(small_fmus, record=["A.k"]) as m:
+    with tl.integrator_loop(small_fmus, record=["A.k"]) as m:
         a, b = both(m, monkeypatch, spy, stop, 1e-3, **kw)
     assert a.completed and a.time[-1] == pytest.approx(stop, abs=1e-9)
     assert_same(a, b)
@@ -209,7 +202,7 @@ def test_grid_points_are_the_grids_step_by_step(t0, t_end, h, ns_grid, sum_grid)
 
 @pytest.mark.parametrize("fault, status", [("t_fail", "discard"), ("t_raise", "fatal")])
 def test_unit_failure_after_several_chunks(small_fmus, fault, status, monkeypatch, spy):
-    with integrators(small_fmus, a_extra={fault: 0.3505}, record=["B.k"]) as m:
+    with tl.integrator_loop(small_fmus, a_extra={fault: 0.3505}, record=["B.k"]) as m:
         a, b = both(m, monkeypatch, spy, 1.0, 1e-4)
     assert (a.failure.unit, a.failure.function, a.failure.status) == ("A", "fmi2DoStep", status)
     assert abs(a.stats.accepted - 3505) <= 1 and len(a.time) == a.stats.accepted + 1
@@ -268,7 +261,7 @@ def test_error_outside_do_step_after_several_chunks(
     small_fmus, function, var, after, extrapolation, reported, step, time, monkeypatch, spy
 ):
     unit, name = var.split(".")
-    with integrators(small_fmus, record=["A.k"]) as m:
+    with tl.integrator_loop(small_fmus, record=["A.k"]) as m:
         vr = m.system.variables["AB".index(unit)][name].vr
         _failing(monkeypatch, unit, function, vr, after)
         a, b = both(m, monkeypatch, spy, 0.3, 1e-4, extrapolation=extrapolation)
@@ -300,7 +293,7 @@ def test_progress_bar_advances_between_chunks(small_fmus, monkeypatch, spy):
 
     monkeypatch.setattr(master_module, "tqdm", Bar)
     monkeypatch.setattr(native_loop, "CHUNK", 40)
-    with integrators(small_fmus) as m:
+    with tl.integrator_loop(small_fmus) as m:
         res = m.run(1.0, 1e-2, progress=True)
     assert len(spy) == 1 and res.completed
     np.testing.assert_allclose(updates, [0.4, 0.8, 1.0], rtol=1e-12)
@@ -317,7 +310,7 @@ def test_progress_bar_advances_between_chunks(small_fmus, monkeypatch, spy):
 )
 def test_unsupported_runs_take_the_python_loop(small_fmus, kw, monkeypatch, spy):
     monkeypatch.setenv(native_loop.ENV, "1")
-    with integrators(small_fmus) as m:
+    with tl.integrator_loop(small_fmus) as m:
         assert m.run(0.5, 0.01, progress=False, **kw).completed
     assert spy == []
 
@@ -334,7 +327,7 @@ def test_without_a_working_compiler_the_python_loop_runs(
         monkeypatch.delenv("CC", raising=False)
     else:
         monkeypatch.setenv("CC", cc)
-    with integrators(small_fmus) as m, caplog.at_level("INFO", logger=native_loop.__name__):
+    with tl.integrator_loop(small_fmus) as m, caplog.at_level("INFO", logger=native_loop.__name__):
         ref = m.run(0.5, 0.01, progress=False)
     assert ref.completed and spy == []
     assert "the Python loop runs" in caplog.text

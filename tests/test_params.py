@@ -91,21 +91,6 @@ PHYS_FIELD = dict(
 # ---------------------------------------------------------------------------------------------
 
 
-def test_reference_values_from_notes() -> None:
-    r = REFERENCE
-    assert (r.n, r.psi, r.eta, r.lam, r.beta, r.rho, r.v0, r.omega0) == (
-        4,
-        250.0,
-        10.0,
-        1.58,
-        0.5,
-        5.0,
-        1.0,
-        5.0,
-    )
-    assert r.gamma == pytest.approx(6.32456, abs=5e-6)
-
-
 def test_reference_derived_quantities() -> None:
     r = REFERENCE
     assert r.tau_n0 == pytest.approx(math.pi / 10, rel=1e-15)
@@ -195,10 +180,6 @@ def test_physical_beta_above_one_is_reported() -> None:
 # ---------------------------------------------------------------------------------------------
 # named sets, replace, dicts
 # ---------------------------------------------------------------------------------------------
-
-
-def test_get_params_reference() -> None:
-    assert get_params("reference") == REFERENCE
 
 
 def test_get_params_unknown_lists_known() -> None:
@@ -552,15 +533,6 @@ SCALED_BAD = [
 ]
 
 
-@pytest.mark.parametrize(("field", "value"), SCALED_BAD)
-def test_scaled_validation(field: str, value: object) -> None:
-    with pytest.raises(ParameterError) as exc:
-        ScaledParams(**{**SCALED_OK, field: value})
-    msg = str(exc.value)
-    assert field in msg and repr(value) in msg
-    assert isinstance(exc.value, ValueError)
-
-
 PHYS_STRICT = ["M", "I1", "I2", "C", "K", "a", "eps", "zeta", "mu", "xi", "V0", "Omega0"]
 PHYS_NONNEG = ["D", "sigma_bar", "l"]
 PHYS_BAD = (
@@ -572,12 +544,25 @@ PHYS_BAD = (
 )
 
 
-@pytest.mark.parametrize(("field", "value"), PHYS_BAD)
-def test_physical_validation(field: str, value: object) -> None:
-    with pytest.raises(ParameterError) as exc:
-        PhysicalParams(**{**PHYS_ROUND, field: value})
-    msg = str(exc.value)
-    assert f"PhysicalParams.{field} " in msg and repr(value) in msg
+@pytest.mark.parametrize(
+    ("cls", "valid", "rows"),
+    [(ScaledParams, SCALED_OK, SCALED_BAD), (PhysicalParams, PHYS_ROUND, PHYS_BAD)],
+    ids=["scaled", "physical"],
+)
+def test_validation(cls: type, valid: dict, rows: list[tuple[str, object]]) -> None:
+    """Each bad value of a valid set is refused by a ParameterError (a ValueError) naming the
+    field as ``Class.field`` and the value; every row that is not is listed."""
+    assert issubclass(ParameterError, ValueError)
+    failures = []
+    for field, value in rows:
+        try:
+            cls(**{**valid, field: value})
+        except ParameterError as exc:
+            if f"{cls.__name__}.{field} " not in str(exc) or repr(value) not in str(exc):
+                failures.append(f"{field} = {value!r}: {exc}")
+        else:
+            failures.append(f"{field} = {value!r} accepted")
+    assert failures == []
 
 
 def test_accepted_edge_values_and_coercion() -> None:

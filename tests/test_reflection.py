@@ -8,12 +8,12 @@ import cmath
 import json
 import math
 
+import fmu_testlib as tl
 import pytest
 
 from drillstring.analysis.modes import torsional_exact_modes
 from drillstring.apps.cli import main
-from drillstring.controller.averaged import averaged_model
-from drillstring.controller.gains import GainsFile, write_gains
+from drillstring.controller.gains import write_gains
 from drillstring.controller.lineup import Tuning, industrial_lineup
 from drillstring.controller.reflection import (
     reflection,
@@ -114,12 +114,7 @@ def test_field_tunings_are_the_defaults_on_the_distributed_string() -> None:
 
 
 def test_the_command_reports_the_reflection_beside_each_law(tmp_path, capsys) -> None:
-    model = averaged_model(REFERENCE, 0.385415, 2.392788)
-    gains = GainsFile(
-        F=(-3353.65, -2028.44, 520.61, -57.11), K0=model.K0, R_ff=model.R_ff, alpha=1.0,
-        A=0.385415, taubar_crit=2.392788, params=REFERENCE, certificate={},
-        spectral_abscissa=-1.0, solver="test", solver_status="input",
-    )  # fmt: skip
+    gains = tl.gains_file((-3353.65, -2028.44, 520.61, -57.11), 0.385415, 2.392788)
     write_gains(gains, tmp_path / "gains.json")
     out = tmp_path / "spec"
     args = ["--gains", str(tmp_path / "gains.json"), "--elements", "1", "--out", str(out),

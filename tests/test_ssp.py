@@ -49,6 +49,7 @@ import tempfile
 import time
 import zipfile
 from pathlib import Path
+from xml.etree import ElementTree as ET
 
 import fmpy
 import fmu_testlib as tl
@@ -1096,21 +1097,15 @@ def _fmu_defining_units(src: Path, dst: Path, defs: dict[str, str]) -> Path:
     """A copy of an FMU whose ``UnitDefinitions`` define the units named in ``defs`` otherwise
     (unit name -> the attributes of its ``BaseUnit`` as XML text, without display units); the
     variables keep their unit names (not their display units), the FMU's code is unchanged."""
-    with zipfile.ZipFile(src) as z:
-        entries = {i.filename: z.read(i.filename) for i in z.infolist()}
-    root = etree.fromstring(entries["modelDescription.xml"])
-    for name, base in defs.items():
-        (unit,) = root.findall(f"UnitDefinitions/Unit[@name='{name}']")
-        for child in list(unit):
-            unit.remove(child)
-        unit.append(etree.fromstring(f"<BaseUnit {base}/>"))
-    for real in root.iterfind("ModelVariables/ScalarVariable/Real"):
-        if real.get("unit") in defs:
-            real.attrib.pop("displayUnit", None)
-    entries["modelDescription.xml"] = etree.tostring(root, xml_declaration=True, encoding="UTF-8")
-    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, data in entries.items():
-            z.writestr(name, data)
+    with tl.edited_model_description(src, dst) as root:
+        for name, base in defs.items():
+            (unit,) = root.findall(f"UnitDefinitions/Unit[@name='{name}']")
+            for child in list(unit):
+                unit.remove(child)
+            unit.append(ET.fromstring(f"<BaseUnit {base}/>"))
+        for real in root.iterfind("ModelVariables/ScalarVariable/Real"):
+            if real.get("unit") in defs:
+                real.attrib.pop("displayUnit", None)
     return dst
 
 

@@ -18,13 +18,11 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-from pathlib import Path
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
-from drillstring.controller.averaged import averaged_model
 from drillstring.controller.estimation import design_observer
 from drillstring.controller.string_observer import (
     design_string_observer,
@@ -35,37 +33,20 @@ from drillstring.controller.string_observer import (
 )
 from drillstring.model.digital.controller import DigitalController
 from drillstring.model.digital.layout import BLOCK
-from drillstring.model.engine import EngineOptions
 from drillstring.model.laws import FeedForward
 from drillstring.model.params import REFERENCE, REFERENCE_RIG
 from drillstring.model.pipe import rig_string
-from drillstring.model.sampled import simulate_sampled
 from drillstring.model.sensing import Sensing, sensed
 
-MODEL = averaged_model(REFERENCE, 0.385415, 2.392788)  # the design's A, taubar_crit
-TS = 1e-3
+#: the table's script: its runs (the Fig. 6 open loop), the design's model, Ts and quiet noise
+TABLE = tl.load_script(tl.ROOT / "tools" / "observer_table.py", "observer_table")
+MODEL, TS, QUIET = TABLE.MODEL, TABLE.TS, TABLE.QUIET
 NOISE = scaled_surface_noise(REFERENCE_RIG.C, REFERENCE_RIG.t_star)
-QUIET = {"theta": 1e-2, "dtheta": 1e-2, "torque": 1e-2, "motor": 1e-2}  # today's design's
-
-
-def fig6_open_loop(elements: int) -> dict:
-    res = simulate_sampled(
-        REFERENCE,
-        FeedForward(R_ff=MODEL.R_ff),
-        40.0,
-        TS,
-        initial={"dphi": -4.9},
-        options=EngineOptions(torsional_stick=True),
-        string=rig_string("reference-rig", elements),
-        dt_out=TS,
-    )
-    assert res.status.ok
-    return res.data
 
 
 @pytest.fixture(scope="module")
 def string_run():
-    return fig6_open_loop(16)
+    return TABLE.fig6_run(16)
 
 
 @pytest.mark.parametrize("factor", [0.8, 1.2])
@@ -95,7 +76,7 @@ def test_string_observer_converges_on_the_distributed_plant_with_noise_and_inert
 
 
 def test_string_observer_on_the_one_mode_plant_without_noise_is_no_worse_than_todays():
-    data = fig6_open_loop(1)
+    data = TABLE.fig6_run(1)
     sig = noisy_surface(data, None)
     args = (sig["theta"], sig["dtheta"], sig["torque"], sig["r"])
     assert np.array_equal(args[0], data["theta"])  # no noise
@@ -193,10 +174,7 @@ def test_string_observer_closes_the_constrained_lmi_with_noise_and_inertia_error
     """tools/observer_closed_loop.py on the one-mode plant (the string the constrained design
     holds on): with the full noise and the inertia 20 % high the law settles through the string
     observer (docs/controllers.md: the one-mode observer's run ends in stick-slip)."""
-    path = Path(__file__).resolve().parents[1] / "tools" / "observer_closed_loop.py"
-    spec = importlib.util.spec_from_file_location("observer_closed_loop", path)
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
+    tool = tl.load_script(tl.ROOT / "tools" / "observer_closed_loop.py", "observer_closed_loop")
     r = tool.run(1, "string", 60.0, factor=1.2, scale=1.0)
     assert r["status"] == "ok" and r["tau"] == pytest.approx(60.0)
     rpm = 30.0 / np.pi / REFERENCE_RIG.t_star

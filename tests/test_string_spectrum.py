@@ -20,6 +20,7 @@ import dataclasses
 import json
 import math
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
@@ -33,7 +34,7 @@ from drillstring.analysis.spectrum import (
 from drillstring.apps.cli import main
 from drillstring.apps.sweep.studies import linear_abscissa
 from drillstring.controller.averaged import averaged_model, delay_roots
-from drillstring.controller.gains import GainsFile, write_gains
+from drillstring.controller.gains import write_gains
 from drillstring.controller.lineup import industrial_lineup
 from drillstring.controller.string_spectrum import (
     string_abscissa,
@@ -247,20 +248,15 @@ def test_what_the_string_does_to_each_law(abscissae) -> None:
 # ------------------------------------------------------------------------------------------
 
 
-def _gains(F, constraint=None) -> GainsFile:
-    return GainsFile(
-        F=F, K0=MODEL.K0, R_ff=MODEL.R_ff, alpha=1.0, A=A, taubar_crit=TAUBAR_CRIT,
-        params=REFERENCE, certificate={}, spectral_abscissa=-1.0, solver="test",
-        solver_status="input", constraint=constraint,
-    )  # fmt: skip
-
-
 @pytest.fixture(scope="module")
 def gains_dir(tmp_path_factory):
     folder = tmp_path_factory.mktemp("design")
-    write_gains(_gains(PAPER_F), folder / "gains.json")
+    write_gains(tl.gains_file(PAPER_F, A, TAUBAR_CRIT), folder / "gains.json")
     record = {"u_max": 212.1, "peak_torque": 173.2, "decay": 0.0368, "tau_max": 0.63}
-    write_gains(_gains(CONSTRAINED_F, record), folder / "gains_constrained.json")
+    write_gains(
+        tl.gains_file(CONSTRAINED_F, A, TAUBAR_CRIT, constraint=record),
+        folder / "gains_constrained.json",
+    )
     return folder
 
 

@@ -14,6 +14,7 @@ import math
 import re
 from pathlib import Path
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
@@ -31,7 +32,7 @@ from drillstring.apps.sweep.studies import (
     rightmost_nonzero_root,
 )
 from drillstring.controller.averaged import averaged_model, delay_roots
-from drillstring.controller.gains import PAPER_F, GainsFile, write_gains
+from drillstring.controller.gains import PAPER_F, write_gains
 from drillstring.model.engine import EngineOptions
 from drillstring.model.params import REFERENCE, PhysicalParams, save_params
 from drillstring.model.simulate import simulate
@@ -255,22 +256,9 @@ def test_closed_loop_with_the_paper_gain_file(tmp_path):
     converges (Fig. 5); max |R - R0| is attained at tau = 0, where by hand
     R - R0 = R_ff + F1*dphi0 + F2*(-K0) (x = [0, dphi0, -K0, 0])."""
     d = axial_design(REFERENCE)
-    m = averaged_model(REFERENCE, d.A, d.taubar_crit)
+    gains = tl.gains_file(PAPER_F, d.A, d.taubar_crit, solver="paper", solver_status="published")
     K0 = 4 * 1.0 * 0.5 * d.A * (math.pi / 10 - d.taubar_crit / math.sqrt(1000.0))  # (27)
-    assert K0 == pytest.approx(m.K0, rel=1e-12)
-    gains = GainsFile(
-        F=PAPER_F,
-        K0=K0,
-        R_ff=-K0,
-        alpha=1.0,
-        A=d.A,
-        taubar_crit=d.taubar_crit,
-        params=REFERENCE,
-        certificate={},
-        spectral_abscissa=-1.0,
-        solver="paper",
-        solver_status="published",
-    )
+    assert K0 == pytest.approx(gains.K0, rel=1e-12) and gains.R_ff == -gains.K0
     write_gains(gains, tmp_path / "paper_gains.json")
     spec = spec_from_dict(
         {

@@ -11,11 +11,12 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import fmu_testlib as tl
 import numpy as np
 import pytest
 
 from drillstring.controller.averaged import averaged_model, linearised_ode_matrix
-from drillstring.controller.gains import PAPER_F, GainsFile
+from drillstring.controller.gains import PAPER_F
 from drillstring.controller.lineup import (
     INDUSTRIAL,
     Tuning,
@@ -218,19 +219,7 @@ def test_the_pipe_impedance_is_that_of_the_simulated_rig():
 
 def test_lineup_shares_feedforward_and_switch_on():
     m = averaged_model(REFERENCE, A_REF, TAUBAR_CRIT_REF)
-    gains = GainsFile(
-        F=PAPER_F,
-        K0=m.K0,
-        R_ff=m.R_ff,
-        alpha=1.0,
-        A=A_REF,
-        taubar_crit=TAUBAR_CRIT_REF,
-        params=REFERENCE,
-        certificate={},
-        spectral_abscissa=-1.0,
-        solver="none",
-        solver_status="none",
-    )
+    gains = tl.gains_file(PAPER_F, A_REF, TAUBAR_CRIT_REF, solver="none", solver_status="none")
     gain = lmi_gain(m, gains)
     assert gain.F == PAPER_F and gain.R_ff == m.R_ff and gain.abscissa < 0.0
     laws = industrial_lineup(REFERENCE, R_ff=gain.R_ff, t_on=25.0)

@@ -19,39 +19,13 @@
  * "messages N" (log messages received); exit status 0, or 1 with the failing call on stderr.
  */
 #define _GNU_SOURCE
-#include <dlfcn.h>
-#include <limits.h>
 #include <pthread.h>
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
-typedef void *fmi2Component;
-typedef void *fmi2FMUstate;
-typedef unsigned int fmi2ValueReference;
-typedef int fmi2Status;
-typedef void (*Logger)(void *, const char *, int, const char *, const char *, ...);
-typedef struct {
-    Logger logger;
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void *stepFinished;
-    void *componentEnvironment;
-} Callbacks;
+#include "fmi2_api.h"
 
-static struct {
-    fmi2Component (*instantiate)(const char *, int, const char *, const char *, const Callbacks *,
-                                 int, int);
-    fmi2Status (*setup)(fmi2Component, int, double, double, int, double);
-    fmi2Status (*enter)(fmi2Component);
-    fmi2Status (*exit_)(fmi2Component);
-    fmi2Status (*step)(fmi2Component, double, double, int);
-    fmi2Status (*get_real)(fmi2Component, const fmi2ValueReference *, size_t, double *);
-    fmi2Status (*get_state)(fmi2Component, fmi2FMUstate *);
-    void (*free_)(fmi2Component);
-} api;
-
+static Api api;
 static const char *dir, *model, *guid;
 static long cycles, warmup, messages;
 static int logging, take_state;
@@ -73,16 +47,6 @@ static long rss(void)
     if (!f || fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = -1;
     if (f) fclose(f);
     return resident * sysconf(_SC_PAGESIZE);
-}
-
-static void *need(void *lib, const char *name)
-{
-    void *p = dlsym(lib, name);
-    if (!p) {
-        fprintf(stderr, "cycles: %s lacks %s\n", model, name);
-        exit(2);
-    }
-    return p;
 }
 
 #define CHECK(call, what)                                                                          \
@@ -130,21 +94,7 @@ int main(int argc, char **argv)
     const long stack_kib = atol(argv[7]);
     out_vr = (fmi2ValueReference)strtoul(argv[8], NULL, 10);
     take_state = atoi(argv[9]);
-    char path[PATH_MAX + 64];
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", dir, model);
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    if (!lib) {
-        fprintf(stderr, "cycles: %s\n", dlerror());
-        return 2;
-    }
-    api.instantiate = need(lib, "fmi2Instantiate");
-    api.setup = need(lib, "fmi2SetupExperiment");
-    api.enter = need(lib, "fmi2EnterInitializationMode");
-    api.exit_ = need(lib, "fmi2ExitInitializationMode");
-    api.step = need(lib, "fmi2DoStep");
-    api.get_real = need(lib, "fmi2GetReal");
-    api.get_state = need(lib, "fmi2GetFMUstate");
-    api.free_ = need(lib, "fmi2FreeInstance");
+    api = load_api(dir, model, "");
     /* "file://" + the percent-encoded absolute path of the resources folder */
     static const char hex[] = "0123456789ABCDEF";
     char resources[PATH_MAX + 16];

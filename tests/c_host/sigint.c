@@ -15,25 +15,10 @@
  *   and the host exits 0. "survived" printed after the raise means the signal was swallowed.
  */
 #define _GNU_SOURCE
-#include <dlfcn.h>
-#include <limits.h>
 #include <signal.h>
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
-typedef void *fmi2Component;
-typedef unsigned int fmi2ValueReference;
-typedef int fmi2Status;
-typedef void (*Logger)(void *, const char *, int, const char *, const char *, ...);
-typedef struct {
-    Logger logger;
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void *stepFinished;
-    void *componentEnvironment;
-} Callbacks;
+#include "fmi2_api.h"
 
 static void logger(void *env, const char *instance, int status, const char *category,
                    const char *message, ...)
@@ -59,16 +44,6 @@ static const char *disposition(void)
     return "other";
 }
 
-static void *need(void *lib, const char *name)
-{
-    void *f = dlsym(lib, name);
-    if (!f) {
-        fprintf(stderr, "sigint: %s missing\n", name);
-        exit(2);
-    }
-    return f;
-}
-
 #define CHECK(call, what)                                                                          \
     if ((call) > 1) {                                                                              \
         fprintf(stderr, "sigint: %s failed\n", what);                                              \
@@ -91,49 +66,33 @@ int main(int argc, char **argv)
         sigaction(SIGINT, &sa, NULL);
     }
     printf("before %s\n", disposition());
-    char path[PATH_MAX + 64];
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", dir, model);
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    if (!lib) {
-        fprintf(stderr, "sigint: %s\n", dlerror());
-        return 2;
-    }
-    fmi2Component (*instantiate)(const char *, int, const char *, const char *, const Callbacks *,
-                                 int, int) = need(lib, "fmi2Instantiate");
-    fmi2Status (*setup)(fmi2Component, int, double, double, int, double) =
-        need(lib, "fmi2SetupExperiment");
-    fmi2Status (*enter)(fmi2Component) = need(lib, "fmi2EnterInitializationMode");
-    fmi2Status (*exit_)(fmi2Component) = need(lib, "fmi2ExitInitializationMode");
-    fmi2Status (*step)(fmi2Component, double, double, int) = need(lib, "fmi2DoStep");
-    fmi2Status (*get_real)(fmi2Component, const fmi2ValueReference *, size_t, double *) =
-        need(lib, "fmi2GetReal");
-    void (*free_)(fmi2Component) = need(lib, "fmi2FreeInstance");
+    const Api api = load_api(dir, model, "");
     /* a folder without characters that need percent-encoding (the test's choice) */
     char uri[PATH_MAX + 32];
     snprintf(uri, sizeof uri, "file://%s/resources", dir);
     static const Callbacks callbacks = {logger, calloc, free, NULL, NULL};
-    fmi2Component c = instantiate("sigint", 1, guid, uri, &callbacks, 0, 0);
+    fmi2Component c = api.instantiate("sigint", 1, guid, uri, &callbacks, 0, 0);
     if (!c) {
         fprintf(stderr, "sigint: fmi2Instantiate failed\n");
         return 1;
     }
     double y = 0.0;
-    CHECK(setup(c, 0, 0.0, 0.0, 0, 0.0), "fmi2SetupExperiment")
-    CHECK(enter(c), "fmi2EnterInitializationMode")
-    CHECK(exit_(c), "fmi2ExitInitializationMode")
+    CHECK(api.setup(c, 0, 0.0, 0.0, 0, 0.0), "fmi2SetupExperiment")
+    CHECK(api.enter(c), "fmi2EnterInitializationMode")
+    CHECK(api.exit_(c), "fmi2ExitInitializationMode")
     for (int k = 0; k < 10; ++k) {
-        CHECK(step(c, k * 0.01, 0.01, 1), "fmi2DoStep")
-        CHECK(get_real(c, &vr, 1, &y), "fmi2GetReal")
+        CHECK(api.step(c, k * 0.01, 0.01, 1), "fmi2DoStep")
+        CHECK(api.get_real(c, &vr, 1, &y), "fmi2GetReal")
     }
     printf("after %s\n", disposition());
     fflush(stdout);
     raise(SIGINT);
     if (host_handler_ran) {
         printf("host handler ran\n");
-        free_(c);
+        api.free_(c);
         return 0;
     }
     printf("survived\n");
-    free_(c);
+    api.free_(c);
     return 3;
 }
