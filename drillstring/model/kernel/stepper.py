@@ -477,7 +477,7 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
 # functions are: numba inlines at its IR level by copying the callee's whole variable scope once
 # per block, so inlining these two (everything below them inlined) made the kernel's first
 # compilation 2-3x longer (a clean-HOME first use of an FMU, an in-memory compile on a read-only
-# machine); the calls cost the reference counting of their arrays, 10-18 % per smooth step
+# machine); the calls cost the reference counting of their arrays, about 20 % per smooth step
 # (docs/benchmarks.md).
 @jit
 def step(P, C, H, I, X, Y, K, D, Z, frozen, tol, h, t_end, ext):
