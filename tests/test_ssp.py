@@ -491,41 +491,27 @@ def test_documentation_folder_says_what_each_ssd_is(built, package):
     assert ("seconds" if variant.name == "si" else "tau = t/t*") in page
 
 
-#: tool (the start of its row in the README's table) -> what the README says it applies, and how
-#: every package's documentation/index.html says it
+#: tool (the start of its row in the README's table) -> how every package's
+#: documentation/index.html says what it applies
 README_TOOLS = {
-    "the project's master": (
-        "every binding, in order (SSP 1.0), or the sets named",
-        "applies the SSD's bindings as SSP 1.0 does (every binding of a component in order",
-    ),
-    "libcosim": (
-        "the first binding of each component",
-        "applies the first binding of each component",
-    ),
-    "Ecos": (
-        "only the set named by `--parameterSet`",
-        "applies only the parameter set named by <code>--parameterSet</code>",
-    ),
-    "fmpy": (
-        "none: only its `parameter_set` argument",
-        "applies none of its bindings: pass the set as its <code>parameter_set</code> argument",
-    ),
+    "the project's master": "applies the SSD's bindings as SSP 1.0 does (every binding of a "
+    "component in order",
+    "libcosim": "applies the first binding of each component",
+    "Ecos": "applies only the parameter set named by <code>--parameterSet</code>",
+    "fmpy": "applies none of its bindings: pass the set as its <code>parameter_set</code> argument",
 }
-#: What Ecos does not tell, as the README's bullets say it and as every package's documentation
-#: says it; each is pinned by the Ecos tests above (:data:`ECOS_DEFAULT_STOP`, exit code 0).
+#: What Ecos does not tell, as every package's documentation says it (the README's bullets say
+#: it in its own words); each is pinned by the Ecos tests above (:data:`ECOS_DEFAULT_STOP`,
+#: exit code 0).
 README_ECOS = (
-    ("a misspelt `--parameterSet` (or none) is ignored: the FMUs' start values run",
-     "A misspelt <code>--parameterSet</code> (or none) is ignored without a word: the FMUs' "
-     "start values run"),
-    ("the default experiment is ignored: the run stops at {stop:g} s unless `--stopTime` is given",
-     "The default experiment is ignored: without <code>--stopTime</code> the run stops at "
-     "{stop:g} s"),
-    ("a set that binds the controller alone runs the plant from its start values",
-     "A set that binds only one component leaves the other at its start values"),
-    ("after the plant leaves its model (`fmi2Discard`) it runs on with the plant frozen and "
-     "exits 0", "goes on stepping with the plant's outputs frozen (the controller computes on) "
-     "and exits with code 0"),
-)  # fmt: skip
+    "A misspelt <code>--parameterSet</code> (or none) is ignored without a word: the FMUs' "
+    "start values run",
+    "The default experiment is ignored: without <code>--stopTime</code> the run stops at "
+    "{stop:g} s",
+    "A set that binds only one component leaves the other at its start values",
+    "goes on stepping with the plant's outputs frozen (the controller computes on) and exits "
+    "with code 0",
+)
 
 
 def _readme_ssp_section() -> str:
@@ -535,11 +521,12 @@ def _readme_ssp_section() -> str:
 
 
 def test_readme_states_what_the_packages_documentation_says(built):
-    """The README's SSP section says what every package's documentation/index.html says: which
-    SSDs there are, what each tool applies (its table, one row per tool), what Ecos does not
-    tell (its bullets, with the numbers the Ecos tests pin), and a command line whose step and
-    set are the SI package's default experiment's and Fig. 5's, whose stop time lies in that
-    experiment, named beside it with the experiment's own stop time."""
+    """The README's SSP section and every package's documentation/index.html agree in facts,
+    not wording: the README names the SSDs there are and has a table row per tool, whose
+    behaviour each page states (what it applies; what Ecos does not tell, with the numbers the
+    Ecos tests pin), and a command line whose step and set are the SI package's default
+    experiment's and Fig. 5's, whose stop time lies in that experiment, named beside it with
+    the experiment's own stop time."""
     section = _readme_ssp_section()
     flat = " ".join(section.split())
     pages = []
@@ -557,16 +544,10 @@ def test_readme_states_what_the_packages_documentation_says(built):
             for line in section.splitlines() if line.startswith("|")]  # fmt: skip
     assert rows[0] == ["tool", "reads", "applies", "also"] and set(rows[1][0]) == {"-"}
     assert [r[0].split(" (")[0] for r in rows[2:]] == list(README_TOOLS)
-    for row, (said, page_says) in zip(rows[2:], README_TOOLS.values(), strict=True):
-        assert row[2] == said, row
-        for page in pages:
-            assert " ".join(html.unescape(page_says).split()) in page, page_says
-    bullets = [line[2:].rstrip(";.") for line in section.splitlines() if line.startswith("- ")]
-    assert len(bullets) == len(README_ECOS)
-    for bullet, (said, page_says) in zip(bullets, README_ECOS, strict=True):
-        assert bullet == said.format(stop=ECOS_DEFAULT_STOP), bullet
-        for page in pages:
-            assert " ".join(html.unescape(page_says.format(stop=ECOS_DEFAULT_STOP)).split()) in page
+    says = [*README_TOOLS.values(), *(s.format(stop=ECOS_DEFAULT_STOP) for s in README_ECOS)]
+    for page in pages:
+        for text in says:
+            assert " ".join(html.unescape(text).split()) in page, text
     assert "documentation/index.html" in flat
     # the command lines run what they say (the Ecos one runs verbatim:
     # test_readme_ecos_command_runs_as_printed)
