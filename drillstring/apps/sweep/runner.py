@@ -169,8 +169,10 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
-def _one_line(text: str) -> str:
-    text = " | ".join(line.strip() for line in str(text).splitlines() if line.strip())
+def _error(exc: BaseException) -> str:
+    """The ``error`` column of a failed point: the exception on one line, shortened."""
+    text = f"{type(exc).__name__}: {exc}"
+    text = " | ".join(line.strip() for line in text.splitlines() if line.strip())
     return text if len(text) <= MAX_ERROR_CHARS else text[: MAX_ERROR_CHARS - 3] + "..."
 
 
@@ -210,8 +212,7 @@ def compute_row(
     try:
         metrics = (point_fn or evaluate_point)(spec, index, design)
     except Exception as exc:  # a failed point is a result, not the end of the sweep
-        error = _one_line(f"{type(exc).__name__}: {exc}") or type(exc).__name__
-        metrics = {}
+        error = _error(exc)
     seconds = time.perf_counter() - t0
     return _row(spec, index, metrics, seconds, error)
 
@@ -284,10 +285,6 @@ def read_results(path: str | os.PathLike[str], header: Sequence[str]) -> tuple[d
     return out, dirty
 
 
-def _rewrite(path: Path, header: Sequence[str], rows: dict[int, list[str]]) -> None:
-    write_csv(path, header, (rows[k] for k in sorted(rows)))
-
-
 # --------------------------------------------------------------------------------------------
 # execution
 # --------------------------------------------------------------------------------------------
@@ -349,17 +346,12 @@ def _dask_rows(
     token = uuid.uuid4().hex[:8]
     params = _design_params(spec, todo)
     designs: dict[tuple[float, float], Any] = {}
-    for index in todo:
-        if index in params:
-            key = design_key(params[index])
-            if key not in designs:
-                designs[key] = client.submit(
-                    axial_design,
-                    params[index],
-                    key=f"axial-design-{len(designs)}-{token}",
-                    pure=False,
-                    priority=10,
-                )
+    for p in params.values():
+        key = design_key(p)
+        if key not in designs:
+            designs[key] = client.submit(
+                axial_design, p, key=f"axial-design-{len(designs)}-{token}", pure=False, priority=10
+            )
     futures = {}
     for index in todo:
         dep = designs[design_key(params[index])] if index in params else None
@@ -373,7 +365,7 @@ def _dask_rows(
             try:
                 row = fut.result()
             except Exception as exc:  # worker lost, cancelled, unpicklable result, ...
-                row = _row(spec, index, {}, math.nan, _one_line(f"{type(exc).__name__}: {exc}"))
+                row = _row(spec, index, {}, math.nan, _error(exc))
             futures.pop(fut.key)
             fut.release()
             yield row
@@ -482,7 +474,7 @@ def _prepare(
                 del rows[k]
             dirty = dirty or bool(failed)
         if dirty:
-            _rewrite(results, header, rows)
+            write_csv(results, header, (rows[k] for k in sorted(rows)))
     else:
         rows = {}
     out.mkdir(parents=True, exist_ok=True)
@@ -597,7 +589,7 @@ def run_sweep(
         bar.close()
     finished = len(done) == spec.n_points
     if finished:
-        _rewrite(results, header, done)
+        write_csv(results, header, (done[k] for k in sorted(done)))
     report = SweepReport(
         out_dir=out,
         results=results,
