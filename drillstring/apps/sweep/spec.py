@@ -441,8 +441,7 @@ class SweepSpec:
 
 def _base(value: Any, base_dir: Path) -> tuple[ScaledParams | PhysicalParams, str]:
     def from_file(name: str) -> tuple[ScaledParams | PhysicalParams, str]:
-        path = Path(name)
-        path = (path if path.is_absolute() else base_dir / path).resolve()
+        path = (base_dir / name).resolve()  # an absolute name stays as it is
         try:
             return read_params(path), str(path)
         except ParameterError as exc:
@@ -549,8 +548,7 @@ def _options(study: str, value: Any, base_dir: Path) -> StudyOptions:
 
 def _gains_file(where: str, name: str, base_dir: Path) -> tuple[GainsFile, str]:
     """A gains file by name (relative to ``base_dir``), read and checked; and its full path."""
-    path = Path(name)
-    path = (path if path.is_absolute() else base_dir / path).resolve()
+    path = (base_dir / name).resolve()  # an absolute name stays as it is
     try:
         return read_gains(path), str(path)
     except GainsFileError as exc:
@@ -579,13 +577,12 @@ def _check_top_drive(spec: SweepSpec) -> None:
             "options.controllers has lmi-telemetry, whose frames are timed in seconds: the "
             f"base {spec.base_label!r} is a scaled set of no known rig (give a physical base)"
         )
-    industrial = [c for c in spec.options.controllers if c in INDUSTRIAL]
-    if spec.options.tuning.impedance == "pipe" and industrial:
-        if scales is None:
-            raise SweepSpecError(
-                "options.impedance = 'pipe' needs the rig's drill pipe: the base "
-                f"{spec.base_label!r} is a scaled set of no known rig (give a physical base)"
-            )
+    industrial = any(c in INDUSTRIAL for c in spec.options.controllers)
+    if spec.options.tuning.impedance == "pipe" and industrial and scales is None:
+        raise SweepSpecError(
+            "options.impedance = 'pipe' needs the rig's drill pipe: the base "
+            f"{spec.base_label!r} is a scaled set of no known rig (give a physical base)"
+        )
 
 
 def spec_from_dict(

@@ -172,19 +172,17 @@ def axial_design(params: Any) -> DesignInputs:
 # --------------------------------------------------------------------------------------------
 
 
-def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
+def rightmost_nonzero_root(roots: np.ndarray) -> complex:
     """Rightmost root after removing the rigid-body root s = 0 of (29).
 
     In (29) the angle phi enters only as c*(phi(tau - tau_n) - phi(tau)) and through the twist, so
     s = 0 is a root for every parameter set; it is not a torsional instability. The root with the
-    smallest modulus is dropped if it is below ``tol``.
+    smallest modulus is dropped if it is below 1e-9.
 
     Parameters
     ----------
     roots : ndarray of complex
         Characteristic roots (e.g. :func:`~drillstring.controller.averaged.delay_roots`).
-    tol : float
-        Modulus below which the smallest root counts as s = 0.
 
     Returns
     -------
@@ -193,7 +191,7 @@ def rightmost_nonzero_root(roots: np.ndarray, tol: float = 1e-9) -> complex:
         remains.
     """
     r = np.asarray(roots, dtype=complex)
-    if r.size and np.min(np.abs(r)) < tol:
+    if r.size and np.min(np.abs(r)) < 1e-9:
         r = np.delete(r, int(np.argmin(np.abs(r))))
     if r.size == 0:
         return complex(math.nan, math.nan)
@@ -467,7 +465,8 @@ def point_gains(
                 model, gains, feedforward=opts.feedforward, gain_max=opts.gain_max, roots=roots
             )
         except SynthesisInfeasible as exc:
-            error = _first_line(exc)
+            lines = str(exc).strip().splitlines()
+            error = f"{type(exc).__name__}: {lines[0] if lines else ''}"
     constrained = None
     if any(c in CONSTRAINED_CONTROLLERS for c in names):
         constrained = lmi_gain(
@@ -602,8 +601,6 @@ class LinearBoundary:
     x: np.ndarray
     y: np.ndarray
     abscissa: dict[str, np.ndarray]
-    #: What was linearised, for the maps' legend (:func:`boundary_model`).
-    model: str = "linearised averaged one-mode model (13), (27)"
 
 
 def boundary_model(elements: int) -> str:
@@ -676,7 +673,7 @@ def linear_boundary(
             controllers = lineup_at(params, model, paper, constrained, opts, scales, wanted)
             for name, c in controllers.items():
                 out[name][i, j] = linear_abscissa(model, c, string)
-    return LinearBoundary(x=fine[0], y=fine[1], abscissa=out, model=boundary_model(opts.elements))
+    return LinearBoundary(x=fine[0], y=fine[1], abscissa=out)
 
 
 @dataclass(frozen=True)
@@ -772,11 +769,6 @@ def controllers_metrics(
             out[controller_column(metric, name)] = int(value) if kind == "flag" else value
     out["best"] = best_controller(found, tie=opts.tie)
     return out
-
-
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0] if text else ''}"
 
 
 def axial_metrics(gammabar: float, etabar2: float, taubar_n: float, opts: AxialOptions) -> dict:
