@@ -33,6 +33,7 @@ libcosim reads; the master reads it too (:attr:`SspPackage.step`).
 
 from __future__ import annotations
 
+import functools
 import os
 import shutil
 import tempfile
@@ -382,11 +383,8 @@ def ssd_document(
         if comp.parameter_sets:
             bindings = etree.SubElement(c, _q("ssd", "ParameterBindings"))
             for set_name in comp.parameter_sets:
-                etree.SubElement(
-                    bindings,
-                    _q("ssd", "ParameterBinding"),
-                    source=sources[(comp.name, set_name)],
-                )
+                src = sources[(comp.name, set_name)]
+                etree.SubElement(bindings, _q("ssd", "ParameterBinding"), source=src)
     links = etree.SubElement(sys_node, _q("ssd", "Connections"))
     for con in connections:
         link = etree.SubElement(
@@ -490,9 +488,14 @@ def write_ssp(
     written: dict[str, tuple[SspParameter, ...]] = {}
     for comp in components:
         entries[comp.source] = Path(fmus[comp.name]).read_bytes()
-    for ssd in (None, *variants):
-        comps = components if ssd is None else ssd.components
-        label = SSD_FILE if ssd is None else ssd.file
+    ssds = [(SSD_FILE, name, components, connections, default_experiment, description)]
+    ssds += [
+        (v.file, v.name, v.components, v.connections, v.default_experiment, v.description)
+        for v in variants
+    ]
+    for label, ssd_name, comps, links, experiment, text in ssds:
+        if label in entries:
+            raise SspError(f"{path.name}: two SSDs named {label}")
         for comp in comps:
             if comp.source not in entries:
                 raise SspError(
@@ -509,21 +512,8 @@ def write_ssp(
                 written[src] = tuple(params)
                 sources[(comp.name, set_name)] = src
                 entries[src] = ssv_document(set_name, params, units)
-    entries[SSD_FILE] = ssd_document(
-        name, components, connections, units, sources, default_experiment, description, system
-    )
-    for v in variants:
-        if v.file in entries:
-            raise SspError(f"{path.name}: two SSDs named {v.file}")
-        entries[v.file] = ssd_document(
-            v.name,
-            v.components,
-            v.connections,
-            units,
-            sources,
-            v.default_experiment,
-            v.description,
-            system or name,
+        entries[label] = ssd_document(
+            ssd_name, comps, links, units, sources, experiment, text, system or name
         )
     if documentation:
         if "index.html" not in documentation:
@@ -541,13 +531,10 @@ def write_ssp(
 # validation
 # ------------------------------------------------------------------------------------------------
 
-_SCHEMAS: dict[str, etree.XMLSchema] = {}
 
-
+@functools.cache
 def _schema(name: str) -> etree.XMLSchema:
-    if name not in _SCHEMAS:
-        _SCHEMAS[name] = etree.XMLSchema(etree.parse(str(_SCHEMA_DIR / name)))
-    return _SCHEMAS[name]
+    return etree.XMLSchema(etree.parse(str(_SCHEMA_DIR / name)))
 
 
 def _schema_problems(label: str, data: bytes, schema: str) -> list[str]:
@@ -662,11 +649,10 @@ def _package_entries(path: Path) -> dict[str, bytes]:
         for p in sorted(path.rglob("*")):
             if p.is_file():
                 name = p.relative_to(path).as_posix()
+                entries[name] = b""
                 if name.endswith(_DESCRIPTIONS):
                     _check_description(path.name, name, p.stat().st_size)
                     entries[name] = p.read_bytes()
-                else:
-                    entries[name] = b""
         return entries
     try:
         with zipfile.ZipFile(path) as z:
@@ -1001,8 +987,7 @@ def _parse_ssd(data: bytes, file: str, entries: Mapping[str, bytes], label: str)
             connectors.append(SspConnector(k.get("name"), k.get("kind"), kind, unit))
         sets: dict[str, tuple[SspParameter, ...]] = {}
         for b in c.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
-            if b.get("source") is not None:
-                src = b.get("source")
+            if (src := b.get("source")) is not None:
                 set_name, params = _read_ssv(etree.fromstring(entries[src]), src, units)
             else:
                 inline = b.find("ssd:ParameterValues/ssv:ParameterSet", NS)
@@ -1110,10 +1095,10 @@ def read_ssp(
             raise SspError(f"{given} is not the variant {variant!r} ({asked}) asked for")
         chosen = asked
     chosen = chosen or SSD_FILE
-    parsed = {f: _parse_ssd(entries[f], f, entries, f"{path.name}") for f in names.values()}
+    parsed = {f: _parse_ssd(entries[f], f, entries, path.name) for f in names.values()}
     sets: dict[str, dict[str, tuple[SspParameter, ...]]] = {}
-    for f in names.values():
-        for comp in parsed[f]["components"]:
+    for ssd in parsed.values():
+        for comp in ssd["components"]:
             for set_name, params in comp.parameter_sets.items():
                 sets.setdefault(set_name, {}).setdefault(comp.name, params)
     if path.is_dir() or not unpack:
