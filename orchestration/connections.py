@@ -218,9 +218,7 @@ def _unit_from_mapping(name: str, spec: object) -> Unit:
 
 
 def _split(key: str) -> tuple[str, str]:
-    if not isinstance(key, str) or "." not in key:
-        raise ValueError(f"variable {key!r} is not of the form 'unit.variable'")
-    unit_name, var = key.split(".", 1)
+    unit_name, _, var = key.partition(".") if isinstance(key, str) else ("", "", "")
     if not unit_name or not var:
         raise ValueError(f"variable {key!r} is not of the form 'unit.variable'")
     return unit_name, var

@@ -221,26 +221,20 @@ def loop_default_experiment(
     return 0.0, float(round(math.ceil(stop / step) * step, 12)), step
 
 
-def _parameters(md, values: Mapping[str, object]) -> tuple[SspParameter, ...]:
-    variables = {v.name: v for v in md.modelVariables}
-    out = []
-    for name, value in values.items():
-        var = variables[name]
-        unit = variable_unit(var)
-        unit = unit if var.type == "Real" and unit not in (None, "1") else None
-        out.append(SspParameter(name, var.type, value, unit))
-    return tuple(out)
-
-
 def _complete_set(md, given: Mapping[str, object]) -> tuple[SspParameter, ...]:
     """Every parameter of the FMU, in its declaration order: ``given`` where it sets one, else
     the FMU's start value (an unknown name in ``given`` is an error)."""
     starts = declared_start_values(md)
-    names = [v.name for v in md.modelVariables if v.causality == "parameter"]
-    unknown = sorted(set(given) - set(names))
+    variables = [v for v in md.modelVariables if v.causality == "parameter"]
+    unknown = sorted(set(given) - {v.name for v in variables})
     if unknown:
         raise ValueError(f"{md.modelName}: no parameter(s) {unknown} to set")
-    return _parameters(md, {n: given.get(n, starts[n]) for n in names})
+    out = []
+    for var in variables:
+        unit = variable_unit(var)
+        unit = unit if var.type == "Real" and unit not in (None, "1") else None
+        out.append(SspParameter(var.name, var.type, given.get(var.name, starts[var.name]), unit))
+    return tuple(out)
 
 
 def write_loop_package(
@@ -300,12 +294,11 @@ def write_loop_package(
             for name in paths
         )
         ssds.append((e, comps))
-    system = variant.system
     (first, first_comps), rest = ssds[0], ssds[1:]
     return write_ssp(
         target,
         name=first.name,
-        system=system,
+        system=variant.system,
         components=first_comps,
         fmus=paths,
         connections=connections,
@@ -331,10 +324,8 @@ def write_loop_package(
 def _loop_description(variant: LoopVariant) -> str:
     """What the package's loop is (the SSDs' descriptions without the experiment)."""
     kind = variant.units.quantities
-    if variant.controller == "topdrive":
-        law = "industrial top-drive controller"
-    else:
-        law = "torsional controller (29)-(31)"
+    topdrive = variant.controller == "topdrive"
+    law = "industrial top-drive controller" if topdrive else "torsional controller (29)-(31)"
     return (
         f"Drill-string plant (11)-(14), (17) of Besselink, van de Wouw and Nijmeijer (IEEE "
         f"CCA 2011) and {law} in closed loop, in {kind}"
