@@ -495,11 +495,9 @@ def build_system(
             if key.split(".", 1)[0] != u.name:
                 continue
             d = declared.get(key.split(".", 1)[1])
-            if d is None:  # absent attribute (or output missing from ModelStructure): all
-                deps[key] = set(connected_inputs[i])
-            else:
-                names_d = {f"{u.name}.{v.name}" for v in d}
-                deps[key] = names_d & set(connected_inputs[i])
+            own = set(connected_inputs[i])
+            # an absent attribute (or an output missing from ModelStructure): all of them
+            deps[key] = own if d is None else own & {f"{u.name}.{v.name}" for v in d}
     feedthrough = tuple(
         any(deps[k] for k in outputs if k.split(".", 1)[0] == u.name) for u in units
     )
