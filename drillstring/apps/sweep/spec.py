@@ -49,7 +49,7 @@ import math
 import os
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -178,13 +178,7 @@ class Axis:
         dict
             ``param``, ``start``, ``stop``, ``num``, ``scale``.
         """
-        return {
-            "param": self.param,
-            "start": self.start,
-            "stop": self.stop,
-            "num": self.num,
-            "scale": self.scale,
-        }
+        return asdict(self)
 
 
 @dataclass(frozen=True)
