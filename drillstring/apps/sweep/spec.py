@@ -459,10 +459,8 @@ def _base(value: Any, base_dir: Path) -> tuple[ScaledParams | PhysicalParams, st
                 f"base: give one of 'name', 'file' or an inline set, got keys {sorted(data)}"
             )
         if "name" in data:
-            name = check_str("base.name", data["name"], error=SweepSpecError)
-            if name not in KNOWN_PARAMS:
-                known = ", ".join(sorted(KNOWN_PARAMS))
-                raise SweepSpecError(f"base.name must be one of {known}, got {name!r}")
+            known = sorted(KNOWN_PARAMS)
+            name = check_choice("base.name", data["name"], known, error=SweepSpecError)
             return KNOWN_PARAMS[name], name
         return from_file(check_str("base.file", data["file"], error=SweepSpecError))
     kind = data.pop("kind", None)
