@@ -125,23 +125,28 @@ def _check_fields(obj: Any, ints: tuple[str, ...], rules: Mapping[str, tuple[flo
 
 
 def _dict_to_fields(
-    cls: str, data: Mapping[str, Any], fields: tuple[str, ...], aliases: Mapping[str, str]
+    cls: type, data: Mapping[str, Any], aliases: Mapping[str, str], *, complete: bool = True
 ) -> dict[str, Any]:
-    """Map file keys to field names; unknown, duplicate (via alias) or missing keys are errors."""
+    """Map keys of ``data`` to field names of the dataclass ``cls``; unknown or duplicate (via
+    alias) keys are errors, and so are missing ones if ``complete``."""
+    fields = tuple(f.name for f in dataclasses.fields(cls))
+    where = cls.__name__
     if not isinstance(data, Mapping):
-        raise ParameterError(f"{cls}: expected a mapping of parameters, got {type(data).__name__}")
+        raise ParameterError(
+            f"{where}: expected a mapping of parameters, got {type(data).__name__}"
+        )
     out: dict[str, Any] = {}
     for key, value in data.items():
         name = aliases.get(key, key)
         if name not in fields:
             known = ", ".join(aliases.get(f, f) for f in fields)
-            raise ParameterError(f"{cls}: unknown key {key!r} (known keys: {known})")
+            raise ParameterError(f"{where}: unknown key {key!r} (known keys: {known})")
         if name in out:
-            raise ParameterError(f"{cls}: key {key!r} given twice (as {name!r} and an alias)")
+            raise ParameterError(f"{where}: key {key!r} given twice (as {name!r} and an alias)")
         out[name] = value
     missing = [f for f in fields if f not in out]
-    if missing:
-        raise ParameterError(f"{cls}: missing key(s) {', '.join(missing)}")
+    if complete and missing:
+        raise ParameterError(f"{where}: missing key(s) {', '.join(missing)}")
     return out
 
 
@@ -262,15 +267,7 @@ class ScaledParams:
         ParameterError
             An unknown field, a field given twice (``lam`` and ``lambda``) or an invalid value.
         """
-        mapped: dict[str, Any] = {}
-        names = {f.name for f in dataclasses.fields(self)}
-        for key, value in changes.items():
-            name = _SCALED_IN_ALIASES.get(key, key)
-            if name not in names:
-                raise ParameterError(f"ScaledParams: unknown parameter {key!r}")
-            if name in mapped:
-                raise ParameterError(f"ScaledParams: parameter {name!r} given twice")
-            mapped[name] = value
+        mapped = _dict_to_fields(ScaledParams, changes, _SCALED_IN_ALIASES, complete=False)
         return dataclasses.replace(self, **mapped)
 
     def to_dict(self) -> dict[str, Any]:
@@ -303,8 +300,7 @@ class ScaledParams:
         ParameterError
             ``data`` is not a mapping, has an unknown, duplicate or missing key, or a bad value.
         """
-        names = tuple(f.name for f in dataclasses.fields(cls))
-        return cls(**_dict_to_fields(cls.__name__, data, names, _SCALED_IN_ALIASES))
+        return cls(**_dict_to_fields(cls, data, _SCALED_IN_ALIASES))
 
 
 # --------------------------------------------------------------------------------------------
@@ -643,11 +639,9 @@ class PhysicalParams:
         ParameterError
             An unknown field or an invalid value.
         """
-        names = {f.name for f in dataclasses.fields(self)}
-        for key in changes:
-            if key not in names:
-                raise ParameterError(f"PhysicalParams: unknown parameter {key!r}")
-        return dataclasses.replace(self, **changes)
+        return dataclasses.replace(
+            self, **_dict_to_fields(PhysicalParams, changes, {}, complete=False)
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """Fields as a dict in declaration order.
@@ -680,8 +674,7 @@ class PhysicalParams:
         ParameterError
             ``data`` is not a mapping, has an unknown or missing key, or a bad value.
         """
-        names = tuple(f.name for f in dataclasses.fields(cls))
-        return cls(**_dict_to_fields(cls.__name__, data, names, {}))
+        return cls(**_dict_to_fields(cls, data, {}))
 
 
 # --------------------------------------------------------------------------------------------
@@ -1036,11 +1029,8 @@ def save_params(p: ScaledParams | PhysicalParams, path: str | os.PathLike[str]) 
     """
     path = Path(path)
     suffix = _suffix(path)
-    if isinstance(p, ScaledParams):
-        kind = "scaled"
-    elif isinstance(p, PhysicalParams):
-        kind = "physical"
-    else:
+    kind = next((k for k, c in _KINDS.items() if isinstance(p, c)), None)
+    if kind is None:
         raise ParameterError(f"save_params: expected ScaledParams or PhysicalParams, got {p!r}")
     data = {"kind": kind, **p.to_dict()}
     if suffix == ".toml":
