@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping
+from functools import partial
 from types import MappingProxyType
 from typing import Any, ClassVar
 
@@ -51,10 +52,14 @@ from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
 from drillstring.model.pipe import MAX_ELEMENTS, REFERENCE_KAPPA, StringParams
 from drillstring.model.units import PLANT_SI, SCALED_UNITS, Scales, UnitSystem
+from drillstring.validation import check_real
 
 SCALED, SI = units.SCALED, units.SI
 declare = units.declare
 _ENGINE_DEFAULTS = EngineOptions()
+#: The string whose fields admit any one valid field on its own (the one-element "paper"
+#: lumping admits no other number of elements).
+_LUMPED = StringParams(lumping="lumped")
 #: The engine's event tolerance in scaled time is at most this (EngineOptions.event_tol).
 _EVENT_TOL_MAX = 1e-10
 ON_INVALID = (
@@ -64,31 +69,12 @@ ON_INVALID = (
 
 
 def _field_check(base: Any, field: str) -> Callable[[Any], Any]:
-    """Check of one field of a parameter set on its own (the others at ``base``), so that the
-    order in which a host sets parameters never matters; the combination is checked when the
-    engine is built (fmi2ExitInitializationMode)."""
+    """Check of one field of a parameter set, engine option or string on its own (the others at
+    ``base``), so that the order in which a host sets parameters never matters; the combination
+    is checked when the engine is built (fmi2ExitInitializationMode)."""
 
     def check(value: Any) -> Any:
         dataclasses.replace(base, **{field: value})
-        return value
-
-    return check
-
-
-def _option(name: str) -> Callable[[Any], Any]:
-    """Check of one engine option (:class:`~drillstring.model.engine.EngineOptions`)."""
-
-    def check(value: Any) -> Any:
-        EngineOptions(**{name: value})
-        return value
-
-    return check
-
-
-def _positive(name: str) -> Callable[[Any], Any]:
-    def check(value: Any) -> Any:
-        if not (math.isfinite(value) and value > 0.0):
-            raise ValueError(f"{name} must be > 0, got {value!r}")
         return value
 
     return check
@@ -220,11 +206,13 @@ def _declarations() -> tuple[units.Declared, ...]:
         declare("h", "Real", "parameter",
                 "Nominal RK4 step of the engine > 0; each communication step is split into "
                 "equal steps no longer than h", dimension="time", start=_ENGINE_DEFAULTS.h,
-                min=P, check=_option("h"), si_check=_positive("h")),
+                min=P, check=_field_check(_ENGINE_DEFAULTS, "h"),
+                si_check=partial(check_real, "h", lower=0.0)),
         declare("event_tol", "Real", "parameter",
                 "Time tolerance of the engine's event location, in (0, 1e-10 t*]",
                 dimension="time", start=_ENGINE_DEFAULTS.event_tol, min=P, max=_EVENT_TOL_MAX,
-                check=_option("event_tol"), si_check=_positive("event_tol")),
+                check=_field_check(_ENGINE_DEFAULTS, "event_tol"),
+                si_check=partial(check_real, "event_tol", lower=0.0)),
         declare("torsional_stick_model", "Boolean", "parameter",
                 'Model torsional stick of the bit (docs/model.md, "Torsional stick", our '
                 "reconstruction); false: the run stops (fmi2Discard) where the bit stops",
@@ -236,29 +224,6 @@ def _declarations() -> tuple[units.Declared, ...]:
     ]  # fmt: skip
     out += _string_declarations()
     return tuple(out)
-
-
-def _string_check(field: str) -> Callable[[Any], Any]:
-    """Check of one field of the string (:class:`~drillstring.model.pipe.StringParams`) on its
-    own, its other fields at a value that admits it."""
-
-    def check(value: Any) -> Any:
-        if field == "elements":
-            StringParams(elements=value, lumping="lumped")
-        else:
-            StringParams(**{field: value})
-        return value
-
-    return check
-
-
-def _si_ratio_check(name: str) -> Callable[[Any], Any]:
-    def check(value: Any) -> Any:
-        if not (math.isfinite(value) and value >= 0.0):
-            raise ValueError(f"{name} must be >= 0, got {value!r}")
-        return value
-
-    return check
 
 
 def _string_declarations() -> list[units.Declared]:
@@ -275,23 +240,24 @@ def _string_declarations() -> list[units.Declared]:
         declare("string_elements", "Integer", "parameter",
                 "Elements N of the distributed drill pipe (docs/model.md, 'The distributed "
                 "string'); 1: the paper's one-mode string, a massless spring (eqs. (11)-(13))",
-                start=1, min=1, max=MAX_ELEMENTS, check=_string_check("elements")),
+                start=1, min=1, max=MAX_ELEMENTS, check=_field_check(_LUMPED, "elements")),
         declare(("pipe_inertia_ratio", None), "Real", "parameter",
                 "Polar inertia of the drill pipe over I1, kappa in [0, 3) (the bit end keeps "
                 "1 - kappa/3); used with string_elements > 1", start=kappa, min=0.0,
-                max=below3, check=_string_check("kappa")),
+                max=below3, check=_field_check(_LUMPED, "kappa")),
         declare(("pipe_mass_ratio", None), "Real", "parameter",
                 "Mass of the drill pipe over M, mu in [0, 3) (0: a massless axial spring, as "
                 "the paper's); used with string_elements > 1", start=0.0, min=0.0,
-                max=below3, check=_string_check("axial_mass_ratio")),
+                max=below3, check=_field_check(_LUMPED, "axial_mass_ratio")),
         declare((None, "I_pipe"), "Real", "parameter",
                 "Polar inertia of the drill pipe, below 3 I1 (I1 keeps a third of it); used "
                 "with string_elements > 1", si_start=kappa * REFERENCE_RIG.I1,
-                si_unit="kg.m2", min=0.0, check=_si_ratio_check("I_pipe")),
+                si_unit="kg.m2", min=0.0,
+                check=partial(check_real, "I_pipe", lower=0.0, strict=False)),
         declare((None, "M_pipe"), "Real", "parameter",
                 "Mass of the drill pipe, below 3 M (0: a massless axial spring, as the "
                 "paper's); used with string_elements > 1", si_start=0.0, si_unit="kg", min=0.0,
-                check=_si_ratio_check("M_pipe")),
+                check=partial(check_real, "M_pipe", lower=0.0, strict=False)),
     ]  # fmt: skip
 
 
