@@ -46,6 +46,7 @@ from drillstring.model.engine import (
     OUTPUT_KEYS,
     Engine,
     EngineOptions,
+    Status,
     string_profiles,
 )
 from drillstring.model.experiments import FIG5
@@ -412,18 +413,6 @@ class PlantFmu(fmu.FmuModel):
         self.scaling = scaling
         return params, options, dataclasses.asdict(initial), string
 
-    def engine_input(self) -> float:
-        """The engine's input R - R0 (scaled) from the FMU's input."""
-        return self.scaling.torque_deviation(self.values[self._input])
-
-    def engine_time(self, t: float) -> float:
-        """The engine's (scaled) time of the FMU's time ``t``."""
-        return self.scaling.tau(t)
-
-    def fmu_time(self, tau: float) -> float:
-        """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
-        return self.scaling.time(tau)
-
     def converted_outputs(self, eng: Engine) -> Mapping[str, Any]:
         """The FMU's outputs from the engine's state."""
         if not self.SYSTEM.physical:
@@ -431,11 +420,14 @@ class PlantFmu(fmu.FmuModel):
         T = eng.diagnostics()["torque_on_bit"]
         return self.scaling.plant_outputs(eng.outputs(), eng.tau, torque_on_bit=T)
 
-    def stop_message(self, eng: Engine, message: str) -> str:
-        """The message of a validity stop (the engine's names the scaled time; SI adds t)."""
-        if not self.SYSTEM.time_unit:
-            return message
-        return f"{message} (t = {self.scaling.time(eng.tau)!r}{self.SYSTEM.time_unit})"
+    def _stopped(self, eng: Engine, status: Status) -> fmu.StepResult:
+        """The result of a step the engine stopped in, at the FMU's time of the stop (the
+        engine's message names the scaled time; SI adds t)."""
+        t = self.scaling.time(eng.tau)
+        message = f"{status.code}: {status.message}"
+        if self.SYSTEM.time_unit:
+            message += f" (t = {t!r}{self.SYSTEM.time_unit})"
+        return fmu.StepResult(t, stop=message)
 
     def fast_constants(self) -> tuple[float, ...]:
         """The unit system's constants of the step (``native.PLANT.k``)."""
@@ -516,8 +508,7 @@ class PlantFmu(fmu.FmuModel):
             st = None  # the history buffer grown: the step goes on
         self._pull_outputs()
         if not status.ok:
-            stop = self.stop_message(eng, f"{status.code}: {status.message}")
-            return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
+            return self._stopped(eng, status)
         # the step finished with ST_OK only for a new bit-bounce episode (on_invalid = continue)
         return fmu.StepResult(
             t + h,
@@ -530,13 +521,12 @@ class PlantFmu(fmu.FmuModel):
         (raises ``ValueError``), or a run that stopped before stops again."""
         eng = self.engine
         assert eng is not None
-        eng.set_input(self.engine_input())
-        status = eng.advance(self.engine_time(t + h))
+        eng.set_input(self.scaling.torque_deviation(self.values[self._input]))
+        status = eng.advance(self.scaling.tau(t + h))
         if status.ok:  # the compiled step refuses only what the engine refuses
             raise RuntimeError(f"the plant's step refused the step [{t!r}, {t + h!r}]")
         self._use(eng)
-        stop = self.stop_message(eng, f"{status.code}: {status.message}")
-        return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
+        return self._stopped(eng, status)
 
     # ----------------------------------------------------------------- native fast path
     def fast_path(self) -> fmu.FastPath | None:
