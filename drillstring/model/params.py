@@ -869,12 +869,8 @@ def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:
     ParameterError
         ``spec`` is neither a known set nor a readable, valid parameter file.
     """
-    if isinstance(spec, str) and spec in KNOWN_PARAMS:
-        return KNOWN_PARAMS[spec]
-    path = Path(spec)
-    if path.suffix.lower() in _SUFFIXES or path.exists():
-        return load_params(path)
-    return get_params(str(spec))
+    path = _spec_file(spec)
+    return get_params(str(spec)) if path is None else load_params(path)
 
 
 def rig_from_spec(spec: str | os.PathLike[str]) -> PhysicalParams | None:
@@ -898,13 +894,18 @@ def rig_from_spec(spec: str | os.PathLike[str]) -> PhysicalParams | None:
     """
     if isinstance(spec, str) and spec in KNOWN_PHYSICAL:
         return KNOWN_PHYSICAL[spec]
+    path = _spec_file(spec)
+    read = get_params(str(spec)) if path is None else read_params(path)
+    return read if isinstance(read, PhysicalParams) else known_rig(read)
+
+
+def _spec_file(spec: str | os.PathLike[str]) -> Path | None:
+    """The parameter file ``spec`` names (a ``.toml``/``.json`` suffix, or a path that exists),
+    or None for the name of a set (a key of :data:`KNOWN_PARAMS` is never a file)."""
+    if isinstance(spec, str) and spec in KNOWN_PARAMS:
+        return None
     path = Path(spec)
-    named = isinstance(spec, str) and spec in KNOWN_PARAMS
-    if not named and (path.suffix.lower() in _SUFFIXES or path.exists()):
-        read = read_params(path)
-        if isinstance(read, PhysicalParams):
-            return read
-    return known_rig(params_from_spec(spec))
+    return path if path.suffix.lower() in _SUFFIXES or path.exists() else None
 
 
 # --------------------------------------------------------------------------------------------
