@@ -414,7 +414,7 @@ class PhysicalParams:
         arithmetic).
         """
         cutting = 0.5 * self.n * self.a**2 * self.eps * d
-        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
+        contact = 0.5 * self.a * self.xi * self.mu * self.contact_weight
         return cutting + contact * (1.0 - g)
 
     @property
