@@ -428,8 +428,8 @@ class PhysicalParams:
         eq. (7) with dU/dt > 0: the least nominal WOB of any positive feed."""
         return self.n * self.a * self.l * self.sigma_bar
 
-    def hook_speed_for_weight(self, W0: float, Omega0: float | None = None) -> float:
-        """The hook speed V0 [m/s] whose nominal weight on bit is ``W0`` at the speed ``Omega0``.
+    def hook_speed_for_weight(self, W0: float) -> float:
+        """The hook speed V0 [m/s] whose nominal weight on bit is ``W0`` at this set's Omega0.
 
         The inverse of :attr:`W0`: with d0 = 2*pi*V0/(n*Omega0) of (8), eqs. (4) and (7) give
         ``W0 = n*a*zeta*eps*d0 + n*a*l*sigma_bar``, so
@@ -440,8 +440,6 @@ class PhysicalParams:
         ----------
         W0 : float
             Nominal weight on bit [N], above :attr:`contact_weight`.
-        Omega0 : float, optional
-            Rotary speed [rad/s], > 0 (default: this set's).
 
         Returns
         -------
@@ -451,11 +449,9 @@ class PhysicalParams:
         Raises
         ------
         ParameterError
-            ``W0`` is not a finite number above the contact part (no positive feed reaches it),
-            or ``Omega0`` is not > 0; the message names the value.
+            ``W0`` is not a finite number above the contact part (no positive feed reaches it);
+            the message names the value.
         """
-        omega = self.Omega0 if Omega0 is None else Omega0
-        omega = check_real("Omega0", omega, lower=0.0, error=ParameterError)
         W0 = check_real("W0", W0, error=ParameterError)
         contact = self.contact_weight
         if not W0 > contact:
@@ -463,7 +459,7 @@ class PhysicalParams:
                 f"W0 = {W0!r} N is not above the wearflat contact part n*a*l*sigma_bar = "
                 f"{contact!r} N of eq. (7): no positive feed gives that nominal weight on bit"
             )
-        return (W0 - contact) * omega / (2.0 * math.pi * self.a * self.zeta * self.eps)
+        return (W0 - contact) * self.Omega0 / (2.0 * math.pi * self.a * self.zeta * self.eps)
 
     @property
     def T0(self) -> float:
@@ -825,15 +821,14 @@ def get_physical(name: str) -> PhysicalParams:
         ) from None
 
 
-def known_rig(params: ScaledParams, rel_tol: float = 1e-9) -> PhysicalParams | None:
-    """The known physical set (:data:`KNOWN_PHYSICAL`) whose scaled set is ``params``.
+def known_rig(params: ScaledParams) -> PhysicalParams | None:
+    """The known physical set (:data:`KNOWN_PHYSICAL`) whose scaled set is ``params``, every
+    field to a relative 1e-9 (the conversion (15)-(16) rounds).
 
     Parameters
     ----------
     params : ScaledParams
         A scaled set.
-    rel_tol : float
-        Relative tolerance of every field (the conversion (15)-(16) rounds).
 
     Returns
     -------
@@ -843,7 +838,7 @@ def known_rig(params: ScaledParams, rel_tol: float = 1e-9) -> PhysicalParams | N
     for rig in KNOWN_PHYSICAL.values():
         s = rig.to_scaled()
         if all(
-            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=rel_tol)
+            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=1e-9)
             for f in dataclasses.fields(ScaledParams)
         ):
             return rig
