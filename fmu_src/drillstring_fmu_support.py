@@ -96,9 +96,7 @@ __all__ = [
     "StepResult",
     "Variable",
     "enumeration",
-    "input_real",
     "output",
-    "parameter",
     "read_config",
 ]
 
@@ -212,11 +210,6 @@ class Variable:
         return x
 
 
-def parameter(name: str, type: str, start: Any, description: str, **kw: Any) -> Variable:
-    """A fixed parameter (``initial="exact"``)."""
-    return Variable(name, type, "parameter", description, start=start, **kw)
-
-
 def enumeration(
     name: str, type_name: str, items: Sequence[tuple[str, str]], start: str, description: str
 ) -> Variable:
@@ -231,11 +224,6 @@ def enumeration(
         items=tuple(items),
         type_name=type_name,
     )
-
-
-def input_real(name: str, start: float, description: str, **kw: Any) -> Variable:
-    """A continuous Real input (``kw``: ``unit``, ``display_unit``, ``check``)."""
-    return Variable(name, "Real", "input", description, start=start, **kw)
 
 
 def output(
@@ -870,9 +858,7 @@ class FmuModel(Fmi2Slave):
             raise ValueError(f"fields {sorted(missing)} missing")
         if f["phase"] not in PHASES:
             raise ValueError(f"field phase = {f['phase']!r} is not one of {PHASES}")
-        time = f["time"]
-        if isinstance(time, bool) or not isinstance(time, int | float) or not math.isfinite(time):
-            raise ValueError(f"field time = {time!r} is not a finite number")
+        check_real("field time", f["time"])
         if not isinstance(f["dirty"], bool):
             raise ValueError(f"field dirty = {f['dirty']!r} is not a boolean")
         if not isinstance(f["model"], dict):

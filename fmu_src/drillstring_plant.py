@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping
+from functools import partial
 from types import MappingProxyType
 from typing import Any, ClassVar
 
@@ -45,16 +46,21 @@ from drillstring.model.engine import (
     OUTPUT_KEYS,
     Engine,
     EngineOptions,
+    Status,
     string_profiles,
 )
 from drillstring.model.experiments import FIG5
 from drillstring.model.params import REFERENCE, REFERENCE_RIG, ScaledParams
 from drillstring.model.pipe import MAX_ELEMENTS, REFERENCE_KAPPA, StringParams
 from drillstring.model.units import PLANT_SI, SCALED_UNITS, Scales, UnitSystem
+from drillstring.validation import check_real
 
 SCALED, SI = units.SCALED, units.SI
 declare = units.declare
 _ENGINE_DEFAULTS = EngineOptions()
+#: The string whose fields admit any one valid field on its own (the one-element "paper"
+#: lumping admits no other number of elements).
+_LUMPED = StringParams(lumping="lumped")
 #: The engine's event tolerance in scaled time is at most this (EngineOptions.event_tol).
 _EVENT_TOL_MAX = 1e-10
 ON_INVALID = (
@@ -64,31 +70,12 @@ ON_INVALID = (
 
 
 def _field_check(base: Any, field: str) -> Callable[[Any], Any]:
-    """Check of one field of a parameter set on its own (the others at ``base``), so that the
-    order in which a host sets parameters never matters; the combination is checked when the
-    engine is built (fmi2ExitInitializationMode)."""
+    """Check of one field of a parameter set, engine option or string on its own (the others at
+    ``base``), so that the order in which a host sets parameters never matters; the combination
+    is checked when the engine is built (fmi2ExitInitializationMode)."""
 
     def check(value: Any) -> Any:
         dataclasses.replace(base, **{field: value})
-        return value
-
-    return check
-
-
-def _option(name: str) -> Callable[[Any], Any]:
-    """Check of one engine option (:class:`~drillstring.model.engine.EngineOptions`)."""
-
-    def check(value: Any) -> Any:
-        EngineOptions(**{name: value})
-        return value
-
-    return check
-
-
-def _positive(name: str) -> Callable[[Any], Any]:
-    def check(value: Any) -> Any:
-        if not (math.isfinite(value) and value > 0.0):
-            raise ValueError(f"{name} must be > 0, got {value!r}")
         return value
 
     return check
@@ -220,11 +207,13 @@ def _declarations() -> tuple[units.Declared, ...]:
         declare("h", "Real", "parameter",
                 "Nominal RK4 step of the engine > 0; each communication step is split into "
                 "equal steps no longer than h", dimension="time", start=_ENGINE_DEFAULTS.h,
-                min=P, check=_option("h"), si_check=_positive("h")),
+                min=P, check=_field_check(_ENGINE_DEFAULTS, "h"),
+                si_check=partial(check_real, "h", lower=0.0)),
         declare("event_tol", "Real", "parameter",
                 "Time tolerance of the engine's event location, in (0, 1e-10 t*]",
                 dimension="time", start=_ENGINE_DEFAULTS.event_tol, min=P, max=_EVENT_TOL_MAX,
-                check=_option("event_tol"), si_check=_positive("event_tol")),
+                check=_field_check(_ENGINE_DEFAULTS, "event_tol"),
+                si_check=partial(check_real, "event_tol", lower=0.0)),
         declare("torsional_stick_model", "Boolean", "parameter",
                 'Model torsional stick of the bit (docs/model.md, "Torsional stick", our '
                 "reconstruction); false: the run stops (fmi2Discard) where the bit stops",
@@ -236,29 +225,6 @@ def _declarations() -> tuple[units.Declared, ...]:
     ]  # fmt: skip
     out += _string_declarations()
     return tuple(out)
-
-
-def _string_check(field: str) -> Callable[[Any], Any]:
-    """Check of one field of the string (:class:`~drillstring.model.pipe.StringParams`) on its
-    own, its other fields at a value that admits it."""
-
-    def check(value: Any) -> Any:
-        if field == "elements":
-            StringParams(elements=value, lumping="lumped")
-        else:
-            StringParams(**{field: value})
-        return value
-
-    return check
-
-
-def _si_ratio_check(name: str) -> Callable[[Any], Any]:
-    def check(value: Any) -> Any:
-        if not (math.isfinite(value) and value >= 0.0):
-            raise ValueError(f"{name} must be >= 0, got {value!r}")
-        return value
-
-    return check
 
 
 def _string_declarations() -> list[units.Declared]:
@@ -275,23 +241,24 @@ def _string_declarations() -> list[units.Declared]:
         declare("string_elements", "Integer", "parameter",
                 "Elements N of the distributed drill pipe (docs/model.md, 'The distributed "
                 "string'); 1: the paper's one-mode string, a massless spring (eqs. (11)-(13))",
-                start=1, min=1, max=MAX_ELEMENTS, check=_string_check("elements")),
+                start=1, min=1, max=MAX_ELEMENTS, check=_field_check(_LUMPED, "elements")),
         declare(("pipe_inertia_ratio", None), "Real", "parameter",
                 "Polar inertia of the drill pipe over I1, kappa in [0, 3) (the bit end keeps "
                 "1 - kappa/3); used with string_elements > 1", start=kappa, min=0.0,
-                max=below3, check=_string_check("kappa")),
+                max=below3, check=_field_check(_LUMPED, "kappa")),
         declare(("pipe_mass_ratio", None), "Real", "parameter",
                 "Mass of the drill pipe over M, mu in [0, 3) (0: a massless axial spring, as "
                 "the paper's); used with string_elements > 1", start=0.0, min=0.0,
-                max=below3, check=_string_check("axial_mass_ratio")),
+                max=below3, check=_field_check(_LUMPED, "axial_mass_ratio")),
         declare((None, "I_pipe"), "Real", "parameter",
                 "Polar inertia of the drill pipe, below 3 I1 (I1 keeps a third of it); used "
                 "with string_elements > 1", si_start=kappa * REFERENCE_RIG.I1,
-                si_unit="kg.m2", min=0.0, check=_si_ratio_check("I_pipe")),
+                si_unit="kg.m2", min=0.0,
+                check=partial(check_real, "I_pipe", lower=0.0, strict=False)),
         declare((None, "M_pipe"), "Real", "parameter",
                 "Mass of the drill pipe, below 3 M (0: a massless axial spring, as the "
                 "paper's); used with string_elements > 1", si_start=0.0, si_unit="kg", min=0.0,
-                check=_si_ratio_check("M_pipe")),
+                check=partial(check_real, "M_pipe", lower=0.0, strict=False)),
     ]  # fmt: skip
 
 
@@ -446,18 +413,6 @@ class PlantFmu(fmu.FmuModel):
         self.scaling = scaling
         return params, options, dataclasses.asdict(initial), string
 
-    def engine_input(self) -> float:
-        """The engine's input R - R0 (scaled) from the FMU's input."""
-        return self.scaling.torque_deviation(self.values[self._input])
-
-    def engine_time(self, t: float) -> float:
-        """The engine's (scaled) time of the FMU's time ``t``."""
-        return self.scaling.tau(t)
-
-    def fmu_time(self, tau: float) -> float:
-        """The FMU's time of the engine's time ``tau`` (inverse of :meth:`engine_time`)."""
-        return self.scaling.time(tau)
-
     def converted_outputs(self, eng: Engine) -> Mapping[str, Any]:
         """The FMU's outputs from the engine's state."""
         if not self.SYSTEM.physical:
@@ -465,11 +420,14 @@ class PlantFmu(fmu.FmuModel):
         T = eng.diagnostics()["torque_on_bit"]
         return self.scaling.plant_outputs(eng.outputs(), eng.tau, torque_on_bit=T)
 
-    def stop_message(self, eng: Engine, message: str) -> str:
-        """The message of a validity stop (the engine's names the scaled time; SI adds t)."""
-        if not self.SYSTEM.time_unit:
-            return message
-        return f"{message} (t = {self.scaling.time(eng.tau)!r}{self.SYSTEM.time_unit})"
+    def _stopped(self, eng: Engine, status: Status) -> fmu.StepResult:
+        """The result of a step the engine stopped in, at the FMU's time of the stop (the
+        engine's message names the scaled time; SI adds t)."""
+        t = self.scaling.time(eng.tau)
+        message = f"{status.code}: {status.message}"
+        if self.SYSTEM.time_unit:
+            message += f" (t = {t!r}{self.SYSTEM.time_unit})"
+        return fmu.StepResult(t, stop=message)
 
     def fast_constants(self) -> tuple[float, ...]:
         """The unit system's constants of the step (``native.PLANT.k``)."""
@@ -550,8 +508,7 @@ class PlantFmu(fmu.FmuModel):
             st = None  # the history buffer grown: the step goes on
         self._pull_outputs()
         if not status.ok:
-            stop = self.stop_message(eng, f"{status.code}: {status.message}")
-            return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
+            return self._stopped(eng, status)
         # the step finished with ST_OK only for a new bit-bounce episode (on_invalid = continue)
         return fmu.StepResult(
             t + h,
@@ -564,13 +521,12 @@ class PlantFmu(fmu.FmuModel):
         (raises ``ValueError``), or a run that stopped before stops again."""
         eng = self.engine
         assert eng is not None
-        eng.set_input(self.engine_input())
-        status = eng.advance(self.engine_time(t + h))
+        eng.set_input(self.scaling.torque_deviation(self.values[self._input]))
+        status = eng.advance(self.scaling.tau(t + h))
         if status.ok:  # the compiled step refuses only what the engine refuses
             raise RuntimeError(f"the plant's step refused the step [{t!r}, {t + h!r}]")
         self._use(eng)
-        stop = self.stop_message(eng, f"{status.code}: {status.message}")
-        return fmu.StepResult(self.fmu_time(eng.tau), stop=stop)
+        return self._stopped(eng, status)
 
     # ----------------------------------------------------------------- native fast path
     def fast_path(self) -> fmu.FastPath | None:

@@ -388,7 +388,7 @@ class Engine:
             ext = self._wrap_callable(control)
         elif isinstance(control, numbers.Real) and not isinstance(control, bool):
             C[S.C_KIND] = S.CTRL_HELD
-            C[S.C_R] = self._check_torque(control)
+            C[S.C_R] = _number("torque R - R0", control)
         else:
             raise TypeError(
                 "control must be None, a float, AffineFeedback or a callable, "
@@ -411,14 +411,6 @@ class Engine:
 
         return ext
 
-    @staticmethod
-    def _check_torque(r: Any) -> float:
-        try:
-            value = float(r)
-        except (TypeError, ValueError):
-            raise ValueError(f"torque R - R0 must be a number, got {r!r}") from None
-        return check_real("torque R - R0", value)
-
     def set_input(self, r: float) -> None:
         """Hold the rotary-table torque deviation R - R0 = r over the following advances.
 
@@ -438,7 +430,7 @@ class Engine:
         ValueError
             ``r`` cannot be converted to a finite float.
         """
-        value = self._check_torque(r)
+        value = _number("torque R - R0", r)
         if int(self._s.control[S.C_KIND]) != S.CTRL_HELD:
             self.set_control(value)
             return
@@ -530,11 +522,7 @@ class Engine:
                 return rows[:i], status
 
     def _check_target(self, to_tau: Any) -> float:
-        try:
-            to_tau = float(to_tau)
-        except (TypeError, ValueError):
-            raise ValueError(f"advance: target time must be a number, got {to_tau!r}") from None
-        check_real("advance: target time", to_tau)
+        to_tau = _number("advance: target time", to_tau)
         if to_tau < self.tau:
             raise ValueError(
                 f"advance: target time {to_tau!r} is before the current time {self.tau!r}"
@@ -565,9 +553,6 @@ class Engine:
         if st == S.ST_HIST_FULL:
             self._grow_history()
             return None
-        return self._status(st)
-
-    def _status(self, st: int) -> Status:
         if st == S.ST_OK:
             return Status("ok", "", self.tau)
         code = STATUS_CODES.get(st, f"status_{st}")
@@ -1022,6 +1007,15 @@ def string_profiles(
         "u_node": u,
         "du_node": du,
     }
+
+
+def _number(name: str, value: Any) -> float:
+    """``value`` as a finite float (anything ``float`` converts), or ValueError naming it."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    return check_real(name, x)
 
 
 def _initial_chain(p: ScaledParams, nt: int, na: int, init: InitialState) -> np.ndarray:

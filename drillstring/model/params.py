@@ -125,23 +125,28 @@ def _check_fields(obj: Any, ints: tuple[str, ...], rules: Mapping[str, tuple[flo
 
 
 def _dict_to_fields(
-    cls: str, data: Mapping[str, Any], fields: tuple[str, ...], aliases: Mapping[str, str]
+    cls: type, data: Mapping[str, Any], aliases: Mapping[str, str], *, complete: bool = True
 ) -> dict[str, Any]:
-    """Map file keys to field names; unknown, duplicate (via alias) or missing keys are errors."""
+    """Map keys of ``data`` to field names of the dataclass ``cls``; unknown or duplicate (via
+    alias) keys are errors, and so are missing ones if ``complete``."""
+    fields = tuple(f.name for f in dataclasses.fields(cls))
+    where = cls.__name__
     if not isinstance(data, Mapping):
-        raise ParameterError(f"{cls}: expected a mapping of parameters, got {type(data).__name__}")
+        raise ParameterError(
+            f"{where}: expected a mapping of parameters, got {type(data).__name__}"
+        )
     out: dict[str, Any] = {}
     for key, value in data.items():
         name = aliases.get(key, key)
         if name not in fields:
             known = ", ".join(aliases.get(f, f) for f in fields)
-            raise ParameterError(f"{cls}: unknown key {key!r} (known keys: {known})")
+            raise ParameterError(f"{where}: unknown key {key!r} (known keys: {known})")
         if name in out:
-            raise ParameterError(f"{cls}: key {key!r} given twice (as {name!r} and an alias)")
+            raise ParameterError(f"{where}: key {key!r} given twice (as {name!r} and an alias)")
         out[name] = value
     missing = [f for f in fields if f not in out]
-    if missing:
-        raise ParameterError(f"{cls}: missing key(s) {', '.join(missing)}")
+    if complete and missing:
+        raise ParameterError(f"{where}: missing key(s) {', '.join(missing)}")
     return out
 
 
@@ -262,15 +267,7 @@ class ScaledParams:
         ParameterError
             An unknown field, a field given twice (``lam`` and ``lambda``) or an invalid value.
         """
-        mapped: dict[str, Any] = {}
-        names = {f.name for f in dataclasses.fields(self)}
-        for key, value in changes.items():
-            name = _SCALED_IN_ALIASES.get(key, key)
-            if name not in names:
-                raise ParameterError(f"ScaledParams: unknown parameter {key!r}")
-            if name in mapped:
-                raise ParameterError(f"ScaledParams: parameter {name!r} given twice")
-            mapped[name] = value
+        mapped = _dict_to_fields(ScaledParams, changes, _SCALED_IN_ALIASES, complete=False)
         return dataclasses.replace(self, **mapped)
 
     def to_dict(self) -> dict[str, Any]:
@@ -303,8 +300,7 @@ class ScaledParams:
         ParameterError
             ``data`` is not a mapping, has an unknown, duplicate or missing key, or a bad value.
         """
-        names = tuple(f.name for f in dataclasses.fields(cls))
-        return cls(**_dict_to_fields(cls.__name__, data, names, _SCALED_IN_ALIASES))
+        return cls(**_dict_to_fields(cls, data, _SCALED_IN_ALIASES))
 
 
 # --------------------------------------------------------------------------------------------
@@ -418,7 +414,7 @@ class PhysicalParams:
         arithmetic).
         """
         cutting = 0.5 * self.n * self.a**2 * self.eps * d
-        contact = 0.5 * self.a * self.xi * self.mu * (self.n * self.a * self.l * self.sigma_bar)
+        contact = 0.5 * self.a * self.xi * self.mu * self.contact_weight
         return cutting + contact * (1.0 - g)
 
     @property
@@ -432,8 +428,8 @@ class PhysicalParams:
         eq. (7) with dU/dt > 0: the least nominal WOB of any positive feed."""
         return self.n * self.a * self.l * self.sigma_bar
 
-    def hook_speed_for_weight(self, W0: float, Omega0: float | None = None) -> float:
-        """The hook speed V0 [m/s] whose nominal weight on bit is ``W0`` at the speed ``Omega0``.
+    def hook_speed_for_weight(self, W0: float) -> float:
+        """The hook speed V0 [m/s] whose nominal weight on bit is ``W0`` at this set's Omega0.
 
         The inverse of :attr:`W0`: with d0 = 2*pi*V0/(n*Omega0) of (8), eqs. (4) and (7) give
         ``W0 = n*a*zeta*eps*d0 + n*a*l*sigma_bar``, so
@@ -444,8 +440,6 @@ class PhysicalParams:
         ----------
         W0 : float
             Nominal weight on bit [N], above :attr:`contact_weight`.
-        Omega0 : float, optional
-            Rotary speed [rad/s], > 0 (default: this set's).
 
         Returns
         -------
@@ -455,11 +449,9 @@ class PhysicalParams:
         Raises
         ------
         ParameterError
-            ``W0`` is not a finite number above the contact part (no positive feed reaches it),
-            or ``Omega0`` is not > 0; the message names the value.
+            ``W0`` is not a finite number above the contact part (no positive feed reaches it);
+            the message names the value.
         """
-        omega = self.Omega0 if Omega0 is None else Omega0
-        omega = check_real("Omega0", omega, lower=0.0, error=ParameterError)
         W0 = check_real("W0", W0, error=ParameterError)
         contact = self.contact_weight
         if not W0 > contact:
@@ -467,7 +459,7 @@ class PhysicalParams:
                 f"W0 = {W0!r} N is not above the wearflat contact part n*a*l*sigma_bar = "
                 f"{contact!r} N of eq. (7): no positive feed gives that nominal weight on bit"
             )
-        return (W0 - contact) * omega / (2.0 * math.pi * self.a * self.zeta * self.eps)
+        return (W0 - contact) * self.Omega0 / (2.0 * math.pi * self.a * self.zeta * self.eps)
 
     @property
     def T0(self) -> float:
@@ -643,11 +635,9 @@ class PhysicalParams:
         ParameterError
             An unknown field or an invalid value.
         """
-        names = {f.name for f in dataclasses.fields(self)}
-        for key in changes:
-            if key not in names:
-                raise ParameterError(f"PhysicalParams: unknown parameter {key!r}")
-        return dataclasses.replace(self, **changes)
+        return dataclasses.replace(
+            self, **_dict_to_fields(PhysicalParams, changes, {}, complete=False)
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """Fields as a dict in declaration order.
@@ -680,8 +670,7 @@ class PhysicalParams:
         ParameterError
             ``data`` is not a mapping, has an unknown or missing key, or a bad value.
         """
-        names = tuple(f.name for f in dataclasses.fields(cls))
-        return cls(**_dict_to_fields(cls.__name__, data, names, {}))
+        return cls(**_dict_to_fields(cls, data, {}))
 
 
 # --------------------------------------------------------------------------------------------
@@ -832,15 +821,14 @@ def get_physical(name: str) -> PhysicalParams:
         ) from None
 
 
-def known_rig(params: ScaledParams, rel_tol: float = 1e-9) -> PhysicalParams | None:
-    """The known physical set (:data:`KNOWN_PHYSICAL`) whose scaled set is ``params``.
+def known_rig(params: ScaledParams) -> PhysicalParams | None:
+    """The known physical set (:data:`KNOWN_PHYSICAL`) whose scaled set is ``params``, every
+    field to a relative 1e-9 (the conversion (15)-(16) rounds).
 
     Parameters
     ----------
     params : ScaledParams
         A scaled set.
-    rel_tol : float
-        Relative tolerance of every field (the conversion (15)-(16) rounds).
 
     Returns
     -------
@@ -850,7 +838,7 @@ def known_rig(params: ScaledParams, rel_tol: float = 1e-9) -> PhysicalParams | N
     for rig in KNOWN_PHYSICAL.values():
         s = rig.to_scaled()
         if all(
-            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=rel_tol)
+            math.isclose(getattr(s, f.name), getattr(params, f.name), rel_tol=1e-9)
             for f in dataclasses.fields(ScaledParams)
         ):
             return rig
@@ -876,12 +864,8 @@ def params_from_spec(spec: str | os.PathLike[str]) -> ScaledParams:
     ParameterError
         ``spec`` is neither a known set nor a readable, valid parameter file.
     """
-    if isinstance(spec, str) and spec in KNOWN_PARAMS:
-        return KNOWN_PARAMS[spec]
-    path = Path(spec)
-    if path.suffix.lower() in _SUFFIXES or path.exists():
-        return load_params(path)
-    return get_params(str(spec))
+    path = _spec_file(spec)
+    return get_params(str(spec)) if path is None else load_params(path)
 
 
 def rig_from_spec(spec: str | os.PathLike[str]) -> PhysicalParams | None:
@@ -905,13 +889,18 @@ def rig_from_spec(spec: str | os.PathLike[str]) -> PhysicalParams | None:
     """
     if isinstance(spec, str) and spec in KNOWN_PHYSICAL:
         return KNOWN_PHYSICAL[spec]
+    path = _spec_file(spec)
+    read = get_params(str(spec)) if path is None else read_params(path)
+    return read if isinstance(read, PhysicalParams) else known_rig(read)
+
+
+def _spec_file(spec: str | os.PathLike[str]) -> Path | None:
+    """The parameter file ``spec`` names (a ``.toml``/``.json`` suffix, or a path that exists),
+    or None for the name of a set (a key of :data:`KNOWN_PARAMS` is never a file)."""
+    if isinstance(spec, str) and spec in KNOWN_PARAMS:
+        return None
     path = Path(spec)
-    named = isinstance(spec, str) and spec in KNOWN_PARAMS
-    if not named and (path.suffix.lower() in _SUFFIXES or path.exists()):
-        read = read_params(path)
-        if isinstance(read, PhysicalParams):
-            return read
-    return known_rig(params_from_spec(spec))
+    return path if path.suffix.lower() in _SUFFIXES or path.exists() else None
 
 
 # --------------------------------------------------------------------------------------------
@@ -1036,11 +1025,8 @@ def save_params(p: ScaledParams | PhysicalParams, path: str | os.PathLike[str]) 
     """
     path = Path(path)
     suffix = _suffix(path)
-    if isinstance(p, ScaledParams):
-        kind = "scaled"
-    elif isinstance(p, PhysicalParams):
-        kind = "physical"
-    else:
+    kind = next((k for k, c in _KINDS.items() if isinstance(p, c)), None)
+    if kind is None:
         raise ParameterError(f"save_params: expected ScaledParams or PhysicalParams, got {p!r}")
     data = {"kind": kind, **p.to_dict()}
     if suffix == ".toml":

@@ -622,17 +622,15 @@ class Scales:
         InitialState
             u/L*, t* du/L*, phi, t* dphi, theta, t* dtheta.
         """
-        unknown = set(si) - {"u", "du", "phi", "dphi", "theta", "dtheta"}
-        if unknown:
-            raise ValueError(f"unknown initial-state key(s) {sorted(unknown)}")
+        x = InitialState.coerce(si)  # the SI values, checked as the scaled ones
         ts, Ls = self.t_star, self.L_star
         return InitialState(
-            u=si.get("u", 0.0) / Ls,
-            du=ts * si.get("du", 0.0) / Ls,
-            phi=si.get("phi", 0.0),
-            dphi=ts * si.get("dphi", 0.0),
-            theta=si.get("theta", 0.0),
-            dtheta=ts * si.get("dtheta", 0.0),
+            u=x.u / Ls,
+            du=ts * x.du / Ls,
+            phi=x.phi,
+            dphi=ts * x.dphi,
+            theta=x.theta,
+            dtheta=ts * x.dtheta,
         )
 
     def initial_to_si(self, initial: InitialState | Mapping[str, float]) -> dict[str, float]:

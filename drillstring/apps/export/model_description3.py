@@ -111,16 +111,6 @@ def _time_variable(variables: Sequence[Any], vr: int) -> ET.Element:
     )
 
 
-def _fmi3_time_base(variables: Sequence[Any]) -> str:
-    """:func:`~drillstring.apps.export.model_description.time_base` with what FMI 3.0 adds: the
-    unit of the independent variable ``time``."""
-    sentence = time_base(variables)
-    cut = sentence.find(" (FMI 2.0 gives")
-    if cut >= 0:  # FMI 3.0 gives it one: the unit of the variable time
-        sentence = sentence[:cut] + ' (the unit of the variable time is "1").'
-    return sentence
-
-
 #: A status named in a declaration's text, as FMI 2.0 names it.
 _FMI2_STATUS = re.compile(r"\bfmi2(OK|Warning|Discard|Error|Fatal)\b")
 
@@ -278,11 +268,16 @@ def fmi3_model_description(
 
 
 def _fmi3_time_base_description(fmi2_root: ET.Element, variables: Sequence[Any]) -> str:
-    """The FMI 2.0 description with its time-base sentence as FMI 3.0 states it."""
+    """The FMI 2.0 description with its time-base sentence
+    (:func:`~drillstring.apps.export.model_description.time_base`) as FMI 3.0 states it, with
+    what FMI 3.0 adds: the unit of the independent variable ``time``."""
     described = fmi2_root.get("description") or ""
-    old, new = time_base(variables), _fmi3_time_base(variables)
+    old = time_base(variables)
     if old not in described:
         raise BuildError("the FMI 2.0 model description does not state its time base")
+    cut = old.find(" (FMI 2.0 gives")
+    # FMI 3.0 gives the scaled time a unit: the unit of the variable time
+    new = old if cut < 0 else old[:cut] + ' (the unit of the variable time is "1").'
     return described.replace(old, new)
 
 
