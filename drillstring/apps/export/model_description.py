@@ -27,6 +27,7 @@ __all__ = [
     "format_bound",
     "format_start",
     "generation_time",
+    "restore_generation_date",
     "scaled_time",
     "set_guid",
     "time_base",
@@ -227,6 +228,19 @@ def generation_time(source_date_epoch: int | None) -> str | None:
     return t.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
+def restore_generation_date(root: ET.Element, generated: str | None) -> None:
+    """Put back ``generationDateAndTime`` (taken out while a hash is computed, None: there was
+    none) right after ``generationTool``, in the attribute order of the FMI schema's listing."""
+    if generated is None:
+        return
+    attrib = dict(root.attrib)
+    root.attrib.clear()
+    for key, value in attrib.items():
+        root.set(key, value)
+        if key == "generationTool":
+            root.set("generationDateAndTime", generated)
+
+
 def set_guid(root: ET.Element, entries: dict[str, bytes], extra: bytes) -> None:
     """GUID from the model description (without GUID and date), the non-binary entries and
     ``extra`` (the front layer's sources and pythonfmu's library): the binaries are made from
@@ -240,10 +254,4 @@ def set_guid(root: ET.Element, entries: dict[str, bytes], extra: bytes) -> None:
             digest.update(name.encode("utf-8") + b"\0" + hashlib.sha256(entries[name]).digest())
     digest.update(extra)
     root.set("guid", "{" + str(uuid.uuid5(_GUID_NAMESPACE, digest.hexdigest())) + "}")
-    if generated is not None:  # keep the attribute order of the FMI schema's listing
-        attrib = dict(root.attrib)
-        root.attrib.clear()
-        for key, value in attrib.items():
-            root.set(key, value)
-            if key == "generationTool":
-                root.set("generationDateAndTime", generated)
+    restore_generation_date(root, generated)

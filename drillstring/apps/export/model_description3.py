@@ -27,6 +27,7 @@ from typing import Any
 from xml.etree import ElementTree as ET
 
 from drillstring.apps.export.model_description import (
+    restore_generation_date,
     scaled_time,
     time_base,
     type_attributes,
@@ -287,10 +288,4 @@ def _set_token(root: ET.Element, guid: str) -> None:
     generated = root.attrib.pop("generationDateAndTime", None)
     digest = hashlib.sha256(guid.encode("utf-8") + b"\0" + xml_bytes(root)).hexdigest()
     root.set("instantiationToken", "{" + str(uuid.uuid5(_TOKEN_NAMESPACE, digest)) + "}")
-    if generated is not None:  # keep the attribute order of the FMI schema's listing
-        attrib = dict(root.attrib)
-        root.attrib.clear()
-        for key, value in attrib.items():
-            root.set(key, value)
-            if key == "generationTool":
-                root.set("generationDateAndTime", generated)
+    restore_generation_date(root, generated)
