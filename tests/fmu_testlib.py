@@ -817,6 +817,15 @@ def clean_env(home: Path, **extra: str) -> dict[str, str]:
     return env
 
 
+#: Overrides of the Python a self-contained FMU would use, pointing nowhere: run with
+#: :func:`clean_env` in isolation, such an FMU must not need them (it brings its own).
+BOGUS_PYTHON = {
+    "DRILLSTRING_FMU_LIBPYTHON": "/nonexistent/libpython3.11.so",
+    "DRILLSTRING_FMU_PYTHONHOME": "/nonexistent",
+    "DRILLSTRING_FMU_SITE_PACKAGES": "/nonexistent",
+}
+
+
 def package_cache(home: Path) -> Path:
     """The FMUs' package cache of a clean environment (:func:`clean_env`) with this HOME: there
     the FMUs keep their copy of the package and numba its compiled kernel."""

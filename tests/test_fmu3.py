@@ -862,12 +862,7 @@ def test_self_contained_fmi3_plant_runs_where_no_python_is(built, self_contained
     work = tmp_path / "isolated"
     home = work / "home"
     home.mkdir(parents=True)
-    env = tl.clean_env(
-        home,
-        DRILLSTRING_FMU_LIBPYTHON="/nonexistent/libpython3.11.so",
-        DRILLSTRING_FMU_PYTHONHOME="/nonexistent",
-        DRILLSTRING_FMU_SITE_PACKAGES="/nonexistent",
-    )
+    env = tl.clean_env(home, **tl.BOGUS_PYTHON)
     hidden = [*isolation.python_installations(), isolation.ROOT, *isolation.user_caches(home)]
 
     def wrap(cmd: list[str]) -> list[str]:

@@ -95,12 +95,7 @@ def test_c_host_runs_the_self_contained_fmus_where_no_python_is(
     work = tmp_path / "isolated"
     home = work / "home"
     home.mkdir(parents=True)
-    env = tl.clean_env(
-        home,
-        DRILLSTRING_FMU_LIBPYTHON="/nonexistent/libpython3.11.so",
-        DRILLSTRING_FMU_PYTHONHOME="/nonexistent",
-        DRILLSTRING_FMU_SITE_PACKAGES="/nonexistent",
-    )
+    env = tl.clean_env(home, **tl.BOGUS_PYTHON)
     libffi = isolation.system_library("libffi.so.8")
 
     def wrap(cmd):
