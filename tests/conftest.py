@@ -30,8 +30,9 @@ that share a module's fixture on one worker, see ``pytest_collection_modifyitems
 worker is a session of its own, so the session's builds and first runs (``built``,
 ``first_use``, ``self_contained``, ``other_gains``, ``small_fmus``) are made by the first
 worker that asks, under a file lock in a folder the workers share, and loaded by the others
-(:func:`_once`); the kernel is compiled into numba's cache by one worker while the other waits
-(``_kernel_compiled``). Without ``-n`` everything runs in this process as before.
+(:func:`_once`); the kernel is compiled into numba's cache by one worker while the other and
+the session's build wait (``_kernel_compiled``; the build's design runs it, in a process of its
+own that would compile it once more). Without ``-n`` everything runs in this process as before.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty folder
@@ -226,6 +227,9 @@ def _background(
             if name == "built":
 
                 def make(root: Path) -> tl.Built:
+                    # the build's design runs the kernel: from numba's cache, not compiled a
+                    # second time beside the worker that compiles it
+                    _compile_kernel(shared)
                     return tl.built_fmus(root, environ)
 
             elif name == "first_use":
@@ -260,10 +264,18 @@ def _kernel_compiled(tmp_path_factory: pytest.TempPathFactory) -> None:
     wait for it and then load it (:func:`drillstring.model.simulate.warm_up`): in a fresh
     checkout each worker would otherwise compile the same kernel, a minute of a core each."""
     shared = _shared_folder(tmp_path_factory)
-    if shared is None:
-        return
-    with open(shared / "kernel.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+    if shared is not None:
+        _compile_kernel(shared)
+
+
+def _compile_kernel(shared: Path | None) -> None:
+    """The kernel compiled into numba's cache (:func:`drillstring.model.simulate.warm_up`) by
+    the first of the workers and of the session's build (``_background``) to ask, under the
+    lock ``kernel.lock`` of the ``shared`` folder (this process's own lock without
+    pytest-xdist); the others wait for it and load it."""
+    lock_path = (shared or Path(tempfile.gettempdir())) / "kernel.lock"
+    with open(lock_path, "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # another open file: excludes this process's threads too
         warm_up()
 
 

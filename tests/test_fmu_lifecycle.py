@@ -372,18 +372,30 @@ def read_only(cmd: list[str], folders: list[os.PathLike]) -> list[str]:
     return [unshare, flags, "--", "sh", "-c", _READ_ONLY, "ro", *map(str, folders), "--", *cmd]
 
 
+def _controller_only(built, folder, csv):
+    """The controller alone, its feedback held off the reference and switched on mid-run: the
+    torque it records changes at the switch-on."""
+    held = dict(zip(built.feedback, (0.3, -0.2, 0.1, 0.4), strict=True))
+    starts = {"controller": {"t_on": N * H_NS * 1e-9 / 2, **held}}
+    return tl.host_config(built, {"controller": folder}, H_NS, N, starts, csv, logging=True)
+
+
 def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
     """With HOME and the unpack folder read-only, numba has no writable place for its cache
     (neither the package's __pycache__ nor ~/.cache/numba: its "no locator available", which
     stopped every FMU at fmi2Instantiate): the FMU runs, numba compiling in memory, and logs so;
-    the numbers are those of the normal run, and nothing was written into either folder."""
+    the numbers are those of the normal run, and nothing was written into either folder. The
+    controller shows it: every compiled function of the package, the plant's kernel among them,
+    is decorated on import through the same fallback (``drillstring.model.kernel.jit.cached``,
+    the FMUs' C entry points too), and the controller compiles in memory in a few seconds where
+    the plant's kernel takes half a minute."""
     home = tmp_path / "home"
     home.mkdir()
-    folder = tl.unpack(built.plant.fmu, tmp_path / "plant")
+    folder = tl.unpack(built.controller.fmu, tmp_path / "controller")
     listing = sorted(p.relative_to(folder) for p in folder.rglob("*"))
     csv = tmp_path / "out.csv"
     config = tmp_path / "host.cfg"
-    config.write_text(_plant_only(built, folder, csv), encoding="utf-8")
+    config.write_text(_controller_only(built, folder, csv), encoding="utf-8")
     proc = subprocess.run(
         read_only([str(host), str(config)], [home, folder]),
         capture_output=True,
@@ -397,9 +409,18 @@ def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
     assert list(home.iterdir()) == []
     assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == listing
     rows = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    assert len(np.unique(rows[:, -1])) > 1, "the torque did not change at the switch-on"
     reference = tmp_path / "reference"
     reference.mkdir()
-    ref_proc, ref_rows = _run(host, built, reference, tl.clean_env(clean_home))
+    ref_folder = tl.unpack(built.controller.fmu, reference / "controller")
+    ref_csv = reference / "out.csv"
+    ref_proc, ref_rows = tl.run_c_host(
+        host,
+        _controller_only(built, ref_folder, ref_csv),
+        reference,
+        tl.clean_env(clean_home),
+        ref_csv,
+    )
     assert ref_proc.returncode == 0, ref_proc.stderr
     assert np.array_equal(rows, ref_rows)
 
