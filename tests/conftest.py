@@ -16,11 +16,13 @@ next one import another copy of the package.
 ``fmu_testlib.clean_env``, and the Python hosts given its package cache): one per session, made
 by ``first_use`` (:func:`fmu_testlib.first_use`), the FMUs' first run on a fresh machine, which
 copies the package into its cache and compiles numba's kernel there, once for all of them; the
-test of the first compilation reads that run. The build, then the first use and the
-self-contained FMUs (``self_contained``) side by side, run in two threads beside the tests from
-the session's first test on (``_background``): they are subprocesses, about 3 minutes of one core
-that the tests before their first user no longer wait for; the tests are ordered so that those
-that need none of them run first. Tests that use ``clean_home``, ``first_use``,
+test of the first compilation reads that run. The kernel's compilation into numba's cache
+(the checkout's, as every use of the package from it keeps it), the build (after it: its design
+runs the kernel), then the first use and the self-contained FMUs (``self_contained``) side by
+side, run in threads beside the tests from the session's first test on (``_background``): they
+are subprocesses, about 4 minutes of one core that the tests before their first user no longer
+wait for; the tests are ordered so that those that need none of them run first (the kernel:
+:data:`KERNEL_FREE`, ``_kernel_compiled``). Tests that use ``clean_home``, ``first_use``,
 ``self_contained`` or ``other_gains`` are marked ``slow`` here (they need that compilation or a
 build of their own), and every user of a build ``fmu``; the markers are described in
 ``pyproject.toml``.
@@ -30,9 +32,7 @@ that share a module's fixture on one worker, see ``pytest_collection_modifyitems
 worker is a session of its own, so the session's builds and first runs (``built``,
 ``first_use``, ``self_contained``, ``other_gains``, ``small_fmus``) are made by the first
 worker that asks, under a file lock in a folder the workers share, and loaded by the others
-(:func:`_once`); the kernel is compiled into numba's cache by one worker while the other and
-the session's build wait (``_kernel_compiled``; the build's design runs it, in a process of its
-own that would compile it once more). Without ``-n`` everything runs in this process as before.
+(:func:`_once`), the kernel among them. Without ``-n`` everything runs in this process as before.
 
 Nothing is written outside pytest's temporary folders: for the whole session (autouse
 ``_session_folders``, set up before any test builds or loads anything) ``HOME`` is an empty folder
@@ -61,6 +61,8 @@ from __future__ import annotations
 import fcntl
 import os
 import pickle
+import subprocess
+import sys
 import tempfile
 import traceback
 from collections.abc import Callable, Iterator
@@ -71,10 +73,17 @@ from typing import TypeVar
 import fmu_testlib as tl
 import pytest
 
-from drillstring.model.simulate import warm_up
-
 T = TypeVar("T")
 
+#: Test files that never run the kernel: they run first, beside its compilation
+#: (``_background``'s ``kernel``), instead of waiting for it. A file listed here that does run it
+#: compiles it once more in its worker: slower, not wrong.
+KERNEL_FREE = {
+    "test_averaged.py", "test_axial_stability.py", "test_fileio.py", "test_jit_cache.py",
+    "test_layouts.py", "test_modes.py", "test_params.py", "test_reflection.py",
+    "test_severity.py", "test_spectrum.py", "test_string_spectrum.py", "test_synthesis.py",
+    "test_tuning.py", "test_units.py",
+}  # fmt: skip
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
 SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
 #: Session fixtures of built FMUs.
@@ -85,19 +94,24 @@ FMU_FIXTURES = {"built", "small_fmus", *SLOW_FIXTURES}
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """``slow`` on the users of :data:`SLOW_FIXTURES`; ``fmu`` on the users of
     :data:`FMU_FIXTURES` too (the FMU modules carry it themselves: this keeps a test of a new
-    module that forgot it out of ``make test-fast``). Then the order: the files whose tests need
-    no build first, those that need the session's build next, those with a test of a compilation
-    in a clean HOME or a build of its own last, so that the builds run beside the tests that do
-    not wait for them (``_background``); within a group the files with more tests first (the
-    longer ones, as a rule: two workers end together when the short files come last), the tests
-    of a file in their collection order. Under pytest-xdist (``--dist loadgroup``) the tests of
-    a file that share a fixture of the module stay together on one worker (the fixture is made
-    once), every other test goes to the first worker free (a file of long independent runs,
-    ``test_ssp.py``'s, is shared out)."""
+    module that forgot it out of ``make test-fast``). Then the order: the files that never run
+    the kernel (:data:`KERNEL_FREE`) first, beside its compilation, then the other files whose
+    tests need no build, those that need the session's build next, those with a test of a
+    compilation in a clean HOME or a build of its own last, so that the builds run beside the
+    tests that do not wait for them (``_background``); within a group the files with more tests
+    first (the longer ones, as a rule: two workers end together when the short files come
+    last), the tests of a file in their collection order. Under pytest-xdist (``--dist
+    loadgroup``) the tests of a file that share a fixture of the module stay together on one
+    worker (the fixture is made once), every other test goes to the first worker free (a file of
+    long independent runs, ``test_ssp.py``'s, is shared out)."""
 
     def group(item: pytest.Item) -> int:
         names = set(getattr(item, "fixturenames", ()))
-        return 2 if SLOW_FIXTURES & names else 1 if FMU_FIXTURES & names else 0
+        if SLOW_FIXTURES & names:
+            return 3
+        if FMU_FIXTURES & names:
+            return 2
+        return 0 if item.path.name in KERNEL_FREE else 1
 
     for item in items:
         names = set(getattr(item, "fixturenames", ()))
@@ -160,9 +174,12 @@ def _session_folders(tmp_path_factory: pytest.TempPathFactory):
     )
 
 
-#: The session's work outside this process (builds, first runs), named as its fixtures, in the
-#: order it runs.
-BACKGROUND = ("built", "first_use", "self_contained")
+#: The session's work outside this process (the kernel's compilation, builds, first runs), named
+#: as its fixtures, in the order it runs.
+BACKGROUND = ("kernel", "built", "first_use", "self_contained")
+#: Compiles the kernel into numba's cache (the cache of the checkout, where this process loads
+#: it from).
+_WARM_UP = "from drillstring.model.simulate import warm_up; warm_up()"
 
 
 def _shared_folder(tmp_path_factory: pytest.TempPathFactory) -> Path | None:
@@ -206,30 +223,37 @@ def _once(shared: Path | None, name: str, local: Path, make: Callable[[Path], T]
 def _background(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory, _session_folders
 ) -> Iterator[Callable[[str], Future]]:
-    """The session's builds and first runs, started at the session's first test, in two threads
-    beside the tests, as far as the collected tests need them (none for ``make test-fast``): the
-    FMU build, the first use in a clean HOME (a numba compilation) and the self-contained FMUs
-    (a second compilation, for a generic CPU) are subprocesses that take about 3 minutes of one
-    core, which the tests before their first user (the model, analysis and controller tiers) no
-    longer wait for. Under pytest-xdist each is made once for all workers (:func:`_once`). The
-    subprocesses get the environment as it is now (``_session_folders``'), so no test's
-    monkeypatching reaches them. Yields ``start(name) -> Future`` of :data:`BACKGROUND`'s work
-    (started on first call if no collected test needed it)."""
+    """The session's kernel, builds and first runs, started at the session's first test, in threads
+    beside the tests, as far as the collected tests need them (the kernel alone for ``make
+    test-fast``): the kernel compiled into numba's cache, the FMU build, the first use in a clean
+    HOME (a numba compilation) and the self-contained FMUs (a compilation for a generic CPU) are
+    subprocesses that take about 4 minutes of one core, which the tests before their first user
+    (the model, analysis and controller tiers) no longer wait for. Under pytest-xdist each is made
+    once for all workers (:func:`_once`). The subprocesses get the environment as it is now
+    (``_session_folders``'), so no test's monkeypatching reaches them. Yields ``start(name) ->
+    Future`` of :data:`BACKGROUND`'s work (started on first call if no collected test needed it)."""
     environ = dict(os.environ)
     shared = _shared_folder(tmp_path_factory)
-    # two threads: the first use and the self-contained FMUs, both after the build, run side by
-    # side (each a numba compilation of one core), so their users wait for the longer alone
-    pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="session-background")
+    # three threads: the kernel and the build (which waits for it) from the start; the first use
+    # and the self-contained FMUs, both after the build, side by side (each a numba compilation
+    # of one core), so their users wait for the longer alone
+    pool = ThreadPoolExecutor(max_workers=3, thread_name_prefix="session-background")
     futures: dict[str, Future] = {}
 
     def start(name: str) -> Future:
         if name not in futures:
-            if name == "built":
+            if name == "kernel":
+
+                def make(root: Path) -> None:
+                    subprocess.run(
+                        [sys.executable, "-c", _WARM_UP], env=environ, check=True, timeout=900
+                    )
+
+            elif name == "built":
+                kernel = start("kernel")
 
                 def make(root: Path) -> tl.Built:
-                    # the build's design runs the kernel: from numba's cache, not compiled a
-                    # second time beside the worker that compiles it
-                    _compile_kernel(shared)
+                    kernel.result()  # its design runs the kernel: loaded, not compiled again
                     return tl.built_fmus(root, environ)
 
             elif name == "first_use":
@@ -251,6 +275,8 @@ def _background(
         return futures[name]
 
     needed = {n for item in request.session.items for n in getattr(item, "fixturenames", ())}
+    if any(item.path.name not in KERNEL_FREE for item in request.session.items):
+        needed.add("kernel")
     for name in BACKGROUND:
         if name in needed:
             start(name)
@@ -258,25 +284,14 @@ def _background(
     pool.shutdown(wait=True, cancel_futures=True)
 
 
-@pytest.fixture(scope="session", autouse=True)
-def _kernel_compiled(tmp_path_factory: pytest.TempPathFactory) -> None:
-    """Under pytest-xdist, the kernel compiled into numba's cache by one worker while the others
-    wait for it and then load it (:func:`drillstring.model.simulate.warm_up`): in a fresh
-    checkout each worker would otherwise compile the same kernel, a minute of a core each."""
-    shared = _shared_folder(tmp_path_factory)
-    if shared is not None:
-        _compile_kernel(shared)
-
-
-def _compile_kernel(shared: Path | None) -> None:
-    """The kernel compiled into numba's cache (:func:`drillstring.model.simulate.warm_up`) by
-    the first of the workers and of the session's build (``_background``) to ask, under the
-    lock ``kernel.lock`` of the ``shared`` folder (this process's own lock without
-    pytest-xdist); the others wait for it and load it."""
-    lock_path = (shared or Path(tempfile.gettempdir())) / "kernel.lock"
-    with open(lock_path, "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)  # another open file: excludes this process's threads too
-        warm_up()
+@pytest.fixture(autouse=True)
+def _kernel_compiled(request: pytest.FixtureRequest, _background) -> None:
+    """The kernel in numba's cache before a test that may run it (every test outside
+    :data:`KERNEL_FREE`): compiled once per run, in a process of its own, from the session's
+    start (``_background``), so that the tests that do not run it go on meanwhile; without it
+    each worker, and the build, would compile the same kernel, a minute of a core each."""
+    if request.node.path.name not in KERNEL_FREE:
+        _background("kernel").result()
 
 
 @pytest.fixture(scope="session")
