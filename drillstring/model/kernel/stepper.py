@@ -5,7 +5,7 @@ stages evaluate :func:`stage`: delay look-up in the Hermite history, depth of cu
 multiplier, torque, right-hand side). The candidates for the end of the step watched in the
 mode (the event functions and the delayed discontinuity: one table in :mod:`.events`) are
 compared at both ends of the step; a sign change is located by regula falsi (Illinois) on the
-step fraction, each trial being a genuine RK4 step from the step start (:func:`locate`). The
+step fraction, each trial being a genuine RK4 step from the step start (:func:`attempt`). The
 step then ends at the earliest event, on the far side of the switching surface; at a mode event
 the mode changes (:func:`.events.apply_event`), and the event instant becomes a history node.
 Steps never pass an event, a switch-on time or the target time; :func:`advance` splits an
@@ -144,7 +144,7 @@ MAX_TRIALS = 100
 #: Steps in a row that do not advance time before the run is stopped as Zeno behaviour.
 ZENO_LIMIT = 64
 
-# The hot path (stage, rk4, locate) works on tuples: the parameters and the control law as
+# The hot path (stage, rk4, attempt) works on tuples: the parameters and the control law as
 # tuples of floats (indexed like the arrays, ``P[P_ETA]``), the state, its derivative and its
 # diagnostics as tuples; the history is its only array. Passing arrays between compiled
 # functions costs reference counting, which cost more than the arithmetic. What travels
@@ -156,9 +156,7 @@ ZENO_LIMIT = 64
 # * ``start = (tau, y, dy/dtau, diagnostics)``, the state a step starts from (its inner nodes
 #   in the chain's rows Z_NOW and Z_KNOW);
 # * a far side ``(y, dy/dtau, diagnostics, zrow)``, the state that ends a step, its inner nodes
-#   in chain row ``zrow`` and their derivative in row ``zrow + 1``;
-# * a candidate ``(ev, f0, f1, t_disc)``, a candidate end of the step (``.events``) and the
-#   values of its function at the step's ends.
+#   in chain row ``zrow`` and their derivative in row ``zrow + 1``.
 #
 # Besides them: ``hint``, the history look-up's search start, which every evaluation updates,
 # and ``ext``, the control law as a Python callable (None when compiled: numba prunes the call
@@ -331,70 +329,24 @@ def rk4(ctx, hint, start, h, out, ext):
     return ST_OK, hint, yn, k, diagnostics(P, mode, d, taun, g, gs, r, h / 6.0 * qg, S)
 
 
-@jit
-def locate(ctx, hint, start, h, tol, candidate, far, ext):
-    """The event of ``candidate`` = (ev, f0, f1, t_disc) inside a step of size h from ``start``.
-
-    Regula falsi with the Illinois modification on the bracket [lo, hi] (f(lo) > 0 >= f(hi)),
-    each trial a genuine RK4 step of size theta*h from the step start. When the estimate comes
-    within half the tolerance of an end of the bracket, the trial is put half a tolerance past
-    that end, which closes the bracket from the other side; so the far side is reached in a few
-    trials instead of by bisection. Trial steps are ``(tau + theta*h) - tau``, so the state of
-    a trial belongs exactly to the time ``tau + theta*h`` it is labelled with. f0, f1 are the
-    values of the candidate's function at the step's ends (:func:`.events.event_value`, which
-    reads ``t_disc`` for the delayed discontinuity); ``far`` is the end of the step, (y,
-    dy/dtau, diagnostics, zrow), the far side until a trial finds a nearer one. Trials put the
-    string's inner nodes in the chain rows Z_TRIAL1 and Z_TRIAL2 by turns, never over the far
-    side's.
-
-    Returns (status, hint, theta, trials, far side): theta in (0, 1] lies within ``tol`` (in
-    time) after the root.
-    """
-    ev, f0, f1, t_disc = candidate
-    tau = start[0]
-    lo = 0.0
-    hi = 1.0
-    flo = f0
-    fhi = f1
-    side = 0
-    half = 0.5 * tol / h
-    trials = 0
-    for _ in range(MAX_TRIALS):
-        if (hi - lo) * h <= tol:
-            break
-        if fhi != flo:
-            th = hi - fhi * (hi - lo) / (fhi - flo)
-        else:
-            th = 0.5 * (lo + hi)
-        if not (lo < th < hi):
-            th = 0.5 * (lo + hi)
-        if th - lo < half:
-            th = lo + half
-        elif hi - th < half:
-            th = hi - half
-        t = tau + th * h
-        out = Z_TRIAL2 if far[3] == Z_TRIAL1 else Z_TRIAL1
-        st, hint, y, k, dg = rk4(ctx, hint, start, t - tau, out, ext)
-        trials += 1
-        if st != ST_OK:
-            return st, hint, -1.0, trials, far
-        f = event_value(ev, t, y, dg, t_disc)
-        if f <= 0.0:
-            hi = th
-            fhi = f
-            far = (y, k, dg, out)
-            if side == -1:
-                flo *= 0.5
-            side = -1
-            if f == 0.0:
-                break
-        else:
-            lo = th
-            flo = f
-            if side == 1:
-                fhi *= 0.5
-            side = 1
-    return ST_OK, hint, hi, trials, far
+@inline
+def trial_fraction(lo, hi, flo, fhi, half):
+    """The step fraction of the next trial locating an event in the bracket [lo, hi] (the
+    candidate's function f(lo) = flo > 0 >= f(hi) = fhi): regula falsi, bisection where it
+    leaves the bracket, and half a tolerance (``half``, as a step fraction) inside an end it
+    comes nearer than that to, which closes the bracket from the other side (see
+    :func:`attempt`)."""
+    if fhi != flo:
+        th = hi - fhi * (hi - lo) / (fhi - flo)
+    else:
+        th = 0.5 * (lo + hi)
+    if not (lo < th < hi):
+        th = 0.5 * (lo + hi)
+    if th - lo < half:
+        th = lo + half
+    elif hi - th < half:
+        th = hi - half
+    return th
 
 
 @inline
@@ -431,46 +383,100 @@ def attempt(ctx, hint, bouncing, tol, start, h, t_end, ext):
     the first event inside it.
 
     The candidates watched in the mode (:data:`.events.WATCHED`: the event functions, and the
-    delayed instant passing a stored discontinuity) are compared at both ends; each whose event
-    lies inside the step is located (:func:`locate`), and the earliest ends the step. Returns
-    (status, hint, event, theta, far side, trials, locations): ``event`` is the earliest
-    candidate (-1: none, ``EVF_DELAY``: a delayed discontinuity), theta its step fraction, the
-    far side (y, dy/dtau, diagnostics) the state that ends the step.
+    delayed instant passing a stored discontinuity) are compared at both ends of the step; each
+    whose event lies inside the step is located, and the earliest ends the step. Locating is
+    regula falsi with the Illinois modification on the bracket [lo, hi] of step fractions
+    (f(lo) > 0 >= f(hi)), each trial a genuine RK4 step of size theta*h from the step start
+    (:func:`trial_fraction`): when the estimate comes within half the tolerance of an end of
+    the bracket, the trial is put half a tolerance past that end, which closes the bracket from
+    the other side, so the far side is reached in a few trials instead of by bisection; at most
+    :data:`MAX_TRIALS` a candidate. Trial steps are ``(tau + theta*h) - tau``, so the state of
+    a trial belongs exactly to the time ``tau + theta*h`` it is labelled with; trials put the
+    string's inner nodes in the chain rows Z_TRIAL1 and Z_TRIAL2 by turns, never over the far
+    side's. The step and the trials are one call of :func:`rk4` in one loop: numba compiles
+    what it inlines once per call site, and a second site (a trial function of its own) cost a
+    third of the kernel's compilation.
+
+    Returns (status, hint, event, theta, far side, trials, locations): ``event`` is the earliest
+    candidate (-1: none, ``EVF_DELAY``: a delayed discontinuity), theta in (0, 1] its step
+    fraction, within ``tol`` (in time) after the root, the far side (y, dy/dtau, diagnostics,
+    chain row) the state that ends the step.
     """
     tau, y0, k0, d0 = start
-    st, hint, yn, kn, dn = rk4(ctx, hint, start, h, Z_END, ext)
-    if st != ST_OK:
-        return st, hint, -1, 0.0, (y0, k0, d0, Z_NOW), 0, 0
     _, _, H, hs, he, mode, frozen, Z = ctx
-    # the first stored discontinuity the delayed instant passes in the step (-inf: none)
-    t_disc = next_discontinuity(H, hs, he, hint, tau - d0[D_TAUN], t_end - dn[D_TAUN])
+    mask = watched(mode, bouncing, frozen)
+    half = 0.5 * tol / h
+    # the step itself (ev = -1), then the trials of each candidate ev inside it
+    ev = -1
+    hh = h
+    out = Z_END
+    yn, kn, dn = y0, k0, d0
+    t_disc = -np.inf
+    far = (y0, k0, d0, Z_NOW)  # the earliest far side so far
     best = 2.0
     best_ev = -1
-    far = (yn, kn, dn, Z_END)
     trials = 0
     located = 0
-    mask = watched(mode, bouncing, frozen)
-    for ev in range(N_CANDIDATES):
-        if (mask >> ev) & 1 == 0:
-            continue
-        f0 = event_value(ev, tau, y0, d0, t_disc)
-        f1 = event_value(ev, t_end, yn, dn, t_disc)
-        if not inside(ev, f0, f1):
-            continue
-        st, hint, th, n, found = locate(
-            ctx, hint, start, h, tol, (ev, f0, f1, t_disc), (yn, kn, dn, Z_END), ext
-        )
-        trials += n
-        located += 1
-        if st != ST_OK:
-            return ST_DELAY, hint, -1, 0.0, far, trials, located
-        if th < best:
-            best = th
-            best_ev = ev
-            if found[3] != Z_END:  # the next candidate's trials reuse the trial rows
-                copy_rows(Z, found[3], Z_BEST)
-            far = (found[0], found[1], found[2], Z_BEST if found[3] != Z_END else Z_END)
-    return ST_OK, hint, best_ev, best, far, trials, located
+    # the candidate's bracket, its value at the ends, the side last moved, its trials, and its
+    # far side (the state at hi)
+    lo, hi, flo, fhi, side, n = 0.0, 1.0, 0.0, 0.0, 0, 0
+    found = far
+    th = 1.0
+    while True:
+        st, hint, y, k, dg = rk4(ctx, hint, start, hh, out, ext)
+        closed = True
+        if ev < 0:
+            if st != ST_OK:
+                return st, hint, -1, 0.0, far, 0, 0
+            yn, kn, dn = y, k, dg
+            # the first stored discontinuity the delayed instant passes in the step (-inf: none)
+            t_disc = next_discontinuity(H, hs, he, hint, tau - d0[D_TAUN], t_end - dn[D_TAUN])
+            far = (yn, kn, dn, Z_END)
+        else:
+            trials += 1
+            n += 1
+            if st != ST_OK:
+                return ST_DELAY, hint, -1, 0.0, far, trials, located
+            f = event_value(ev, tau + th * h, y, dg, t_disc)
+            closed = f == 0.0
+            if f <= 0.0:
+                hi = th
+                fhi = f
+                found = (y, k, dg, out)
+                if side == -1:
+                    flo *= 0.5
+                side = -1
+            else:
+                lo = th
+                flo = f
+                if side == 1:
+                    fhi *= 0.5
+                side = 1
+        # the candidate's next trial; or, once it is located, the next candidate's first
+        while closed or n >= MAX_TRIALS or (hi - lo) * h <= tol:
+            if ev >= 0 and hi < best:  # located at hi
+                best = hi
+                best_ev = ev
+                if found[3] != Z_END:  # the next candidate's trials reuse the trial rows
+                    copy_rows(Z, found[3], Z_BEST)
+                far = (found[0], found[1], found[2], Z_BEST if found[3] != Z_END else Z_END)
+            ev += 1
+            while ev < N_CANDIDATES:
+                if (mask >> ev) & 1 != 0:
+                    flo = event_value(ev, tau, y0, d0, t_disc)
+                    fhi = event_value(ev, t_end, yn, dn, t_disc)
+                    if inside(ev, flo, fhi):
+                        break
+                ev += 1
+            if ev >= N_CANDIDATES:
+                return ST_OK, hint, best_ev, best, far, trials, located
+            located += 1
+            lo, hi, side, n = 0.0, 1.0, 0, 0
+            found = (yn, kn, dn, Z_END)
+            closed = False
+        th = trial_fraction(lo, hi, flo, fhi, half)
+        hh = (tau + th * h) - tau
+        out = Z_TRIAL2 if found[3] == Z_TRIAL1 else Z_TRIAL1
 
 
 # ``step`` and ``attempt`` are compiled on their own, not inlined as the hot path's smaller
@@ -747,11 +753,11 @@ __all__ = [
     "held_step",
     "hold",
     "hold_from",
-    "locate",
     "refresh",
     "refresh_from",
     "rk4",
     "stage",
     "step",
     "switch_on",
+    "trial_fraction",
 ]
