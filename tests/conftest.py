@@ -84,6 +84,10 @@ KERNEL_FREE = {
     "test_severity.py", "test_spectrum.py", "test_string_spectrum.py", "test_synthesis.py",
     "test_tuning.py", "test_units.py",
 }  # fmt: skip
+#: Files of a few long tests (a Python host each, made with its own virtual environment): the
+#: first of their group, where they would be the last of it (the files with more tests go
+#: first), and end the run on one worker while the other has nothing left.
+LONG_FILES = {"test_fmu_python_hosts.py"}
 #: Session fixtures that cost a numba compilation in a clean HOME or a build of their own.
 SLOW_FIXTURES = {"clean_home", "first_use", "other_gains", "self_contained"}
 #: Session fixtures of built FMUs.
@@ -98,12 +102,12 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     the kernel (:data:`KERNEL_FREE`) first, beside its compilation, then the other files whose
     tests need no build, those that need the session's build next, those with a test of a
     compilation in a clean HOME or a build of its own last, so that the builds run beside the
-    tests that do not wait for them (``_background``); within a group the files with more tests
-    first (the longer ones, as a rule: two workers end together when the short files come
-    last), the tests of a file in their collection order. Under pytest-xdist (``--dist
-    loadgroup``) the tests of a file that share a fixture of the module stay together on one
-    worker (the fixture is made once), every other test goes to the first worker free (a file of
-    long independent runs, ``test_ssp.py``'s, is shared out)."""
+    tests that do not wait for them (``_background``); within a group :data:`LONG_FILES`, then
+    the files with more tests first (the longer ones, as a rule: two workers end together when
+    the short files come last), the tests of a file in their collection order. Under
+    pytest-xdist (``--dist loadgroup``) the tests of a file that share a fixture of the module
+    stay together on one worker (the fixture is made once), every other test goes to the first
+    worker free (a file of long independent runs, ``test_ssp.py``'s, is shared out)."""
 
     def group(item: pytest.Item) -> int:
         names = set(getattr(item, "fixturenames", ()))
@@ -126,7 +130,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         last[item.path] = max(last.get(item.path, 0), group(item))
         count[item.path] = count.get(item.path, 0) + 1
-    items.sort(key=lambda item: (last[item.path], -count[item.path]))
+    items.sort(
+        key=lambda item: (last[item.path], item.path.name not in LONG_FILES, -count[item.path])
+    )
     if config.pluginmanager.hasplugin("xdist"):
         for item in items:
             if _shares_a_module_fixture(item):
