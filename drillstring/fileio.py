@@ -142,10 +142,12 @@ def write_zip(
     path: str | os.PathLike[str],
     entries: Mapping[str, bytes | Path],
     source_date_epoch: int | None = None,
+    compresslevel: int | None = None,
 ) -> Path:
     """Write a zip archive atomically (see :func:`atomic_write`) and reproducibly.
 
-    The entries are written in sorted order, deflated, as Unix files (mode 0755 for a ``.so``,
+    The entries are written in sorted order, deflated (at zlib's ``compresslevel``, 1-9; its
+    default, 6, if None), as Unix files (mode 0755 for a ``.so``,
     else 0644), all dated ``source_date_epoch`` (UTC, no earlier than 1980, the earliest a zip
     file holds; default 1980-01-01), so that the same entries give the same bytes.
 
@@ -157,6 +159,8 @@ def write_zip(
         Name in the archive -> its bytes, or the file that holds them.
     source_date_epoch : int, optional
         Timestamp of the entries (seconds since 1970, ``SOURCE_DATE_EPOCH``).
+    compresslevel : int, optional
+        zlib's level, 1 (fastest) to 9 (smallest).
 
     Returns
     -------
@@ -177,7 +181,8 @@ def write_zip(
                 info.external_attr = mode << 16
                 info.create_system = 3  # unix, so external_attr is read as permissions
                 data = entries[name]
-                z.writestr(info, data.read_bytes() if isinstance(data, Path) else data)
+                content = data.read_bytes() if isinstance(data, Path) else data
+                z.writestr(info, content, compresslevel=compresslevel)
 
     return atomic_write(path, write)
 

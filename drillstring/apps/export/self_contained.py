@@ -50,6 +50,7 @@ from drillstring.fileio import write_zip
 
 __all__ = [
     "BUNDLE",
+    "COMPRESSLEVEL",
     "DISTRIBUTIONS",
     "NUMBA_CPU",
     "STDLIB_EXCLUDED",
@@ -155,6 +156,12 @@ class Bundle:
             for p in sorted(self.root.rglob("*"))
             if p.is_file()
         }
+
+
+#: zlib's level for a self-contained FMU: its 305 MB (the bundle, 178 MB of them llvmlite's
+#: library) deflate in 3.1 s at level 1 against 9.0 s at the default 6, to 113 MB instead of
+#: 101 MB; an FMU is written once per model and build, and unpacked as fast either way.
+COMPRESSLEVEL = 1
 
 
 def _is_elf(path: Path) -> bool:
@@ -448,7 +455,7 @@ def make_self_contained(
     entries[doc] = _documentation(text, bundle).encode("utf-8")
     entries.update(compiled)
     entries.update(bundle.entries())
-    write_zip(dest, entries, source_date_epoch)
+    write_zip(dest, entries, source_date_epoch, compresslevel=COMPRESSLEVEL)
     validate(dest)
     return dest
 
