@@ -1,6 +1,6 @@
 # drillstring: `make demo` runs the main job, `make test` runs lint + the whole suite,
 # `make test-fast` the tests that need no FMU build and no host (markers in pyproject.toml).
-# `make test` runs on PYTEST_WORKERS processes (pytest-xdist; the tests of a file that share a
+# Both run on PYTEST_WORKERS processes (pytest-xdist; the tests of a file that share a
 # module's fixture on one of them, the session's builds made once for all: tests/conftest.py).
 # Both use one virtual environment, .venv, created with `python3 -m venv` on first use and
 # reinstalled (editable, with the test extra: numba and the FMI hosts too) only when
@@ -28,7 +28,7 @@ test: venv
 	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadgroup
 
 test-fast: venv
-	$(BIN)/pytest -q -m "not fmu and not slow"
+	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadgroup -m "not fmu and not slow"
 
 # The main job, a chain of artifacts each computed once (drillstring/apps/demo.py): the LMI design
 # with A from the axial analysis and the input-constrained design for the rig's top drive, the
