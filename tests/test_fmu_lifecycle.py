@@ -222,10 +222,13 @@ def _plant_only(built, folder, csv):
     return tl.host_config(built, {"plant": folder}, H_NS, N, {}, csv, logging=True)
 
 
-def _run(host, built, tmp_path, env, folder=None):
-    folder = folder or tl.unpack(built.plant.fmu, tmp_path / "plant")
+def _run(host, built, tmp_path, env, folder=None, unit="plant"):
+    """The C host on ``unit`` alone (:func:`_plant_only`, :func:`_controller_only`), unpacked
+    into ``tmp_path`` unless ``folder`` is given."""
+    folder = folder or tl.unpack(getattr(built, unit).fmu, tmp_path / unit)
     csv = tmp_path / "out.csv"
-    return tl.run_c_host(host, _plant_only(built, folder, csv), tmp_path, env, csv)
+    config = {"plant": _plant_only, "controller": _controller_only}[unit]
+    return tl.run_c_host(host, config(built, folder, csv), tmp_path, env, csv)
 
 
 @pytest.mark.parametrize(
@@ -412,15 +415,7 @@ def test_read_only_home_and_unpack_folder(built, host, tmp_path, clean_home):
     assert len(np.unique(rows[:, -1])) > 1, "the torque did not change at the switch-on"
     reference = tmp_path / "reference"
     reference.mkdir()
-    ref_folder = tl.unpack(built.controller.fmu, reference / "controller")
-    ref_csv = reference / "out.csv"
-    ref_proc, ref_rows = tl.run_c_host(
-        host,
-        _controller_only(built, ref_folder, ref_csv),
-        reference,
-        tl.clean_env(clean_home),
-        ref_csv,
-    )
+    ref_proc, ref_rows = _run(host, built, reference, tl.clean_env(clean_home), unit="controller")
     assert ref_proc.returncode == 0, ref_proc.stderr
     assert np.array_equal(rows, ref_rows)
 
